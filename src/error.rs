@@ -1,0 +1,88 @@
+//! Library error type. Every input error names the file and, where there is one, the
+//! line (or row) and column, plus what was expected.
+
+use std::path::PathBuf;
+
+#[derive(thiserror::Error, Debug)]
+pub enum Error {
+    /// A value that could not be parsed or violates the schema.
+    #[error("{file}: {loc}, column '{column}': {msg}")]
+    Value {
+        file: String,
+        /// "line N" for text files, "row N" for Parquet.
+        loc: String,
+        column: String,
+        msg: String,
+    },
+    /// Required columns absent.
+    #[error(
+        "{file}: missing required column(s) {missing:?}; found columns {found:?}; expected at least {expected:?}"
+    )]
+    MissingColumns {
+        file: String,
+        missing: Vec<String>,
+        found: Vec<String>,
+        expected: Vec<String>,
+    },
+    /// Two rows with the same (frame, particle).
+    #[error("{file}: duplicate (frame {frame}, particle {particle}) at {first} and {second}")]
+    Duplicate {
+        file: String,
+        frame: i64,
+        particle: i64,
+        first: String,
+        second: String,
+    },
+    /// Anything else wrong with an input file as a whole.
+    #[error("{file}: {msg}")]
+    Input { file: String, msg: String },
+    /// A parameter (flag, pipeline key) outside its domain.
+    #[error("invalid parameter '{name}': {msg}")]
+    Param { name: String, msg: String },
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{context}: {source}")]
+    Polars {
+        context: String,
+        #[source]
+        source: polars::error::PolarsError,
+    },
+    /// Asked for something this build does not implement.
+    #[error("not implemented: {0}")]
+    NotImplemented(String),
+    #[error("{0}")]
+    Other(String),
+}
+
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+    pub fn input(file: impl std::fmt::Display, msg: impl Into<String>) -> Self {
+        Error::Input {
+            file: file.to_string(),
+            msg: msg.into(),
+        }
+    }
+    pub fn param(name: impl Into<String>, msg: impl Into<String>) -> Self {
+        Error::Param {
+            name: name.into(),
+            msg: msg.into(),
+        }
+    }
+    pub fn polars(context: impl Into<String>, source: polars::error::PolarsError) -> Self {
+        Error::Polars {
+            context: context.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,11 @@
+//! Plane geometry: 2-vectors, 2×2 matrices and simulation boxes (open, periodic,
+//! Lees–Edwards). Everything here is pure arithmetic on `f64`; units are whatever
+//! length unit the caller's table uses.
+
+mod mat2;
+mod simbox;
+mod vec2;
+
+pub use mat2::Mat2;
+pub use simbox::SimBox;
+pub use vec2::Vec2;

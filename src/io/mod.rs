@@ -1,0 +1,15 @@
+//! File formats: everything that touches polars or the file system for tables.
+//! To add an input format: a module that turns the file into `Tracks` (plus notes for
+//! the summary), and a variant in `Format` with its detection rule.
+
+pub mod atomic;
+pub mod csvdiag;
+pub mod hash;
+pub mod lammps;
+pub mod table;
+pub mod trackpy;
+pub mod tracks_io;
+
+pub use atomic::{atomic_write, atomic_write_str, sidecar_path};
+pub use hash::sha256_file;
+pub use tracks_io::{read_tracks, write_tracks};

@@ -1,0 +1,212 @@
+//! Generic table reading and writing with polars: CSV or Parquet chosen by extension,
+//! typed column extraction with row-level errors, atomic writes.
+
+use super::atomic::atomic_write;
+use super::csvdiag::{self, Expect};
+use crate::error::{Error, Result};
+use crate::tracks::RowLocator;
+use polars::prelude::*;
+use std::path::Path;
+use std::sync::Arc;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TableFormat {
+    Csv,
+    Parquet,
+}
+
+impl TableFormat {
+    /// By extension: `.parquet`/`.pq` is Parquet, anything else CSV.
+    pub fn of(path: &Path) -> TableFormat {
+        match path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("parquet") | Some("pq") => TableFormat::Parquet,
+            _ => TableFormat::Csv,
+        }
+    }
+    pub fn locator(self) -> RowLocator {
+        match self {
+            TableFormat::Csv => RowLocator::Line { first_data_line: 2 },
+            TableFormat::Parquet => RowLocator::Row,
+        }
+    }
+}
+
+/// A table read from disk with where it came from.
+pub struct Table {
+    pub df: DataFrame,
+    pub file: String,
+    pub format: TableFormat,
+}
+
+/// Read a CSV or Parquet table. Columns named in `expect` are parsed with that type;
+/// on any parse failure the file is scanned again to name the line and column.
+pub fn read_table(path: &Path, expect: &[(&str, Expect)]) -> Result<Table> {
+    let file = path.display().to_string();
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.len() == 0 {
+        return Err(Error::input(&file, "empty file"));
+    }
+    let format = TableFormat::of(path);
+    let df = match format {
+        TableFormat::Parquet => {
+            let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+            ParquetReader::new(f)
+                .finish()
+                .map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))?
+        }
+        TableFormat::Csv => {
+            let header = csvdiag::read_header(path)?;
+            let fields = expect
+                .iter()
+                .filter(|(c, _)| header.iter().any(|h| h == c))
+                .map(|(c, e)| {
+                    let dt = match e {
+                        Expect::Int => DataType::Int64,
+                        Expect::Float => DataType::Float64,
+                    };
+                    Field::new((*c).into(), dt)
+                });
+            let schema = Schema::from_iter(fields);
+            let read = CsvReadOptions::default()
+                .with_has_header(true)
+                .with_schema_overwrite(Some(Arc::new(schema)))
+                .try_into_reader_with_file_path(Some(path.to_path_buf()))
+                .and_then(|r| r.finish());
+            match read {
+                Ok(df) => df,
+                Err(e) => {
+                    csvdiag::diagnose(path, expect)?;
+                    return Err(Error::polars(format!("{file}: reading CSV"), e));
+                }
+            }
+        }
+    };
+    if df.height() == 0 {
+        return Err(Error::input(&file, "no data rows (header only)"));
+    }
+    Ok(Table { df, file, format })
+}
+
+impl Table {
+    pub fn columns(&self) -> Vec<String> {
+        self.df
+            .get_column_names()
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    }
+    pub fn has(&self, name: &str) -> bool {
+        self.df.column(name).is_ok()
+    }
+
+    /// Error listing found and expected columns when any of `required` is absent.
+    pub fn require(&self, required: &[&str]) -> Result<()> {
+        let found = self.columns();
+        let missing: Vec<String> = required
+            .iter()
+            .filter(|c| !found.iter().any(|f| f == *c))
+            .map(|c| c.to_string())
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(Error::MissingColumns {
+            file: self.file.clone(),
+            missing,
+            found,
+            expected: required.iter().map(|s| s.to_string()).collect(),
+        })
+    }
+
+    fn loc(&self, row: usize) -> String {
+        match self.format {
+            TableFormat::Csv => format!("line {}", row + 2),
+            TableFormat::Parquet => format!("row {row}"),
+        }
+    }
+
+    fn null_error(&self, name: &str, c: &Column) -> Error {
+        let row = (0..c.len())
+            .find(|&i| c.get(i).map(|v| v.is_null()).unwrap_or(true))
+            .unwrap_or(0);
+        Error::Value {
+            file: self.file.clone(),
+            loc: self.loc(row),
+            column: name.into(),
+            msg: "missing value".into(),
+        }
+    }
+
+    /// Column as f64 (ints are widened). Nulls are an error naming the row.
+    pub fn f64(&self, name: &str) -> Result<Vec<f64>> {
+        let c = self
+            .df
+            .column(name)
+            .map_err(|e| Error::polars(&self.file, e))?;
+        let c = c.cast(&DataType::Float64).map_err(|_| Error::Value {
+            file: self.file.clone(),
+            loc: "whole column".into(),
+            column: name.into(),
+            msg: format!("has type {}, expected numbers", c.dtype()),
+        })?;
+        if c.null_count() > 0 {
+            return Err(self.null_error(name, &c));
+        }
+        let ca = c.f64().map_err(|e| Error::polars(&self.file, e))?;
+        Ok(ca.into_no_null_iter().collect())
+    }
+
+    /// Column as i64; floats must be whole numbers.
+    pub fn i64(&self, name: &str) -> Result<Vec<i64>> {
+        let c = self
+            .df
+            .column(name)
+            .map_err(|e| Error::polars(&self.file, e))?;
+        if c.dtype().is_float() {
+            let v = self.f64(name)?;
+            return v
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| {
+                    if x.fract() == 0.0 && x.is_finite() {
+                        Ok(x as i64)
+                    } else {
+                        Err(Error::Value {
+                            file: self.file.clone(),
+                            loc: self.loc(i),
+                            column: name.into(),
+                            msg: format!("{x} is not an integer"),
+                        })
+                    }
+                })
+                .collect();
+        }
+        let c = c.cast(&DataType::Int64).map_err(|_| Error::Value {
+            file: self.file.clone(),
+            loc: "whole column".into(),
+            column: name.into(),
+            msg: format!("has type {}, expected integers", c.dtype()),
+        })?;
+        if c.null_count() > 0 {
+            return Err(self.null_error(name, &c));
+        }
+        let ca = c.i64().map_err(|e| Error::polars(&self.file, e))?;
+        Ok(ca.into_no_null_iter().collect())
+    }
+}
+
+/// Write `df` to `path` (Parquet unless the extension is `.csv`), atomically.
+pub fn write_table(df: &mut DataFrame, path: &Path) -> Result<()> {
+    let file = path.display().to_string();
+    atomic_write(path, |f| {
+        match TableFormat::of(path) {
+            TableFormat::Parquet => ParquetWriter::new(f).finish(df).map(|_| ()),
+            TableFormat::Csv => CsvWriter::new(f).include_header(true).finish(df),
+        }
+        .map_err(|e| Error::polars(format!("{file}: writing"), e))
+    })
+}

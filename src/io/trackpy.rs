@@ -1,0 +1,283 @@
+//! trackpy output (`batch` + `link`): columns `y, x, mass, size, ecc, signal, raw_mass,
+//! ep, frame, particle` in pixels, image y pointing down, no time column.
+//!
+//! Canonical frame written: x = (x_px − x0)/s, y = (y0 − y_px)/s with s the pixels per
+//! length unit and (x0, y0) the origin in pixels (`--origin-px`; default x0 = 0 and y0 =
+//! the largest y_px in the file, i.e. the lowest detected centre, so y ≥ 0 and y points
+//! up with the bar on top).
+
+use super::csvdiag::Expect;
+use super::table::read_table;
+use crate::error::{Error, Result};
+use crate::neighbors::{CellList, Cutoff};
+use crate::tracks::{LARGE, RowLocator, SMALL, Tracks, TracksMeta, finalize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(Debug, Clone, Default)]
+pub struct TrackpyOptions {
+    /// Pixels per length unit (required: trackpy works in pixels).
+    pub px_per_unit: Option<f64>,
+    /// Name of the length unit the scale refers to.
+    pub unit: Option<String>,
+    /// Seconds between frames.
+    pub frame_time: Option<f64>,
+    /// (small, large) radii in the length unit; otherwise estimated.
+    pub radii: Option<(f64, f64)>,
+    /// Origin (x0, y0) in pixels.
+    pub origin_px: Option<(f64, f64)>,
+}
+
+/// How trajectories were split into species.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SpeciesSplit {
+    /// Threshold on the per-trajectory median of trackpy's `size` (px).
+    pub size_threshold_px: f64,
+    pub small_trajectories: usize,
+    pub large_trajectories: usize,
+    pub radius_small: f64,
+    pub radius_large: f64,
+    /// "given (--radii)" or how they were estimated.
+    pub radii_source: String,
+}
+
+const EXPECT: &[(&str, Expect)] = &[
+    ("x", Expect::Float),
+    ("y", Expect::Float),
+    ("frame", Expect::Int),
+    ("particle", Expect::Int),
+    ("size", Expect::Float),
+];
+
+pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, SpeciesSplit)> {
+    let s = opt.px_per_unit.ok_or_else(|| {
+        Error::input(
+            path.display(),
+            "trackpy positions are in pixels and no scale was given: pass --px-per-unit F --unit U",
+        )
+    })?;
+    if !(s > 0.0 && s.is_finite()) {
+        return Err(Error::param("px-per-unit", format!("{s} must be > 0")));
+    }
+    let unit = opt.unit.clone().ok_or_else(|| {
+        Error::param(
+            "unit",
+            "missing length unit: --px-per-unit needs --unit (e.g. --unit cm)",
+        )
+    })?;
+    let table = read_table(path, EXPECT)?;
+    table.require(&["x", "y", "frame", "particle"])?;
+    let x_px = table.f64("x")?;
+    let y_px = table.f64("y")?;
+    let frame = table.i64("frame")?;
+    let particle = table.i64("particle")?;
+    for (r, (&x, &y)) in x_px.iter().zip(&y_px).enumerate() {
+        for (c, v) in [("x", x), ("y", y)] {
+            if !v.is_finite() {
+                return Err(Error::Value {
+                    file: table.file.clone(),
+                    loc: format!("line {}", r + 2),
+                    column: c.into(),
+                    msg: format!("{v} is not a finite number"),
+                });
+            }
+        }
+    }
+    let size = if table.has("size") {
+        Some(table.f64("size")?)
+    } else {
+        None
+    };
+    let (x0, y0) = opt
+        .origin_px
+        .unwrap_or((0.0, y_px.iter().copied().fold(f64::NEG_INFINITY, f64::max)));
+    let x: Vec<f64> = x_px.iter().map(|&v| (v - x0) / s).collect();
+    let y: Vec<f64> = y_px.iter().map(|&v| (y0 - v) / s).collect();
+
+    let (species, threshold, n_small, n_large) = match &size {
+        Some(sz) => split_by_size(&particle, sz),
+        None if opt.radii.is_some() => {
+            return Err(Error::input(
+                &table.file,
+                "no `size` column to tell the two species apart; trackpy's size column is needed",
+            ));
+        }
+        None => {
+            return Err(Error::MissingColumns {
+                file: table.file.clone(),
+                missing: vec!["size".into()],
+                found: table.columns(),
+                expected: vec![
+                    "x".into(),
+                    "y".into(),
+                    "frame".into(),
+                    "particle".into(),
+                    "size".into(),
+                ],
+            });
+        }
+    };
+    let (rs, rl, source) = match opt.radii {
+        Some((a, b)) => (a, b, "given (--radii)".to_string()),
+        None => {
+            let (a, b) = estimate_radii(&frame, &x, &y, &species)?;
+            (
+                a,
+                b,
+                "estimated: half the median distance to the nearest same-species neighbour in the best-populated frame; pass --radii SMALL,LARGE to set them"
+                    .to_string(),
+            )
+        }
+    };
+    let radius = species
+        .iter()
+        .map(|&sp| if sp == LARGE { rl } else { rs })
+        .collect();
+    let time = opt
+        .frame_time
+        .map(|dt| frame.iter().map(|&f| f as f64 * dt).collect());
+    let meta = TracksMeta {
+        length_unit: unit,
+        time_unit: if opt.frame_time.is_some() {
+            "s"
+        } else {
+            "frame"
+        }
+        .into(),
+        frame_time: opt.frame_time,
+        coordinate_frame: format!(
+            "from trackpy pixels: x = (x_px - {x0}) / {s}, y = ({y0} - y_px) / {s}; y up"
+        ),
+        ..TracksMeta::default()
+    };
+    let t = Tracks {
+        frame,
+        particle,
+        x,
+        y,
+        radius,
+        time,
+        species: Some(species),
+        theta: None,
+        meta,
+    };
+    let t = finalize(
+        t,
+        &table.file,
+        RowLocator::Line { first_data_line: 2 },
+        None,
+    )?;
+    Ok((
+        t,
+        SpeciesSplit {
+            size_threshold_px: threshold,
+            small_trajectories: n_small,
+            large_trajectories: n_large,
+            radius_small: rs,
+            radius_large: rl,
+            radii_source: source,
+        },
+    ))
+}
+
+/// Species per row from the per-trajectory median `size`, split into two populations by
+/// Otsu's threshold (the split minimising the within-class variance).
+fn split_by_size(particle: &[i64], size: &[f64]) -> (Vec<i32>, f64, usize, usize) {
+    let mut per: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
+    for (&p, &s) in particle.iter().zip(size) {
+        per.entry(p).or_default().push(s);
+    }
+    let med: BTreeMap<i64, f64> = per
+        .into_iter()
+        .map(|(p, mut v)| {
+            v.sort_by(f64::total_cmp);
+            (p, crate::stats::median_sorted(&v))
+        })
+        .collect();
+    let mut vals: Vec<f64> = med.values().copied().collect();
+    vals.sort_by(f64::total_cmp);
+    let threshold = otsu(&vals);
+    let sp = |p: &i64| if med[p] > threshold { LARGE } else { SMALL };
+    let n_large = med.values().filter(|&&m| m > threshold).count();
+    let species = particle.iter().map(sp).collect();
+    (species, threshold, med.len() - n_large, n_large)
+}
+
+/// Otsu threshold of sorted values: midpoint of the split with the largest
+/// between-class variance.
+pub fn otsu(sorted: &[f64]) -> f64 {
+    let n = sorted.len();
+    if n < 2 {
+        return sorted.first().copied().unwrap_or(0.0);
+    }
+    let total: f64 = sorted.iter().sum();
+    let mut best = (f64::NEG_INFINITY, 0.5 * (sorted[0] + sorted[n - 1]));
+    let mut left = 0.0;
+    for k in 1..n {
+        left += sorted[k - 1];
+        if sorted[k] == sorted[k - 1] {
+            continue;
+        }
+        let (w0, w1) = (k as f64, (n - k) as f64);
+        let (m0, m1) = (left / w0, (total - left) / w1);
+        let between = w0 * w1 * (m0 - m1).powi(2);
+        if between > best.0 {
+            best = (between, 0.5 * (sorted[k - 1] + sorted[k]));
+        }
+    }
+    best.1
+}
+
+/// Radii from geometry: in a dense packing most grains touch their nearest neighbour of
+/// the same species, so half the median nearest same-species distance estimates each
+/// radius. Uses the frame with the most detections.
+fn estimate_radii(frame: &[i64], x: &[f64], y: &[f64], species: &[i32]) -> Result<(f64, f64)> {
+    let mut counts: BTreeMap<i64, usize> = BTreeMap::new();
+    for &f in frame {
+        *counts.entry(f).or_default() += 1;
+    }
+    let best = counts
+        .iter()
+        .max_by_key(|(f, c)| (**c, std::cmp::Reverse(**f)))
+        .map(|(f, _)| *f)
+        .unwrap_or(0);
+    let idx: Vec<usize> = (0..frame.len()).filter(|&i| frame[i] == best).collect();
+    let mut out = [0.0; 2];
+    for (k, sp) in [SMALL, LARGE].into_iter().enumerate() {
+        let pts: Vec<crate::geom::Vec2> = idx
+            .iter()
+            .filter(|&&i| species[i] == sp)
+            .map(|&i| crate::geom::Vec2::new(x[i], y[i]))
+            .collect();
+        if pts.len() < 2 {
+            return Err(Error::Other(format!(
+                "cannot estimate the radius of species {sp}: fewer than 2 grains; pass --radii SMALL,LARGE"
+            )));
+        }
+        // Search radius: a few mean spacings of this species.
+        let (xmin, xmax) = pts
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.x), a.1.max(p.x)));
+        let (ymin, ymax) = pts
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.y), a.1.max(p.y)));
+        let spacing = (((xmax - xmin) * (ymax - ymin)).max(1e-300) / pts.len() as f64).sqrt();
+        let cl = CellList::new(&pts, 3.0 * spacing, Cutoff::Strict, None)?;
+        let mut nn: Vec<f64> = pts
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &p)| {
+                let mut best = f64::INFINITY;
+                cl.for_each_within(p, |j, d| {
+                    if j != i {
+                        best = best.min(d.norm());
+                    }
+                });
+                best.is_finite().then_some(best)
+            })
+            .collect();
+        nn.sort_by(f64::total_cmp);
+        out[k] = 0.5 * crate::stats::median_sorted(&nn);
+    }
+    Ok((out[0], out[1]))
+}

@@ -1,0 +1,17 @@
+//! pillar-pipe: deformation analysis (Li et al., granular pillars) and DEM simulation
+//! (granular pillars; Vågberg et al., sheared disks) of 2D disordered granular packings.
+//!
+//! Dependencies point one way: `geom` ← `tracks` ← `neighbors` ← `kinematics`, `fit`;
+//! `io` (polars) and `stages` sit on top; `main.rs` only parses arguments and wires.
+
+pub mod error;
+pub mod geom;
+pub mod io;
+pub mod neighbors;
+pub mod rng;
+pub mod schema;
+pub mod stages;
+pub mod stats;
+pub mod tracks;
+
+pub use error::{Error, Result};

@@ -1,0 +1,74 @@
+//! The table schemas in `data_schema/`, embedded at build time and used to validate
+//! tables. The JSON files are the single source of truth for column names, types and
+//! units; writers build their column lists from here, and a test checks they agree.
+
+use serde::Deserialize;
+
+#[derive(Debug, Clone, Deserialize)]
+pub struct ColumnSpec {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub dtype: String,
+    pub required: bool,
+    #[serde(default)]
+    pub unit: Option<String>,
+    #[serde(default)]
+    pub min: Option<f64>,
+    #[serde(default)]
+    pub min_exclusive: Option<f64>,
+    #[serde(default)]
+    pub finite: bool,
+    #[serde(default)]
+    pub allowed: Option<Vec<i64>>,
+    #[serde(default)]
+    pub description: Option<String>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+pub struct TableSchema {
+    pub table: String,
+    pub version: u32,
+    pub description: String,
+    pub columns: Vec<ColumnSpec>,
+}
+
+impl TableSchema {
+    pub fn column(&self, name: &str) -> Option<&ColumnSpec> {
+        self.columns.iter().find(|c| c.name == name)
+    }
+    pub fn required(&self) -> Vec<&str> {
+        self.columns
+            .iter()
+            .filter(|c| c.required)
+            .map(|c| c.name.as_str())
+            .collect()
+    }
+    pub fn names(&self) -> Vec<&str> {
+        self.columns.iter().map(|c| c.name.as_str()).collect()
+    }
+}
+
+/// The embedded schema files, by table name.
+pub const SCHEMA_FILES: &[(&str, &str)] = &[
+    ("tracks", include_str!("../data_schema/tracks.schema.json")),
+    (
+        "kinematics",
+        include_str!("../data_schema/kinematics.schema.json"),
+    ),
+    (
+        "bar_forces",
+        include_str!("../data_schema/bar_forces.schema.json"),
+    ),
+];
+
+/// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,
+/// which `tests/schema_drift.rs` catches at test time.
+pub fn load(table: &str) -> TableSchema {
+    let text = SCHEMA_FILES
+        .iter()
+        .find(|(t, _)| *t == table)
+        .map(|(_, s)| *s)
+        .unwrap_or_else(|| panic!("no embedded schema for table '{table}'"));
+    serde_json::from_str(text)
+        .unwrap_or_else(|e| panic!("data_schema/{table}.schema.json is malformed: {e}"))
+}

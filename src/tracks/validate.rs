@@ -1,0 +1,107 @@
+use super::Tracks;
+use crate::error::{Error, Result};
+
+/// How a row index maps to a location a user can find in the source file.
+#[derive(Debug, Clone, Copy)]
+pub enum RowLocator {
+    /// Text file: row r is on line r + `first_data_line` (1-based).
+    Line { first_data_line: usize },
+    /// Binary table: 0-based row index.
+    Row,
+    /// Row r came from a source line recorded per row (LAMMPS dumps).
+    Explicit,
+}
+
+/// Validate every row against `data_schema/tracks.schema.json` (frame ≥ 0, finite
+/// coordinates, radius > 0, species 0/1), sort by (frame, particle) and reject
+/// duplicates. `lines` gives explicit source lines for `RowLocator::Explicit`.
+pub fn finalize(
+    mut t: Tracks,
+    file: &str,
+    locator: RowLocator,
+    lines: Option<&[usize]>,
+) -> Result<Tracks> {
+    let loc = |r: usize| -> String {
+        match locator {
+            RowLocator::Line { first_data_line } => format!("line {}", r + first_data_line),
+            RowLocator::Row => format!("row {r}"),
+            RowLocator::Explicit => match lines {
+                Some(l) => format!("line {}", l[r]),
+                None => format!("row {r}"),
+            },
+        }
+    };
+    let bad = |r: usize, column: &str, msg: String| Error::Value {
+        file: file.to_string(),
+        loc: loc(r),
+        column: column.to_string(),
+        msg,
+    };
+    if t.is_empty() {
+        return Err(Error::input(file, "no data rows (empty table)"));
+    }
+    for r in 0..t.len() {
+        if t.frame[r] < 0 {
+            return Err(bad(
+                r,
+                "frame",
+                format!("negative frame {}; expected an integer >= 0", t.frame[r]),
+            ));
+        }
+        for (name, v) in [("x", t.x[r]), ("y", t.y[r]), ("radius", t.radius[r])] {
+            if !v.is_finite() {
+                return Err(bad(r, name, format!("{v} is not a finite number")));
+            }
+        }
+        if t.radius[r] <= 0.0 {
+            return Err(bad(
+                r,
+                "radius",
+                format!("radius {} must be > 0", t.radius[r]),
+            ));
+        }
+        if let Some(s) = &t.species
+            && !(s[r] == 0 || s[r] == 1)
+        {
+            return Err(bad(
+                r,
+                "species",
+                format!(
+                    "species {} not allowed; expected 0 (small) or 1 (large)",
+                    s[r]
+                ),
+            ));
+        }
+        for (name, col) in [("time", &t.time), ("theta", &t.theta)] {
+            if let Some(c) = col
+                && !c[r].is_finite()
+            {
+                return Err(bad(r, name, format!("{} is not a finite number", c[r])));
+            }
+        }
+    }
+    let mut perm: Vec<usize> = (0..t.len()).collect();
+    let sorted = perm
+        .windows(2)
+        .all(|w| (t.frame[w[0]], t.particle[w[0]]) < (t.frame[w[1]], t.particle[w[1]]));
+    if !sorted {
+        perm.sort_by_key(|&i| (t.frame[i], t.particle[i], i));
+    }
+    for w in perm.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if t.frame[a] == t.frame[b] && t.particle[a] == t.particle[b] {
+            return Err(Error::Duplicate {
+                file: file.to_string(),
+                frame: t.frame[a],
+                particle: t.particle[a],
+                first: loc(a),
+                second: loc(b),
+            });
+        }
+    }
+    if !sorted {
+        t.permute(&perm);
+    }
+    t.meta.boxes.sort_by_key(|b| b.frame);
+    Ok(t)
+}
