@@ -48,6 +48,9 @@ enum Cmd {
         /// Bar speed v_c in length unit per second, recorded for the fit stage.
         #[arg(long)]
         bar_speed: Option<f64>,
+        /// Keep trackpy trajectories detached from the packing (bar-corner artefacts).
+        #[arg(long)]
+        keep_detached: bool,
         /// Print the report as JSON.
         #[arg(long)]
         json: bool,
@@ -91,6 +94,7 @@ fn run(cli: Cli) -> Result<()> {
             radii,
             origin_px,
             bar_speed,
+            keep_detached,
             json,
         } => {
             let frame_time = match (fps, frame_time) {
@@ -107,6 +111,7 @@ fn run(cli: Cli) -> Result<()> {
                 radii,
                 origin_px,
                 bar_speed,
+                keep_detached,
             };
             let rep = ingest::run(&input, &output, &opt)
                 .with_context(|| format!("ingest {}", input.display()))?;

@@ -4,7 +4,9 @@ use crate::error::{Error, Result};
 use crate::io::lammps::{LammpsOptions, read_lammps};
 use crate::io::trackpy::{SpeciesSplit, TrackpyOptions, read_trackpy};
 use crate::io::{read_tracks, sha256_file, write_tracks};
-use crate::tracks::{Provenance, TracksSummary, summarize};
+use crate::tracks::{
+    Provenance, TracksSummary, detached_trajectories, drop_trajectories, summarize,
+};
 use serde::Serialize;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -30,6 +32,8 @@ pub struct IngestOptions {
     pub radii: Option<(f64, f64)>,
     pub origin_px: Option<(f64, f64)>,
     pub bar_speed: Option<f64>,
+    /// Keep trackpy trajectories that are detached from the packing.
+    pub keep_detached: bool,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -119,8 +123,19 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
                 radii: opt.radii,
                 origin_px: opt.origin_px,
             };
-            let (t, s) = read_trackpy(input, &o)?;
+            let (mut t, s) = read_trackpy(input, &o)?;
             split = Some(s);
+            if !opt.keep_detached {
+                let ids = detached_trajectories(&t);
+                if !ids.is_empty() {
+                    warnings.push(format!(
+                        "dropped {} detached trajectories (fewer than 2 detections within 1.25 D in most of their frames; tracker artefacts such as bar corners): particles {:?}; --keep-detached keeps them",
+                        ids.len(),
+                        ids
+                    ));
+                    drop_trajectories(&mut t, &ids);
+                }
+            }
             t
         }
         Format::Lammps => read_lammps(
@@ -161,6 +176,7 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         parameters: serde_json::json!({
             "px_per_unit": opt.px_per_unit, "unit": opt.unit, "frame_time": opt.frame_time,
             "radii": opt.radii, "origin_px": opt.origin_px, "bar_speed": opt.bar_speed,
+            "keep_detached": opt.keep_detached,
         }),
     };
     tracks.meta.summary = serde_json::to_value(&summary).expect("summary serialises");

@@ -2,10 +2,12 @@
 //! memory, its sidecar metadata, validation and the per-frame view that the analysis
 //! kernels consume. No file I/O here (that is `io`).
 
+mod detached;
 mod meta;
 mod summary;
 mod validate;
 
+pub use detached::{detached_trajectories, drop_trajectories};
 pub use meta::{FrameBox, Provenance, TracksMeta};
 pub use summary::{TracksSummary, summarize};
 pub use validate::{RowLocator, finalize};

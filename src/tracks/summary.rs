@@ -5,6 +5,9 @@ use super::{LARGE, SMALL, Tracks};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// A one-frame step longer than this fraction of D is counted as suspicious.
+pub const JUMP_FRACTION: f64 = 0.3;
+
 #[derive(Debug, Clone, Serialize)]
 pub struct TracksSummary {
     pub rows: usize,
@@ -25,7 +28,7 @@ pub struct TracksSummary {
     pub trajectories_with_gaps: usize,
     /// Missing frames inside trajectories, in total.
     pub gap_frames: usize,
-    /// Frame-to-frame steps longer than half a large-grain diameter (likely identity
+    /// Frame-to-frame steps longer than `JUMP_FRACTION` of a large-grain diameter (likely identity
     /// switches or linking errors).
     pub suspicious_jumps: usize,
     pub length_unit: String,
@@ -81,7 +84,7 @@ pub fn summarize(t: &Tracks) -> TracksSummary {
             let (a, b) = (w[0], w[1]);
             if frame_pos[&t.frame[b]] == frame_pos[&t.frame[a]] + 1 {
                 let d = ((t.x[b] - t.x[a]).powi(2) + (t.y[b] - t.y[a]).powi(2)).sqrt();
-                if d > 0.5 * d_large {
+                if d > JUMP_FRACTION * d_large {
                     jumps += 1;
                 }
             }
@@ -169,7 +172,7 @@ impl std::fmt::Display for TracksSummary {
         )?;
         writeln!(
             f,
-            "jumps         {} one-frame steps > D/2 (identity switches?)",
+            "jumps         {} one-frame steps > {JUMP_FRACTION} D (identity switches?)",
             self.suspicious_jumps
         )?;
         match self.frame_time {
