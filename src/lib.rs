@@ -7,11 +7,13 @@
 pub mod error;
 pub mod geom;
 pub mod io;
+pub mod kinematics;
 pub mod neighbors;
 pub mod rng;
 pub mod schema;
 pub mod stages;
 pub mod stats;
+pub mod synth;
 pub mod tracks;
 
 pub use error::{Error, Result};

@@ -5,7 +5,9 @@
 pub mod atomic;
 pub mod csvdiag;
 pub mod hash;
+pub mod kinematics_io;
 pub mod lammps;
+pub mod sink;
 pub mod table;
 pub mod trackpy;
 pub mod tracks_io;

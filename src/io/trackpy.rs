@@ -53,7 +53,7 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
     let s = opt.px_per_unit.ok_or_else(|| {
         Error::input(
             path.display(),
-            "trackpy positions are in pixels and no scale was given: pass --px-per-unit F --unit U",
+            "trackpy positions are in pixels and no scale was given: pass --px-per-unit F --unit U (e.g. --px-per-unit 31.496 --unit cm), put them in an ingest.toml beside the input, or pass --unit px to keep pixels",
         )
     })?;
     if !(s > 0.0 && s.is_finite()) {

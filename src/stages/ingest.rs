@@ -43,6 +43,8 @@ pub struct IngestReport {
     pub format: Format,
     pub summary: TracksSummary,
     pub species_split: Option<SpeciesSplit>,
+    /// The `ingest.toml` beside the input whose settings were used, if any.
+    pub settings_file: Option<String>,
     pub warnings: Vec<String>,
 }
 
@@ -80,13 +82,13 @@ pub fn detect(path: &Path) -> Result<Format> {
         .map(|c| c.trim().trim_matches('"'))
         .collect();
     let has = |c: &str| cols.contains(&c);
-    if has("frame") && has("particle") && has("x") && has("y") {
-        if has("radius") {
-            return Ok(Format::Canonical);
-        }
-        if has("size") || has("mass") || has("ep") {
-            return Ok(Format::Trackpy);
-        }
+    // trackpy's own columns identify it; otherwise a header naming the canonical key
+    // columns is read as canonical so that a missing column is reported by name.
+    if has("size") || has("mass") || has("ep") || has("raw_mass") {
+        return Ok(Format::Trackpy);
+    }
+    if has("radius") || (has("frame") && has("particle")) {
+        return Ok(Format::Canonical);
     }
     Err(Error::input(
         &file,
@@ -94,6 +96,73 @@ pub fn detect(path: &Path) -> Result<Format> {
             "unknown format (header '{first}'); supported: {SUPPORTED}; pass --format to choose"
         ),
     ))
+}
+
+/// Ingest settings kept beside an input so that `pillar-pipe ingest FILE` needs no flags:
+/// `<stem>.ingest.toml` (or `ingest.toml`) in the input's directory. Flags override it.
+#[derive(Debug, Clone, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IngestSettings {
+    pub format: Option<String>,
+    /// Pixels per length unit (trackpy).
+    pub px_per_unit: Option<f64>,
+    pub unit: Option<String>,
+    /// Seconds per frame.
+    pub frame_time: Option<f64>,
+    /// Small and large radius, length unit.
+    pub radii: Option<[f64; 2]>,
+    /// Canonical origin in pixels (trackpy).
+    pub origin_px: Option<[f64; 2]>,
+    /// Bar speed v_c, length unit per second.
+    pub bar_speed: Option<f64>,
+}
+
+/// The settings file that applies to `input`, if any.
+pub fn settings_path(input: &Path) -> Option<PathBuf> {
+    let stem = input.file_stem()?.to_string_lossy().into_owned();
+    let dir = input.parent().unwrap_or(Path::new("."));
+    [dir.join(format!("{stem}.ingest.toml")), dir.join("ingest.toml")]
+        .into_iter()
+        .find(|p| p.is_file())
+}
+
+/// Fill the options the user did not give from the settings file beside the input.
+/// Returns the file used.
+pub fn apply_settings(input: &Path, opt: &mut IngestOptions) -> Result<Option<PathBuf>> {
+    let Some(path) = settings_path(input) else {
+        return Ok(None);
+    };
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let s: IngestSettings = toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|sp| text[..sp.start].lines().count().max(1))
+            .unwrap_or(0);
+        Error::input(path.display(), format!("line {line}: {}", e.message()))
+    })?;
+    if opt.format.is_none() || opt.format == Some(Format::Auto) {
+        if let Some(f) = &s.format {
+            opt.format = Some(match f.as_str() {
+                "trackpy" => Format::Trackpy,
+                "lammps" => Format::Lammps,
+                "canonical" => Format::Canonical,
+                "auto" => Format::Auto,
+                other => {
+                    return Err(Error::input(
+                        path.display(),
+                        format!("format '{other}' unknown; supported: {SUPPORTED}"),
+                    ));
+                }
+            });
+        }
+    }
+    opt.px_per_unit = opt.px_per_unit.or(s.px_per_unit);
+    opt.unit = opt.unit.take().or(s.unit);
+    opt.frame_time = opt.frame_time.or(s.frame_time);
+    opt.radii = opt.radii.or(s.radii.map(|r| (r[0], r[1])));
+    opt.origin_px = opt.origin_px.or(s.origin_px.map(|r| (r[0], r[1])));
+    opt.bar_speed = opt.bar_speed.or(s.bar_speed);
+    Ok(Some(path))
 }
 
 /// Run the stage: read `input`, validate, write `output` (+ sidecar), summarise.
@@ -107,6 +176,9 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
     if input == output {
         return Err(Error::param("output", "output would overwrite the input"));
     }
+    let mut opt = opt.clone();
+    let settings_file = apply_settings(input, &mut opt)?;
+    let opt = &opt;
     let format = match opt.format.unwrap_or(Format::Auto) {
         Format::Auto => detect(input)?,
         f => f,
@@ -187,6 +259,7 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         format,
         summary,
         species_split: split,
+        settings_file: settings_file.map(|p| p.display().to_string()),
         warnings,
     })
 }

@@ -7,3 +7,21 @@ pub mod ingest;
 /// Tool name and version recorded in every output.
 pub const TOOL: &str = "pillar-pipe";
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+pub mod kinematics;
+
+/// A progress bar on stderr with ETA, hidden with `quiet` or when stderr is not a
+/// terminal (indicatif's default), so scripts and CI logs stay clean.
+pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} ETA {eta}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
+    bar
+}

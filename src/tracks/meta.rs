@@ -16,6 +16,18 @@ pub struct FrameBox {
 }
 
 impl FrameBox {
+    pub fn from_simbox(frame: i64, b: &SimBox) -> FrameBox {
+        FrameBox {
+            frame,
+            x_lo: b.x_lo,
+            y_lo: b.y_lo,
+            lx: b.lx,
+            ly: b.ly,
+            xy: b.xy,
+            periodic_x: b.periodic_x,
+            periodic_y: b.periodic_y,
+        }
+    }
     pub fn simbox(&self) -> SimBox {
         SimBox {
             x_lo: self.x_lo,

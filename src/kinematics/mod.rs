@@ -1,0 +1,244 @@
+//! Local deformation of each particle between two frames (Li et al., Sec. III,
+//! Eqs. 13–18): neighbours within R_c at time t, the best-fit affine transform J, the
+//! non-affine residual D²min, the Lagrangian strain η, its deviatoric part η^s, the
+//! rate J2 and the mean velocity. Pure kernels on slices: no I/O, no polars.
+
+mod strain;
+
+pub use strain::{LocalStrain, strain_from_j};
+
+use crate::error::Result;
+use crate::geom::{Mat2, SimBox, Vec2};
+use crate::neighbors::{CellList, Cutoff};
+use crate::tracks::{FrameView, UNKNOWN_SPECIES};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Whose definitions to follow. `Paper` is Li et al.; `Ovito` reproduces OVITO's
+/// Atomic Strain modifier for cross-checks: cutoff inclusive (≤), D²min not divided by
+/// N_i, shear strain √(η_xy² + (η_xx − η_yy)²/2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Convention {
+    Paper,
+    Ovito,
+}
+
+/// Parameters of one frame-pair computation.
+#[derive(Debug, Clone, Copy)]
+pub struct KinematicsParams {
+    /// Neighbour cutoff R_c, length unit (paper: 1.25 D).
+    pub rc: f64,
+    pub convention: Convention,
+}
+
+/// Relative tolerance below which the neighbour matrix Y counts as singular
+/// (|det Y| ≤ tol · ‖Y‖²_F): all neighbours on one line.
+pub const SINGULAR_TOL: f64 = 1e-10;
+
+/// Minimum neighbours for a 2D affine fit (Y has rank 2 only with ≥ 2 non-collinear).
+pub const MIN_NEIGHBORS: usize = 2;
+
+/// One particle's result. Invalid particles carry zeros in every derived field.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ParticleKinematics {
+    pub particle: i64,
+    /// Position at t, length unit.
+    pub pos: Vec2,
+    pub species: i32,
+    /// N_i: neighbours within R_c at t present in both frames.
+    pub n_neighbors: u32,
+    pub valid: bool,
+    /// Best-fit affine transform J = X Y⁻¹ (Eq. 14), dimensionless.
+    pub j: Mat2,
+    pub strain: LocalStrain,
+    /// J2 = η^s / Δt (Eq. 18), 1/time.
+    pub j2: f64,
+    /// D²min (Eq. 14), length²; divided by N_i in the paper convention.
+    pub d2min: f64,
+    /// Mean velocity (Eq. 13): displacement / Δt, length/time.
+    pub velocity: Vec2,
+}
+
+/// Counts for the summary of one frame pair.
+#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
+pub struct PairCounts {
+    /// Particles present in both frames (rows written).
+    pub paired: usize,
+    /// Present at t but missing at t+Δt, and the reverse (skipped).
+    pub missing_at_end: usize,
+    pub missing_at_start: usize,
+    pub invalid_few_neighbors: usize,
+    pub invalid_singular: usize,
+}
+
+impl PairCounts {
+    pub fn add(&mut self, o: &PairCounts) {
+        self.paired += o.paired;
+        self.missing_at_end += o.missing_at_end;
+        self.missing_at_start += o.missing_at_start;
+        self.invalid_few_neighbors += o.invalid_few_neighbors;
+        self.invalid_singular += o.invalid_singular;
+    }
+}
+
+/// Particles present in both frames: (index at t, index at t+Δt), by ascending id.
+/// Both views are sorted by particle id, so this is a merge join.
+fn pair_rows(a: &FrameView, b: &FrameView) -> (Vec<(usize, usize)>, usize, usize) {
+    let (mut i, mut k) = (0, 0);
+    let mut out = Vec::with_capacity(a.len().min(b.len()));
+    let (mut miss_end, mut miss_start) = (0, 0);
+    while i < a.len() && k < b.len() {
+        match a.particle[i].cmp(&b.particle[k]) {
+            std::cmp::Ordering::Equal => {
+                out.push((i, k));
+                i += 1;
+                k += 1;
+            }
+            std::cmp::Ordering::Less => {
+                miss_end += 1;
+                i += 1;
+            }
+            std::cmp::Ordering::Greater => {
+                miss_start += 1;
+                k += 1;
+            }
+        }
+    }
+    miss_end += a.len() - i;
+    miss_start += b.len() - k;
+    (out, miss_end, miss_start)
+}
+
+fn delta(b: Option<SimBox>, d: Vec2) -> Vec2 {
+    match b {
+        Some(b) => b.min_image(d),
+        None => d,
+    }
+}
+
+/// Kinematics of every particle present in frames `a` (time t) and `b` (t + `dt`), in
+/// ascending particle order whatever the thread count. `dt` in the tracks' time unit.
+///
+/// Displacements are unwrapped with the minimum image of `b`'s box (a particle must
+/// move less than half a box side between the frames); neighbour vectors at t use
+/// `a`'s box, at t+Δt they are r_ji(t) + d_j − d_i, so no second image search is
+/// needed, except that a neighbour seen through n_y Lees–Edwards images moves with
+/// the offset: r_ji(t+Δt) −= n_y (xy(t+Δt) − xy(t)) in x.
+pub fn frame_pair(
+    a: &FrameView,
+    b: &FrameView,
+    dt: f64,
+    p: &KinematicsParams,
+) -> Result<(Vec<ParticleKinematics>, PairCounts)> {
+    let (pairs, missing_at_end, missing_at_start) = pair_rows(a, b);
+    let pos0: Vec<Vec2> = pairs.iter().map(|&(i, _)| a.pos(i)).collect();
+    let disp: Vec<Vec2> = pairs
+        .iter()
+        .map(|&(i, k)| delta(b.simbox, b.pos(k) - a.pos(i)))
+        .collect();
+    let kind = match p.convention {
+        Convention::Paper => Cutoff::Strict,
+        Convention::Ovito => Cutoff::Inclusive,
+    };
+    let seam = match (a.simbox, b.simbox) {
+        (Some(ba), Some(bb)) if ba.periodic_y && bb.xy != ba.xy => Some((ba.ly, bb.xy - ba.xy)),
+        _ => None,
+    };
+    let out = if pos0.is_empty() {
+        Vec::new()
+    } else {
+        let cells = CellList::new(&pos0, p.rc, kind, a.simbox)?;
+        (0..pos0.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map_init(Vec::new, |buf, n| {
+                let (i, _) = pairs[n];
+                let species = a.species.map_or(UNKNOWN_SPECIES, |s| s[i]);
+                let mut k = particle(n, &pos0, &disp, &cells, seam, buf, dt, p.convention);
+                k.particle = a.particle[i];
+                k.species = species;
+                k
+            })
+            .collect::<Vec<_>>()
+    };
+    let mut c = PairCounts {
+        paired: out.len(),
+        missing_at_end,
+        missing_at_start,
+        ..Default::default()
+    };
+    for k in &out {
+        if !k.valid {
+            if (k.n_neighbors as usize) < MIN_NEIGHBORS {
+                c.invalid_few_neighbors += 1;
+            } else {
+                c.invalid_singular += 1;
+            }
+        }
+    }
+    Ok((out, c))
+}
+
+/// One particle: gather (r_ji(t), r_ji(t+Δt)) into `buf`, fit J, then D²min exactly
+/// as the residual sum (a second pass over the buffer, no cancellation).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn particle(
+    n: usize,
+    pos0: &[Vec2],
+    disp: &[Vec2],
+    cells: &CellList,
+    seam: Option<(f64, f64)>,
+    buf: &mut Vec<(Vec2, Vec2)>,
+    dt: f64,
+    conv: Convention,
+) -> ParticleKinematics {
+    buf.clear();
+    let di = disp[n];
+    let pi = pos0[n];
+    cells.for_each_within(pi, |j, r0| {
+        if j != n {
+            let mut r1 = r0 + disp[j] - di;
+            if let Some((ly, dxy)) = seam {
+                let images = ((pos0[j].y - pi.y - r0.y) / ly).round();
+                r1.x -= images * dxy;
+            }
+            buf.push((r0, r1));
+        }
+    });
+    let mut k = ParticleKinematics {
+        pos: pos0[n],
+        n_neighbors: buf.len() as u32,
+        velocity: di * (1.0 / dt),
+        ..Default::default()
+    };
+    if buf.len() < MIN_NEIGHBORS {
+        return k;
+    }
+    let (mut x, mut y) = (Mat2::ZERO, Mat2::ZERO);
+    for &(r0, r1) in buf.iter() {
+        x = x + Mat2::outer(r1, r0);
+        y = y + Mat2::outer(r0, r0);
+    }
+    let Some(yinv) = y.inverse(SINGULAR_TOL) else {
+        return k;
+    };
+    let j = x * yinv;
+    let mut d2 = 0.0;
+    for &(r0, r1) in buf.iter() {
+        d2 += (r1 - j * r0).norm2();
+    }
+    if conv == Convention::Paper {
+        d2 /= buf.len() as f64;
+    }
+    k.valid = true;
+    k.j = j;
+    k.strain = strain_from_j(&j, conv);
+    k.j2 = k.strain.eta_s / dt;
+    k.d2min = d2;
+    k
+}
+
+#[cfg(test)]
+mod tests;

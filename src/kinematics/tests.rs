@@ -1,0 +1,245 @@
+//! Closed-form checks of the kernel (issue 3, "Correctness").
+
+use super::*;
+use crate::synth::{bidisperse_packing, sheared_periodic_tracks, two_frame_tracks};
+use crate::tracks::Tracks;
+
+const RC: f64 = 1.25;
+
+fn params(conv: Convention) -> KinematicsParams {
+    KinematicsParams {
+        rc: RC,
+        convention: conv,
+    }
+}
+
+fn run(t: &Tracks, conv: Convention) -> (Vec<ParticleKinematics>, PairCounts) {
+    let fr = t.frame_ranges();
+    let a = t.view(fr[0].0, fr[0].1.clone());
+    let b = t.view(fr[1].0, fr[1].1.clone());
+    frame_pair(&a, &b, 1.0, &params(conv)).unwrap()
+}
+
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol * (1.0 + b.abs())
+}
+
+#[test]
+fn pure_affine_map_is_recovered_exactly() {
+    let p = bidisperse_packing(900, 1.0, 0.1, 1);
+    let f = Mat2::new(1.03, 0.07, -0.02, 0.95);
+    let t = two_frame_tracks(&p, f, 0.0, 0);
+    let (ks, c) = run(&t, Convention::Paper);
+    assert_eq!(c.paired, p.pos.len());
+    let want = strain_from_j(&f, Convention::Paper);
+    for k in &ks {
+        assert!(k.valid, "{k:?}");
+        // Every particle, edge ones included: an affine map is affine for any neighbourhood.
+        assert!((k.j - f).frobenius2() < 1e-24, "{:?}", k.j);
+        assert!(k.d2min < 1e-24, "{}", k.d2min);
+        assert!(close(k.strain.eta_s, want.eta_s, 1e-12));
+        assert!(close(k.strain.eta_m, want.eta_m, 1e-12));
+    }
+}
+
+#[test]
+fn simple_shear_closed_form() {
+    let p = bidisperse_packing(400, 1.0, 0.1, 2);
+    for gamma in [1e-4, 0.01, 0.1, 0.5] {
+        let f = Mat2::new(1.0, gamma, 0.0, 1.0);
+        let (ks, _) = run(&two_frame_tracks(&p, f, 0.0, 0), Convention::Paper);
+        // η = ½[[0, γ], [γ, γ²]]: η^s = (γ/2)√(1 + γ²/4), η^m = γ²/4.
+        let eta_s = 0.5 * gamma * (1.0 + 0.25 * gamma * gamma).sqrt();
+        for k in &ks {
+            assert!(close(k.strain.eta_s, eta_s, 1e-10), "{} vs {eta_s}", k.strain.eta_s);
+            assert!(close(k.strain.eta_m, 0.25 * gamma * gamma, 1e-9));
+            assert!(close(k.strain.eta_xy, 0.5 * gamma, 1e-10));
+            assert!(close(k.j2, eta_s, 1e-10)); // Δt = 1
+        }
+        // OVITO's shear strain: √(η_xy² + (η_xx − η_yy)²/2) = √(γ²/4 + γ⁴/8).
+        let (ko, _) = run(&two_frame_tracks(&p, f, 0.0, 0), Convention::Ovito);
+        let ov = (0.25 * gamma * gamma + gamma.powi(4) / 8.0).sqrt();
+        assert!(ko.iter().all(|k| close(k.strain.eta_s, ov, 1e-10)));
+    }
+}
+
+#[test]
+fn rigid_rotation_and_translation_have_no_strain() {
+    let p = bidisperse_packing(400, 1.0, 0.1, 3);
+    let f = Mat2::rotation(0.4);
+    let mut t = two_frame_tracks(&p, f, 0.0, 0);
+    for r in t.len() / 2..t.len() {
+        t.x[r] += 3.7;
+        t.y[r] -= 1.2;
+    }
+    let (ks, _) = run(&t, Convention::Paper);
+    for k in &ks {
+        assert!(k.strain.eta_s < 1e-12 && k.strain.eta_m.abs() < 1e-12);
+        assert!(k.d2min < 1e-20);
+    }
+}
+
+/// Perfect triangular lattice (spacing a): the 6 nearest neighbours are symmetric, so
+/// displacing particle i by δ gives J_i = I, D²min_i = |δ|² (÷N_i) and for a neighbour
+/// j of i the closed form |δ|² [Σ_{k≠i} (uᵀY⁻¹r_k)² + (1 − uᵀY⁻¹u)²] / N_j, u = r_i − r_j.
+#[test]
+fn one_displaced_particle_closed_form() {
+    let p = bidisperse_packing(400, 1.0, 0.0, 4);
+    let a = p.spacing;
+    let mut t = two_frame_tracks(&p, Mat2::IDENTITY, 0.0, 0);
+    let n = p.pos.len();
+    let centre = Vec2::new(p.simbox.x_lo + 0.5 * p.simbox.lx, p.simbox.y_lo + 0.5 * p.simbox.ly);
+    let i = (0..n)
+        .min_by(|&u, &v| (p.pos[u] - centre).norm2().total_cmp(&(p.pos[v] - centre).norm2()))
+        .unwrap();
+    let delta = Vec2::new(0.03, -0.02);
+    t.x[n + i] += delta.x;
+    t.y[n + i] += delta.y;
+    let (ks, _) = run(&t, Convention::Paper);
+    let ki = ks[i];
+    assert_eq!(ki.n_neighbors, 6);
+    assert!((ki.j - Mat2::IDENTITY).frobenius2() < 1e-24);
+    assert!(close(ki.d2min, delta.norm2(), 1e-12), "{} vs {}", ki.d2min, delta.norm2());
+    let (ko, _) = run(&t, Convention::Ovito);
+    assert!(close(ko[i].d2min, 6.0 * delta.norm2(), 1e-12));
+    // A neighbour j of i.
+    let j = (0..n)
+        .find(|&j| j != i && ((p.pos[j] - p.pos[i]).norm() - a).abs() < 1e-9)
+        .unwrap();
+    let rel: Vec<(usize, Vec2)> = (0..n)
+        .filter(|&k| k != j && (p.pos[k] - p.pos[j]).norm() < RC)
+        .map(|k| (k, p.pos[k] - p.pos[j]))
+        .collect();
+    let y = rel.iter().fold(Mat2::ZERO, |m, &(_, r)| m + Mat2::outer(r, r));
+    let yinv = y.inverse(1e-12).unwrap();
+    let u = p.pos[i] - p.pos[j];
+    let g = yinv * u; // Y⁻¹u (Y symmetric)
+    let mut s = 0.0;
+    for &(k, r) in &rel {
+        s += if k == i { (1.0 - g.dot(r)).powi(2) } else { g.dot(r).powi(2) };
+    }
+    let want = delta.norm2() * s / rel.len() as f64;
+    assert!(close(ks[j].d2min, want, 1e-10), "{} vs {want}", ks[j].d2min);
+    assert!(ks[j].d2min > 0.0);
+}
+
+#[test]
+fn invariant_under_rigid_motion_and_relabelling() {
+    let p = bidisperse_packing(900, 1.0, 0.12, 5);
+    let f = Mat2::new(1.0, 0.05, 0.0, 0.98);
+    let t = two_frame_tracks(&p, f, 0.02, 9);
+    let (base, _) = run(&t, Convention::Paper);
+    // Rotate and translate both frames by the same rigid motion.
+    let rot = Mat2::rotation(1.1);
+    let mut u = t.clone();
+    for r in 0..u.len() {
+        let q = rot * Vec2::new(t.x[r], t.y[r]) + Vec2::new(-40.0, 17.0);
+        u.x[r] = q.x;
+        u.y[r] = q.y;
+    }
+    let (moved, _) = run(&u, Convention::Paper);
+    // Reverse the particle ids (rows re-sorted as finalize would).
+    let mut v = t.clone();
+    let n = p.pos.len() as i64;
+    for r in 0..v.len() {
+        v.particle[r] = n - 1 - v.particle[r];
+    }
+    let mut perm: Vec<usize> = (0..v.len()).collect();
+    perm.sort_by_key(|&r| (v.frame[r], v.particle[r]));
+    v.permute(&perm);
+    let (relab, _) = run(&v, Convention::Paper);
+    for (k, b) in base.iter().enumerate() {
+        let m = &moved[k];
+        assert_eq!(b.n_neighbors, m.n_neighbors);
+        assert!(close(b.d2min, m.d2min, 1e-8), "{} {}", b.d2min, m.d2min);
+        assert!(close(b.strain.eta_s, m.strain.eta_s, 1e-8));
+        assert!(close(b.strain.eta_m, m.strain.eta_m, 1e-8));
+        let r = &relab[(n - 1 - b.particle) as usize];
+        assert_eq!(r.particle, n - 1 - b.particle);
+        // Relabelling reorders the neighbour sums: equal to round-off.
+        assert!(close(b.d2min, r.d2min, 1e-12));
+        assert!(close(b.strain.eta_s, r.strain.eta_s, 1e-12));
+    }
+}
+
+#[test]
+fn identical_for_any_thread_count() {
+    let p = bidisperse_packing(5000, 1.0, 0.12, 6);
+    let t = two_frame_tracks(&p, Mat2::new(1.0, 0.05, 0.0, 0.98), 0.02, 9);
+    let go = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| run(&t, Convention::Paper))
+    };
+    let (a, _) = go(1);
+    let (b, _) = go(2);
+    let (c, _) = go(3);
+    assert_eq!(a, b);
+    assert_eq!(a, c);
+}
+
+/// Lees–Edwards: a lattice already sheared by γ0 (box offset γ0 L_y), sheared by γ more
+/// and moved up so that rows cross the y boundary. Every particle, those whose
+/// neighbours lie across the boundary included, has J = [[1, γ], [0, 1]], D²min = 0.
+#[test]
+fn lees_edwards_neighbours_and_unwrapping() {
+    let p = bidisperse_packing(600, 1.0, 0.1, 7);
+    let gamma = 0.04;
+    let t = sheared_periodic_tracks(&p, 0.3, gamma, 0.37 * p.simbox.ly * 0.2);
+    let (ks, c) = run(&t, Convention::Paper);
+    assert_eq!(c.paired, p.pos.len());
+    let want = Mat2::new(1.0, gamma, 0.0, 1.0);
+    let mut near_edge = 0;
+    for k in &ks {
+        assert!(k.valid);
+        assert!((k.j - want).frobenius2() < 1e-20, "{:?} at {:?}", k.j, k.pos);
+        assert!(k.d2min < 1e-20);
+        near_edge += usize::from(k.pos.y < p.simbox.y_lo + RC);
+    }
+    assert!(near_edge > 10);
+    // Same neighbour counts as the unsheared periodic lattice: no neighbour lost at the seam.
+    let flat = sheared_periodic_tracks(&p, 0.0, 0.0, 0.0);
+    let (kf, _) = run(&flat, Convention::Paper);
+    let total: u32 = ks.iter().map(|k| k.n_neighbors).sum();
+    let total_flat: u32 = kf.iter().map(|k| k.n_neighbors).sum();
+    // Shearing the lattice by 0.3 changes who is within R_c, but both counts are bulk-like.
+    assert!(ks.iter().all(|k| k.n_neighbors >= 4), "lost neighbours at the seam");
+    assert!(total > 0 && total_flat > 0);
+}
+
+#[test]
+fn isolated_collinear_and_missing_particles_are_counted() {
+    let mut t = Tracks::default();
+    // frame 0: a lone particle (0), three on a line (1..3), one missing at t+Δt (4).
+    let pts = [(0.0, 0.0), (10.0, 0.0), (11.0, 0.0), (12.0, 0.0), (30.0, 0.0)];
+    for f in 0..2i64 {
+        for (id, &(x, y)) in pts.iter().enumerate() {
+            if f == 1 && id == 4 {
+                continue;
+            }
+            t.frame.push(f);
+            t.particle.push(id as i64);
+            t.x.push(x + 0.01 * f as f64);
+            t.y.push(y);
+            t.radius.push(0.5);
+        }
+    }
+    t.frame.push(1);
+    t.particle.push(5);
+    t.x.push(50.0);
+    t.y.push(0.0);
+    t.radius.push(0.5);
+    let (ks, c) = run(&t, Convention::Paper);
+    assert_eq!(c.paired, 4);
+    assert_eq!(c.missing_at_end, 1);
+    assert_eq!(c.missing_at_start, 1);
+    assert_eq!(c.invalid_few_neighbors, 3); // 0 (none), 1 and 3 (one each)
+    assert_eq!(c.invalid_singular, 1); // 2: two neighbours on a line
+    for k in &ks {
+        assert!(!k.valid);
+        assert!(k.d2min == 0.0 && k.strain.eta_s == 0.0 && k.j == Mat2::ZERO);
+        assert!(close(k.velocity.x, 0.01, 1e-9));
+    }
+}

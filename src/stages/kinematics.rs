@@ -1,0 +1,257 @@
+//! `kinematics`: canonical tracks → the per-particle `kinematics` table for every
+//! (start frame, lag) requested, streamed pair by pair so output memory stays bounded.
+
+use crate::error::{Error, Result};
+use crate::io::kinematics_io::{kinematics_dataframe, kinematics_schema};
+use crate::io::sink::stream_table;
+use crate::io::{atomic_write_str, read_tracks, sha256_file, sidecar_path};
+use crate::kinematics::{Convention, KinematicsParams, PairCounts, frame_pair};
+use crate::tracks::Tracks;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// How far apart the two frames of a pair are.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LagSpec {
+    /// In frames, one or several.
+    Frames(Vec<i64>),
+    /// In seconds, mapped to the nearest whole number of frames.
+    Time(f64),
+}
+
+#[derive(Debug, Clone)]
+pub struct KinematicsOptions {
+    pub lag: LagSpec,
+    /// Neighbour cutoff R_c (length unit); default 1.25 D.
+    pub rc: Option<f64>,
+    /// Only this start frame (default: every start frame, stepped by `every`).
+    pub start: Option<i64>,
+    /// Step between start frames (default: the lag).
+    pub every: Option<i64>,
+    pub convention: Convention,
+    pub quiet: bool,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct KinematicsReport {
+    pub input: String,
+    pub output: String,
+    /// R_c used, length unit.
+    pub rc: f64,
+    /// Large-grain diameter D, length unit.
+    pub d_large: f64,
+    pub length_unit: String,
+    /// Unit of `dt` ("s", or "frame" without a frame time).
+    pub time_unit: String,
+    pub convention: Convention,
+    pub lags: Vec<i64>,
+    pub frame_pairs: usize,
+    pub rows: usize,
+    pub counts: PairCounts,
+    pub warnings: Vec<String>,
+}
+
+impl std::fmt::Display for KinematicsReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let c = &self.counts;
+        writeln!(f, "kinematics    {} -> {}", self.input, self.output)?;
+        writeln!(
+            f,
+            "pairs         {} frame pairs, lags {:?} frames, {} rows",
+            self.frame_pairs, self.lags, self.rows
+        )?;
+        writeln!(
+            f,
+            "neighbours    R_c = {:.5} {} (1.25 D = {:.5}), convention {:?}",
+            self.rc,
+            self.length_unit,
+            1.25 * self.d_large,
+            self.convention
+        )?;
+        writeln!(
+            f,
+            "invalid       {} with < 2 neighbours, {} singular (collinear neighbours)",
+            c.invalid_few_neighbors, c.invalid_singular
+        )?;
+        write!(
+            f,
+            "skipped       {} present only at t, {} only at t+dt",
+            c.missing_at_end, c.missing_at_start
+        )
+    }
+}
+
+/// Default output beside the input: `name.tracks.parquet` → `name.kinematics.parquet`.
+pub fn default_output(input: &Path) -> PathBuf {
+    let stem = input
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "tracks".into());
+    let stem = stem.strip_suffix(".tracks").unwrap_or(&stem).to_string();
+    input.with_file_name(format!("{stem}.kinematics.parquet"))
+}
+
+/// Time of each frame: the `time` column, else frame × frame_time, else the frame index.
+fn frame_times(t: &Tracks, ranges: &[(i64, Range<usize>)]) -> (BTreeMap<i64, f64>, String) {
+    let unit;
+    let m = match (&t.time, t.meta.frame_time) {
+        (Some(time), _) => {
+            unit = t.meta.time_unit.clone();
+            ranges.iter().map(|(f, r)| (*f, time[r.start])).collect()
+        }
+        (None, Some(dt)) => {
+            unit = t.meta.time_unit.clone();
+            ranges.iter().map(|(f, _)| (*f, *f as f64 * dt)).collect()
+        }
+        (None, None) => {
+            unit = "frame".into();
+            ranges.iter().map(|(f, _)| (*f, *f as f64)).collect()
+        }
+    };
+    (m, unit)
+}
+
+/// The (start, end) frame pairs to compute.
+pub fn plan_pairs(frames: &[i64], lags: &[i64], start: Option<i64>, every: Option<i64>) -> Vec<(i64, i64)> {
+    let (Some(&first), Some(&last)) = (frames.first(), frames.last()) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for &lag in lags {
+        match start {
+            Some(s) => out.push((s, s + lag)),
+            None => {
+                let step = every.unwrap_or(lag).max(1);
+                let mut s = first;
+                while s + lag <= last {
+                    out.push((s, s + lag));
+                    s += step;
+                }
+            }
+        }
+    }
+    out
+}
+
+pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<KinematicsReport> {
+    let file = input.display().to_string();
+    let (tracks, mut warnings) = read_tracks(input)?;
+    let ranges = tracks.frame_ranges();
+    let d_large = tracks
+        .large_diameter()
+        .ok_or_else(|| Error::input(&file, "no rows"))?;
+    let rc = opt.rc.unwrap_or(1.25 * d_large);
+    if !(rc > 0.0 && rc.is_finite()) {
+        return Err(Error::param("rc", format!("{rc} must be a positive length")));
+    }
+    let (times, time_unit) = frame_times(&tracks, &ranges);
+    let lags = match &opt.lag {
+        LagSpec::Frames(l) => l.clone(),
+        LagSpec::Time(s) => {
+            let ft = tracks.meta.frame_time.ok_or_else(|| {
+                Error::param("lag-time", format!("{file} has no frame time; give --lag in frames"))
+            })?;
+            let lag = (s / ft).round() as i64;
+            if ((lag as f64) * ft - s).abs() > 1e-9 * s.abs().max(1.0) {
+                warnings.push(format!(
+                    "--lag-time {s} s is not a whole number of frames ({ft} s each): using {lag} frames = {} s",
+                    lag as f64 * ft
+                ));
+            }
+            vec![lag]
+        }
+    };
+    if let Some(bad) = lags.iter().find(|&&l| l < 1) {
+        return Err(Error::param("lag", format!("lag {bad} must be >= 1 frame")));
+    }
+    if let Some(e) = opt.every
+        && e < 1
+    {
+        return Err(Error::param("every", format!("{e} must be >= 1 frame")));
+    }
+    let index: BTreeMap<i64, usize> = ranges.iter().enumerate().map(|(k, (f, _))| (*f, k)).collect();
+    let frames: Vec<i64> = index.keys().copied().collect();
+    let planned = plan_pairs(&frames, &lags, opt.start, opt.every);
+    let pairs: Vec<(i64, i64)> = planned
+        .iter()
+        .copied()
+        .filter(|(a, b)| index.contains_key(a) && index.contains_key(b))
+        .collect();
+    if pairs.len() < planned.len() {
+        warnings.push(format!(
+            "{} of {} frame pairs skipped: a frame is absent from the tracks",
+            planned.len() - pairs.len(),
+            planned.len()
+        ));
+    }
+    if pairs.is_empty() {
+        return Err(Error::param(
+            "lag",
+            format!(
+                "no frame pair with lags {lags:?} fits in frames {}..{} of {file}",
+                frames.first().unwrap_or(&0),
+                frames.last().unwrap_or(&0)
+            ),
+        ));
+    }
+    let params = KinematicsParams { rc, convention: opt.convention };
+    let mut counts = PairCounts::default();
+    let bar = crate::stages::progress(pairs.len() as u64, "kinematics", opt.quiet);
+    let meta = serde_json::json!({
+        "table": "kinematics",
+        "length_unit": tracks.meta.length_unit,
+        "time_unit": time_unit,
+        "d_large": d_large,
+        "rc": rc,
+        "convention": opt.convention,
+        "lags": lags,
+        "provenance": {
+            "tool": super::TOOL, "tool_version": super::VERSION,
+            "source": file, "source_sha256": sha256_file(input)?,
+            "parameters": {"lags": lags, "rc": rc, "start": opt.start, "every": opt.every, "convention": opt.convention},
+        },
+        "bar_speed": tracks.meta.bar_speed,
+    });
+    let side = sidecar_path(output);
+    atomic_write_str(&side, &serde_json::to_string_pretty(&meta).expect("json"))?;
+    let rows = stream_table(output, &kinematics_schema(), |sink| {
+        for &(fa, fb) in &pairs {
+            let (_, ra) = &ranges[index[&fa]];
+            let (_, rb) = &ranges[index[&fb]];
+            let a = tracks.view(fa, ra.clone());
+            let b = tracks.view(fb, rb.clone());
+            let dt = times[&fb] - times[&fa];
+            if !(dt > 0.0) {
+                return Err(Error::input(
+                    &file,
+                    format!("frames {fa} and {fb} have non-increasing times (dt = {dt})"),
+                ));
+            }
+            let (ks, c) = frame_pair(&a, &b, dt, &params)?;
+            counts.add(&c);
+            sink.write(&kinematics_dataframe(fa, fb, dt, &ks)?)?;
+            bar.inc(1);
+        }
+        Ok(())
+    })
+    .inspect_err(|_| {
+        let _ = std::fs::remove_file(&side);
+    })?;
+    bar.finish_and_clear();
+    Ok(KinematicsReport {
+        input: file,
+        output: output.display().to_string(),
+        rc,
+        d_large,
+        length_unit: tracks.meta.length_unit.clone(),
+        time_unit,
+        convention: opt.convention,
+        lags,
+        frame_pairs: pairs.len(),
+        rows,
+        counts,
+        warnings,
+    })
+}

@@ -1,0 +1,238 @@
+//! Ingest from the user's side: the CLI on the shared trackpy sample (checked against its
+//! ground truth), round trips, and every bad input of issue 2 with its message and no
+//! output left behind.
+
+use pillar_pipe::io::read_tracks;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
+
+fn sample_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/trackpy-sample")
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("pp-ingest-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> (bool, String) {
+    let out = Command::new(BIN).args(args).output().expect("binary runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
+}
+
+fn scaled_sample(dir: &Path) -> PathBuf {
+    let src = sample_dir().join("tracks.csv");
+    let out = dir.join("t.parquet");
+    let (ok, text) = run(&[
+        "ingest",
+        src.to_str().unwrap(),
+        "--format",
+        "trackpy",
+        "--px-per-unit",
+        "31.496063",
+        "--unit",
+        "cm",
+        "--frame-time",
+        "15",
+        "--origin-px",
+        "165.980,850",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    assert!(text.contains("frames        40 (0 .. 39)"), "{text}");
+    assert!(text.contains("gaps"), "{text}");
+    out
+}
+
+/// Species and positions against the sample's ground truth: every detection in frame 0
+/// lies within 0.1 cm of a true grain, and the species agrees for >= 99 % of them.
+#[test]
+fn sample_matches_ground_truth() {
+    let dir = tmpdir("gt");
+    let out = scaled_sample(&dir);
+    let (t, _) = read_tracks(&out).unwrap();
+    assert_eq!(t.meta.length_unit, "cm");
+    assert_eq!(t.meta.frame_time, Some(15.0));
+    let gt = std::fs::read_to_string(sample_dir().join("ground_truth.csv")).unwrap();
+    let mut truth = Vec::new(); // (x, y, large)
+    let mut lines = gt.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|c| *c == n).unwrap();
+    let (cf, cs, cx, cy) = (col("frame"), col("species"), col("x_cm"), col("y_cm"));
+    for l in lines {
+        let v: Vec<&str> = l.split(',').collect();
+        if v[cf] == "0" {
+            truth.push((
+                v[cx].parse::<f64>().unwrap(),
+                v[cy].parse::<f64>().unwrap(),
+                v[cs] == "L",
+            ));
+        }
+    }
+    assert_eq!(truth.len(), 1000);
+    let species = t.species.as_ref().expect("species assigned");
+    let (mut n, mut agree, mut worst) = (0usize, 0usize, 0.0f64);
+    for r in 0..t.len() {
+        if t.frame[r] != 0 {
+            continue;
+        }
+        let (bd, large) = truth
+            .iter()
+            .map(|&(x, y, l)| (((x - t.x[r]).powi(2) + (y - t.y[r]).powi(2)).sqrt(), l))
+            .fold((f64::MAX, false), |a, b| if b.0 < a.0 { b } else { a });
+        n += 1;
+        worst = worst.max(bd);
+        agree += usize::from(large == (species[r] == 1));
+        let want_r = if large { 0.3175 } else { 0.238125 };
+        assert!((t.radius[r] - want_r).abs() < 0.02, "radius {}", t.radius[r]);
+    }
+    assert!(n >= 980, "{n} detections in frame 0");
+    assert!(worst < 0.1, "worst position error {worst} cm");
+    assert!(agree as f64 >= 0.99 * n as f64, "species agree {agree}/{n}");
+}
+
+#[test]
+fn parquet_round_trips_to_csv() {
+    let dir = tmpdir("rt");
+    let pq = scaled_sample(&dir);
+    let csv = dir.join("t.csv");
+    let (ok, text) = run(&["ingest", pq.to_str().unwrap(), "-o", csv.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let head = std::fs::read_to_string(&csv).unwrap();
+    let first = head.lines().next().unwrap();
+    assert_eq!(first, "frame,particle,x,y,radius,time,species");
+    let (a, _) = read_tracks(&pq).unwrap();
+    let (b, _) = read_tracks(&csv).unwrap();
+    assert_eq!(a.len(), b.len());
+    assert_eq!(a.particle, b.particle);
+    for r in 0..a.len() {
+        assert!((a.x[r] - b.x[r]).abs() < 1e-9 && (a.y[r] - b.y[r]).abs() < 1e-9);
+    }
+    assert_eq!(b.meta.length_unit, "cm");
+}
+
+/// `pillar-pipe ingest FILE` typed just so: settings beside the input, default output.
+#[test]
+fn bare_ingest_uses_settings_and_default_output() {
+    let dir = tmpdir("bare");
+    std::fs::copy(sample_dir().join("tracks.csv"), dir.join("tracks.csv")).unwrap();
+    let (ok, text) = run(&["ingest", dir.join("tracks.csv").to_str().unwrap()]);
+    assert!(!ok);
+    assert!(text.contains("no scale was given"), "{text}");
+    assert!(!dir.join("tracks.tracks.parquet").exists());
+    std::fs::write(
+        dir.join("ingest.toml"),
+        "px_per_unit = 31.496063\nunit = \"cm\"\nframe_time = 15.0\n",
+    )
+    .unwrap();
+    let (ok, text) = run(&["ingest", dir.join("tracks.csv").to_str().unwrap()]);
+    assert!(ok, "{text}");
+    assert!(text.contains("settings      from"), "{text}");
+    assert!(dir.join("tracks.tracks.parquet").exists());
+    assert!(dir.join("tracks.tracks.parquet.meta.json").exists());
+    std::fs::write(dir.join("ingest.toml"), "px_per_unit = 31.4\nunits = \"cm\"\n").unwrap();
+    let (ok, text) = run(&["ingest", dir.join("tracks.csv").to_str().unwrap()]);
+    assert!(!ok);
+    assert!(text.contains("ingest.toml") && text.contains("units"), "{text}");
+}
+
+/// Each bad input: non-zero exit, the message names file/line/column, and no output.
+#[test]
+fn bad_inputs_fail_clearly_and_leave_nothing() {
+    let dir = tmpdir("bad");
+    let hdr = "frame,particle,x,y,radius\n";
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        ("num.csv", format!("{hdr}0,1,0,0,0.5\n0,2,1.x,0,0.5\n"), vec!["line 3", "'x'", "1.x"]),
+        ("miss.csv", "frame,particle,x,radius\n0,1,0,0.5\n".into(), vec!["missing required column", "\"y\"", "found columns"]),
+        ("nan.csv", format!("{hdr}0,1,0,0,0.5\n0,2,NaN,0,0.5\n"), vec!["line 3", "'x'", "finite"]),
+        ("inf.csv", format!("{hdr}0,1,0,0,0.5\n0,2,0,-inf,0.5\n"), vec!["line 3", "'y'", "finite"]),
+        ("dup.csv", format!("{hdr}0,1,0,0,0.5\n1,1,0,0,0.5\n0,1,1,0,0.5\n"), vec!["duplicate", "frame 0", "particle 1", "line 2", "line 4"]),
+        ("neg.csv", format!("{hdr}0,1,0,0,0.5\n-1,1,0,0,0.5\n"), vec!["line 3", "'frame'", "negative"]),
+        ("unk.csv", "a,b,c\n1,2,3\n".into(), vec!["unknown format", "trackpy", "lammps", "canonical"]),
+        ("empty.csv", String::new(), vec!["empty file"]),
+        ("header.csv", hdr.into(), vec!["no data rows"]),
+        ("cut.dump", "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n3\nITEM: BOX BOUNDS pp pp pp\n0 10\n0 10\n-0.5 0.5\nITEM: ATOMS id type x y radius\n1 1 1 1 0.5\n2 1 2 2 0.5\n".into(), vec!["cut off", "line 11"]),
+        ("px.csv", "y,x,mass,size,ecc,signal,raw_mass,ep,frame,particle\n10,20,100,4,0.1,5,200,0.1,0,0\n".into(), vec!["pixels", "--px-per-unit"]),
+        ("rad.csv", format!("{hdr}0,1,0,0,-0.5\n"), vec!["line 2", "'radius'"]),
+    ];
+    for (name, body, needles) in cases {
+        let input = dir.join(name);
+        std::fs::write(&input, body).unwrap();
+        let out = dir.join(format!("{name}.out.parquet"));
+        let (ok, text) = run(&["ingest", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        assert!(!ok, "{name} should fail: {text}");
+        assert!(text.contains(name), "{name}: message must name the file: {text}");
+        for n in needles {
+            assert!(text.contains(n), "{name}: expected '{n}' in: {text}");
+        }
+        assert!(!text.contains("panicked"), "{name}: {text}");
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|f| f.contains(".out.") || f.contains("partial"))
+            .collect();
+        assert!(left.is_empty(), "{name}: left behind {left:?}");
+    }
+}
+
+/// A LAMMPS triclinic dump with scaled coordinates gives the box tilt per frame.
+#[test]
+fn lammps_triclinic_scaled() {
+    let dir = tmpdir("lmp");
+    let mut s = String::new();
+    for (ts, xy) in [(0, 0.0), (100, 1.0)] {
+        s += &format!(
+            "ITEM: TIMESTEP\n{ts}\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS xy xz yz pp pp pp\n0 11 {xy}\n0 10 0\n-0.5 0.5 0\nITEM: ATOMS id type xs ys diameter\n1 1 0.5 0.5 1.0\n2 2 0.25 0.0 1.4\n"
+        );
+    }
+    let input = dir.join("run.dump");
+    std::fs::write(&input, s).unwrap();
+    let out = dir.join("run.parquet");
+    let (ok, text) = run(&["ingest", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let (t, _) = read_tracks(&out).unwrap();
+    assert_eq!(t.len(), 4);
+    assert_eq!(t.meta.boxes.len(), 2);
+    assert!((t.meta.boxes[1].xy - 1.0).abs() < 1e-12);
+    // frame 1, particle 1: x = xlo + xs*lx + ys*xy with lx = xhi - xlo for xy >= 0
+    let r = (0..t.len()).find(|&r| t.frame[r] == 1 && t.particle[r] == 1).unwrap();
+    assert!((t.y[r] - 5.0).abs() < 1e-12);
+    assert!((t.radius[r] - 0.5).abs() < 1e-12);
+}
+
+/// The table the code writes has exactly the columns the schema file documents, and
+/// every schema file parses.
+#[test]
+fn schema_files_and_code_agree() {
+    use pillar_pipe::schema;
+    for (name, _) in schema::SCHEMA_FILES {
+        let s = schema::load(name);
+        assert_eq!(&s.table, name);
+        assert!(!s.columns.is_empty());
+        for c in &s.columns {
+            assert!(c.unit.is_some(), "{name}.{} has no unit", c.name);
+        }
+    }
+    let sch = schema::load("tracks");
+    let expect: Vec<&str> = pillar_pipe::io::tracks_io::TRACKS_EXPECT
+        .iter()
+        .map(|(n, _)| *n)
+        .collect();
+    assert_eq!(sch.names(), expect);
+    // The files on disk are the embedded ones (no stale copy in the binary).
+    for (name, text) in schema::SCHEMA_FILES {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("data_schema/{name}.schema.json"));
+        assert_eq!(std::fs::read_to_string(p).unwrap(), *text);
+    }
+}
