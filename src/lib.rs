@@ -5,6 +5,7 @@
 //! `io` (polars) and `stages` sit on top; `main.rs` only parses arguments and wires.
 
 pub mod error;
+pub mod fit;
 pub mod geom;
 pub mod io;
 pub mod kinematics;

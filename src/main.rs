@@ -91,6 +91,52 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Fit the D²min–η^s crossover (Li et al. Eq. 19) with every estimator; writes
+    /// fit.json and the scatter table.
+    Fit {
+        /// Canonical tracks (runs the Sec. IV protocol) or a `kinematics` table (fits its rows).
+        input: PathBuf,
+        #[arg(short, long, default_value = "fit.json")]
+        output: PathBuf,
+        /// Large-grain diameter D (length unit); default from the data.
+        #[arg(long)]
+        diameter: Option<f64>,
+        /// Bar speed v_c (length unit/s); default from the tracks' metadata.
+        #[arg(long)]
+        bar_speed: Option<f64>,
+        /// Start times in R/v_c (default every 2/3).
+        #[arg(long, value_delimiter = ',')]
+        starts: Option<Vec<f64>>,
+        /// Lags in R/v_c (default 2/15, 4/15, ..., 128/15).
+        #[arg(long, value_delimiter = ',')]
+        lags: Option<Vec<f64>>,
+        /// R_c in units of D.
+        #[arg(long, default_value_t = 1.25)]
+        rc_over_d: f64,
+        #[arg(long, value_enum, default_value = "binned-median")]
+        method: pillar_pipe::fit::Method,
+        #[arg(long, default_value_t = 5.0)]
+        bins_per_decade: f64,
+        #[arg(long, default_value_t = 10)]
+        min_bin_count: usize,
+        /// Bootstrap replicates over start times.
+        #[arg(long, default_value_t = 1000)]
+        bootstrap: usize,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Scatter table (default <output stem>.scatter.parquet).
+        #[arg(long)]
+        scatter: Option<PathBuf>,
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Two fits side by side (experiment vs simulation); refuses fits made differently.
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
     /// Ground-truth tracks: a bidisperse packing mapped by a known affine transform.
     Synth {
         #[arg(short, long)]
@@ -229,6 +275,55 @@ fn run(cli: Cli) -> Result<()> {
                 for w in &rep.warnings {
                     println!("warning: {w}");
                 }
+            }
+        }
+        Cmd::Fit {
+            input,
+            output,
+            diameter,
+            bar_speed,
+            starts,
+            lags,
+            rc_over_d,
+            method,
+            bins_per_decade,
+            min_bin_count,
+            bootstrap,
+            seed,
+            scatter,
+            quiet,
+        } => {
+            use pillar_pipe::stages::fit;
+            let opt = fit::FitOptions {
+                diameter,
+                bar_speed,
+                starts,
+                lags,
+                rc_over_d,
+                method,
+                binning: pillar_pipe::fit::Binning {
+                    bins_per_decade,
+                    min_count: min_bin_count,
+                },
+                bootstrap,
+                seed,
+                scatter,
+                quiet,
+            };
+            let rep = fit::run(&input, &output, &opt)
+                .with_context(|| format!("fit {}", input.display()))?;
+            println!("{rep}");
+            for w in &rep.warnings {
+                println!("warning: {w}");
+            }
+            println!("wrote         {} and {} ({:.2} s)", output.display(), rep.scatter, rep.elapsed_s);
+        }
+        Cmd::Compare { a, b, json } => {
+            let c = pillar_pipe::stages::compare::run(&a, &b)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&c)?);
+            } else {
+                print!("{c}");
             }
         }
         Cmd::Synth {

@@ -199,6 +199,26 @@ impl Table {
     }
 }
 
+impl Table {
+    /// A boolean column without nulls ("true"/"false" in CSV).
+    pub fn bool(&self, name: &str) -> Result<Vec<bool>> {
+        let c = self
+            .df
+            .column(name)
+            .map_err(|e| Error::polars(&self.file, e))?;
+        let ca = c.bool().map_err(|_| {
+            Error::input(
+                &self.file,
+                format!("column '{name}': expected true/false, found {}", c.dtype()),
+            )
+        })?;
+        if ca.null_count() > 0 {
+            return Err(self.null_error(name, c));
+        }
+        Ok((0..ca.len()).map(|i| ca.get(i).unwrap_or(false)).collect())
+    }
+}
+
 /// Write `df` to `path` (Parquet unless the extension is `.csv`), atomically.
 pub fn write_table(df: &mut DataFrame, path: &Path) -> Result<()> {
     let file = path.display().to_string();

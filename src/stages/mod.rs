@@ -25,3 +25,5 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
     bar.set_message(what.to_string());
     bar
 }
+pub mod compare;
+pub mod fit;

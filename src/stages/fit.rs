@@ -1,0 +1,440 @@
+//! `fit`: the D²min–η^s study of Li et al. Sec. IV. From tracks it runs the sampling
+//! protocol (start times every (2/3) R/v_c, lags {2, 4, …, 128}/15 R/v_c, R_c = 1.25 D);
+//! from a `kinematics` table it takes the rows as they are. Then Eq. 19 is fitted with
+//! every estimator and the chosen one is reported with bootstrap intervals.
+
+use crate::error::{Error, Result};
+use crate::fit::{Binning, EstimatorResult, FitSettings, Method, Samples, fit_all};
+use crate::io::csvdiag::Expect;
+use crate::io::sink::stream_table;
+use crate::io::table::read_table;
+use crate::io::{atomic_write_str, read_tracks, sha256_file};
+use crate::kinematics::{Convention, KinematicsParams, frame_pair};
+use polars::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Paper defaults, in units of R/v_c.
+pub const START_SPACING: f64 = 2.0 / 3.0;
+pub const MIN_STARTS: usize = 8;
+pub fn default_lags() -> Vec<f64> {
+    [2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0]
+        .iter()
+        .map(|l| l / 15.0)
+        .collect()
+}
+
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    /// Large-grain diameter D (length unit); default from the data.
+    pub diameter: Option<f64>,
+    /// Bar speed v_c (length unit / s); default from the tracks' metadata.
+    pub bar_speed: Option<f64>,
+    /// Start times in R/v_c after the first frame; default every 2/3 R/v_c.
+    pub starts: Option<Vec<f64>>,
+    /// Lags in R/v_c; default {2, 4, …, 128}/15.
+    pub lags: Option<Vec<f64>>,
+    /// R_c in units of D.
+    pub rc_over_d: f64,
+    pub method: Method,
+    pub binning: Binning,
+    pub bootstrap: usize,
+    pub seed: u64,
+    /// The scatter table; default `<output stem>.scatter.parquet`.
+    pub scatter: Option<PathBuf>,
+    pub quiet: bool,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            diameter: None,
+            bar_speed: None,
+            starts: None,
+            lags: None,
+            rc_over_d: 1.25,
+            method: Method::BinnedMedian,
+            binning: Binning::default(),
+            bootstrap: 1000,
+            seed: 1,
+            scatter: None,
+            quiet: false,
+        }
+    }
+}
+
+/// How the samples were collected; `compare` refuses fits whose protocols differ.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Protocol {
+    /// "tracks" (protocol run here) or "kinematics" (rows as given).
+    pub source: String,
+    pub diameter: f64,
+    pub rc_over_d: f64,
+    pub bar_speed: Option<f64>,
+    /// R/v_c in the tracks' time unit, when known.
+    pub time_scale: Option<f64>,
+    pub lags_frames: Vec<i64>,
+    /// Lags asked for and obtained (nearest frames), in R/v_c.
+    pub lags_requested: Vec<f64>,
+    pub lags_used: Vec<f64>,
+    pub start_frames: Vec<i64>,
+    pub binning: Binning,
+}
+
+/// `fit.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FitReport {
+    pub theta: f64,
+    pub eta_c: f64,
+    pub theta_interval: [f64; 2],
+    pub eta_c_interval: [f64; 2],
+    pub theta_constrained: bool,
+    pub eta_c_constrained: bool,
+    pub method: Method,
+    pub n_points: usize,
+    pub n_starts: usize,
+    pub residual_rms: f64,
+    pub notes: Vec<String>,
+    /// Every estimator's result, or its error.
+    pub estimators: BTreeMap<String, serde_json::Value>,
+    pub protocol: Protocol,
+    pub bootstrap: usize,
+    pub seed: u64,
+    pub input: String,
+    pub input_sha256: String,
+    pub scatter: String,
+    pub tool: String,
+    pub tool_version: String,
+    pub elapsed_s: f64,
+    pub warnings: Vec<String>,
+}
+
+impl std::fmt::Display for FitReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let flag = |ok: bool| if ok { "" } else { "  (not constrained)" };
+        writeln!(f, "fit           Eq. 19 by {}, {} points from {} starts", self.method.name(), self.n_points, self.n_starts)?;
+        writeln!(
+            f,
+            "Theta         {:.4}  [{:.4}, {:.4}]{}",
+            self.theta, self.theta_interval[0], self.theta_interval[1], flag(self.theta_constrained)
+        )?;
+        writeln!(
+            f,
+            "eta_c         {:.4}  [{:.4}, {:.4}]{}",
+            self.eta_c, self.eta_c_interval[0], self.eta_c_interval[1], flag(self.eta_c_constrained)
+        )?;
+        writeln!(f, "              (95% bootstrap over start times, {} replicates, seed {})", self.bootstrap, self.seed)?;
+        for (name, v) in &self.estimators {
+            match (v.get("theta"), v.get("eta_c")) {
+                (Some(t), Some(e)) => writeln!(f, "  {name:14} Theta {:.4}  eta_c {:.4}", t.as_f64().unwrap_or(f64::NAN), e.as_f64().unwrap_or(f64::NAN))?,
+                _ => writeln!(f, "  {name:14} failed: {}", v.get("error").and_then(|e| e.as_str()).unwrap_or("?"))?,
+            }
+        }
+        for n in &self.notes {
+            writeln!(f, "note: {n}")?;
+        }
+        write!(f, "lags          {:?} frames = {:.3?} R/v_c", self.protocol.lags_frames, self.protocol.lags_used)
+    }
+}
+
+/// One row of the scatter table.
+struct ScatterRows {
+    start: Vec<i64>,
+    end: Vec<i64>,
+    particle: Vec<i64>,
+    species: Vec<i32>,
+    eta_s: Vec<f64>,
+    y: Vec<f64>,
+}
+
+fn nearest_frame(frames: &[i64], times: &BTreeMap<i64, f64>, t: f64) -> i64 {
+    *frames
+        .iter()
+        .min_by(|a, b| (times[a] - t).abs().total_cmp(&(times[b] - t).abs()))
+        .expect("non-empty")
+}
+
+/// Run the protocol on tracks: samples plus the protocol actually used.
+fn from_tracks(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Result<(Samples, ScatterRows, Protocol)> {
+    let file = input.display().to_string();
+    let (tracks, w) = read_tracks(input)?;
+    warnings.extend(w);
+    let d = match opt.diameter {
+        Some(d) => d,
+        None => tracks.large_diameter().ok_or_else(|| Error::input(&file, "no rows"))?,
+    };
+    let r = 0.5 * d;
+    let v = opt.bar_speed.or(tracks.meta.bar_speed).ok_or_else(|| {
+        Error::param(
+            "bar-speed",
+            format!("{file}: no bar speed v_c in the metadata; pass --bar-speed (length unit/s): times are in R/v_c"),
+        )
+    })?;
+    let tau = r / v;
+    let ranges = tracks.frame_ranges();
+    let ft = tracks.meta.frame_time.unwrap_or(1.0);
+    let times: BTreeMap<i64, f64> = ranges
+        .iter()
+        .map(|(f, rg)| (*f, tracks.time.as_ref().map_or(*f as f64 * ft, |t| t[rg.start])))
+        .collect();
+    let frames: Vec<i64> = times.keys().copied().collect();
+    let (first, last) = (frames[0], *frames.last().expect("rows"));
+    let t0 = times[&first];
+    let lags_req = opt.lags.clone().unwrap_or_else(default_lags);
+    let mut lags_frames: Vec<i64> = Vec::new();
+    for &l in &lags_req {
+        let lf = ((l * tau / ft).round() as i64).max(1);
+        if !lags_frames.contains(&lf) {
+            lags_frames.push(lf);
+        }
+    }
+    lags_frames.sort_unstable();
+    let lags_used: Vec<f64> = lags_frames.iter().map(|&l| l as f64 * ft / tau).collect();
+    for (&req, lf) in lags_req.iter().zip(lags_req.iter().map(|&l| ((l * tau / ft).round() as i64).max(1))) {
+        let got = lf as f64 * ft / tau;
+        if (got / req - 1.0).abs() > 0.1 {
+            warnings.push(format!(
+                "lag {req:.3} R/v_c maps to {lf} frame(s) = {got:.3} R/v_c ({:+.0}%): frames are {ft} s, R/v_c = {tau:.3} s",
+                100.0 * (got / req - 1.0)
+            ));
+        }
+    }
+    let max_lag = *lags_frames.last().expect("lags");
+    let starts_req: Vec<f64> = match &opt.starts {
+        Some(s) => s.clone(),
+        None => (0..)
+            .map(|k| k as f64 * START_SPACING)
+            .take_while(|s| t0 + s * tau <= times[&last] + 1e-9)
+            .collect(),
+    };
+    let mut start_frames: Vec<i64> = Vec::new();
+    for s in &starts_req {
+        let f = nearest_frame(&frames, &times, t0 + s * tau);
+        if !start_frames.contains(&f) && f + lags_frames[0] <= last {
+            start_frames.push(f);
+        }
+    }
+    let full = start_frames.iter().filter(|&&s| s + max_lag <= last).count();
+    if start_frames.len() < MIN_STARTS {
+        warnings.push(format!(
+            "{} start times (the protocol asks for at least {MIN_STARTS}): the run is short for spacing {:.3} R/v_c",
+            start_frames.len(),
+            START_SPACING
+        ));
+    }
+    if full < start_frames.len() {
+        warnings.push(format!(
+            "{} of {} starts are too late for the longest lag ({max_lag} frames) and contribute only shorter lags",
+            start_frames.len() - full,
+            start_frames.len()
+        ));
+    }
+    let index: BTreeMap<i64, usize> = ranges.iter().enumerate().map(|(k, (f, _))| (*f, k)).collect();
+    let params = KinematicsParams { rc: opt.rc_over_d * d, convention: Convention::Paper };
+    let mut s = Samples::default();
+    let mut rows = ScatterRows { start: vec![], end: vec![], particle: vec![], species: vec![], eta_s: vec![], y: vec![] };
+    let bar = super::progress((start_frames.len() * lags_frames.len()) as u64, "fit sampling", opt.quiet);
+    for (g, &fs) in start_frames.iter().enumerate() {
+        for &lf in &lags_frames {
+            bar.inc(1);
+            let fe = fs + lf;
+            let (Some(&ia), Some(&ib)) = (index.get(&fs), index.get(&fe)) else {
+                continue;
+            };
+            let a = tracks.view(fs, ranges[ia].1.clone());
+            let b = tracks.view(fe, ranges[ib].1.clone());
+            let (ks, _) = frame_pair(&a, &b, times[&fe] - times[&fs], &params)?;
+            for k in ks.iter().filter(|k| k.valid) {
+                let y = k.d2min / (r * r);
+                s.push(k.strain.eta_s, y, g as u32);
+                rows.start.push(fs);
+                rows.end.push(fe);
+                rows.particle.push(k.particle);
+                rows.species.push(k.species);
+                rows.eta_s.push(k.strain.eta_s);
+                rows.y.push(y);
+            }
+        }
+    }
+    bar.finish_and_clear();
+    let protocol = Protocol {
+        source: "tracks".into(),
+        diameter: d,
+        rc_over_d: opt.rc_over_d,
+        bar_speed: Some(v),
+        time_scale: Some(tau),
+        lags_frames,
+        lags_requested: lags_req,
+        lags_used,
+        start_frames,
+        binning: opt.binning,
+    };
+    Ok((s, rows, protocol))
+}
+
+/// Fit the rows of a `kinematics` table as they are (valid rows only).
+fn from_kinematics(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Result<(Samples, ScatterRows, Protocol)> {
+    let file = input.display().to_string();
+    let t = read_table(
+        input,
+        &[("frame", Expect::Int), ("frame_end", Expect::Int), ("particle", Expect::Int), ("eta_s", Expect::Float), ("d2min", Expect::Float)],
+    )?;
+    t.require(&["frame", "frame_end", "particle", "valid", "eta_s", "d2min"])?;
+    let meta: Option<serde_json::Value> = std::fs::read_to_string(crate::io::sidecar_path(input))
+        .ok()
+        .and_then(|s| serde_json::from_str(&s).ok());
+    let d = match (opt.diameter, meta.as_ref().and_then(|m| m["d_large"].as_f64())) {
+        (Some(d), _) | (None, Some(d)) => d,
+        _ => {
+            return Err(Error::param(
+                "diameter",
+                format!("{file}: no large-grain diameter in a sidecar; pass --diameter D (D²min is scaled by R² = (D/2)²)"),
+            ));
+        }
+    };
+    if let Some(rc) = meta.as_ref().and_then(|m| m["rc"].as_f64())
+        && ((rc / d) / opt.rc_over_d - 1.0).abs() > 1e-6
+    {
+        warnings.push(format!("the table was computed with R_c = {:.4} D, not {} D", rc / d, opt.rc_over_d));
+    }
+    let r = 0.5 * d;
+    let (start, end, particle) = (t.i64("frame")?, t.i64("frame_end")?, t.i64("particle")?);
+    let (eta, d2, valid) = (t.f64("eta_s")?, t.f64("d2min")?, t.bool("valid")?);
+    let species: Vec<i32> = if t.has("species") { t.i64("species")?.into_iter().map(|v| v as i32).collect() } else { vec![-1; start.len()] };
+    let mut groups: BTreeMap<i64, u32> = BTreeMap::new();
+    let mut s = Samples::default();
+    let mut rows = ScatterRows { start: vec![], end: vec![], particle: vec![], species: vec![], eta_s: vec![], y: vec![] };
+    let mut lags: Vec<i64> = Vec::new();
+    for k in 0..start.len() {
+        if !valid[k] {
+            continue;
+        }
+        if !(eta[k].is_finite() && d2[k].is_finite()) {
+            return Err(Error::Value { file: file.clone(), loc: format!("row {}", k + 1), column: "eta_s/d2min".into(), msg: "not finite in a valid row".into() });
+        }
+        let n = groups.len() as u32;
+        let g = *groups.entry(start[k]).or_insert(n);
+        let y = d2[k] / (r * r);
+        s.push(eta[k], y, g);
+        let lag = end[k] - start[k];
+        if !lags.contains(&lag) {
+            lags.push(lag);
+        }
+        rows.start.push(start[k]);
+        rows.end.push(end[k]);
+        rows.particle.push(particle[k]);
+        rows.species.push(species[k]);
+        rows.eta_s.push(eta[k]);
+        rows.y.push(y);
+    }
+    lags.sort_unstable();
+    if lags.len() == 1 {
+        warnings.push(format!("a single lag ({} frames): η^s spans only what one lag gives", lags[0]));
+    }
+    let protocol = Protocol {
+        source: "kinematics".into(),
+        diameter: d,
+        rc_over_d: meta.as_ref().and_then(|m| m["rc"].as_f64()).map_or(opt.rc_over_d, |rc| rc / d),
+        bar_speed: opt.bar_speed,
+        time_scale: None,
+        lags_frames: lags,
+        lags_requested: vec![],
+        lags_used: vec![],
+        start_frames: groups.keys().copied().collect(),
+        binning: opt.binning,
+    };
+    Ok((s, rows, protocol))
+}
+
+fn is_kinematics(input: &Path) -> Result<bool> {
+    let t = read_table(input, &[])?;
+    Ok(t.has("d2min") && t.has("eta_s"))
+}
+
+/// Default scatter path: `fit.json` → `fit.scatter.parquet`.
+pub fn scatter_path(output: &Path) -> PathBuf {
+    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "fit".into());
+    output.with_file_name(format!("{stem}.scatter.parquet"))
+}
+
+pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
+    let t0 = std::time::Instant::now();
+    if opt.bootstrap < 10 {
+        return Err(Error::param("bootstrap", format!("{} replicates: need at least 10 for an interval", opt.bootstrap)));
+    }
+    if !(opt.rc_over_d > 0.0) {
+        return Err(Error::param("rc", "R_c must be > 0"));
+    }
+    let mut warnings = Vec::new();
+    let (samples, rows, protocol) = if is_kinematics(input)? {
+        from_kinematics(input, opt, &mut warnings)?
+    } else {
+        from_tracks(input, opt, &mut warnings)?
+    };
+    let settings = FitSettings { method: opt.method, binning: opt.binning, bootstrap: opt.bootstrap, seed: opt.seed };
+    let (chosen, all) = fit_all(&samples, &settings).map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
+    let scatter = opt.scatter.clone().unwrap_or_else(|| scatter_path(output));
+    write_scatter(&scatter, &rows)?;
+    let estimators = all
+        .into_iter()
+        .map(|(k, v)| {
+            let j = match v {
+                Ok(r) => serde_json::to_value(r).expect("json"),
+                Err(e) => serde_json::json!({ "error": e }),
+            };
+            (k, j)
+        })
+        .collect();
+    let EstimatorResult { theta, eta_c, theta_interval, eta_c_interval, theta_constrained, eta_c_constrained, notes, residual_rms, .. } = chosen;
+    let rep = FitReport {
+        theta,
+        eta_c,
+        theta_interval,
+        eta_c_interval,
+        theta_constrained,
+        eta_c_constrained,
+        method: opt.method,
+        n_points: samples.len(),
+        n_starts: protocol.start_frames.len(),
+        residual_rms,
+        notes,
+        estimators,
+        protocol,
+        bootstrap: opt.bootstrap,
+        seed: opt.seed,
+        input: input.display().to_string(),
+        input_sha256: sha256_file(input)?,
+        scatter: scatter.display().to_string(),
+        tool: super::TOOL.into(),
+        tool_version: super::VERSION.into(),
+        elapsed_s: t0.elapsed().as_secs_f64(),
+        warnings,
+    };
+    atomic_write_str(output, &serde_json::to_string_pretty(&rep).expect("json"))?;
+    Ok(rep)
+}
+
+fn write_scatter(path: &Path, r: &ScatterRows) -> Result<()> {
+    let n = r.start.len();
+    let df = DataFrame::new(
+        n,
+        vec![
+            Column::new("frame".into(), &r.start),
+            Column::new("frame_end".into(), &r.end),
+            Column::new("particle".into(), &r.particle),
+            Column::new("species".into(), &r.species),
+            Column::new("eta_s".into(), &r.eta_s),
+            Column::new("d2min_over_r2".into(), &r.y),
+        ],
+    )
+    .map_err(|e| Error::polars("scatter table", e))?;
+    let schema = df.schema().as_ref().clone();
+    stream_table(path, &schema, |sink| sink.write(&df)).map(|_| ())
+}
+
+/// Read a `fit.json`.
+pub fn read_fit(path: &Path) -> Result<FitReport> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    serde_json::from_str(&text).map_err(|e| Error::input(path.display(), format!("not a pillar-pipe fit.json: {e}")))
+}
