@@ -131,17 +131,30 @@ pub fn reduce(eta: &[f64], y: &[f64], method: Method, b: &Binning) -> Vec<BinPoi
 
 struct LogCost<'a> {
     pts: &'a [BinPoint],
+    /// ln of each point's statistic, computed once.
+    ln_y: Vec<f64>,
 }
 
 impl LogCost<'_> {
+    /// Mean squared log residual. ln(4Θ η_c g) = ln Θ + ln(4 η_c g): Θ only shifts.
     fn eval(&self, ln_theta: f64, ln_eta_c: f64) -> f64 {
-        let (th, ec) = (ln_theta.exp(), ln_eta_c.exp());
+        let ec = ln_eta_c.exp();
         let mut s = 0.0;
-        for p in self.pts {
-            let r = p.d2min_over_r2.ln() - p.predict(th, ec).ln();
+        for (p, ly) in self.pts.iter().zip(&self.ln_y) {
+            let r = ly - ln_theta - p.predict(1.0, ec).ln();
             s += r * r;
         }
         s / self.pts.len() as f64
+    }
+    /// For fixed η_c the best ln Θ is the mean log residual (closed form).
+    fn best_ln_theta(&self, ln_eta_c: f64) -> f64 {
+        let ec = ln_eta_c.exp();
+        self.pts
+            .iter()
+            .zip(&self.ln_y)
+            .map(|(p, ly)| ly - p.predict(1.0, ec).ln())
+            .sum::<f64>()
+            / self.pts.len() as f64
     }
 }
 
@@ -174,20 +187,15 @@ pub fn fit_points(pts: &[BinPoint]) -> Result<PointFit> {
             pts.len()
         )));
     }
-    let cost = LogCost { pts };
-    let best_ln_theta = |ln_ec: f64| {
-        let ec = ln_ec.exp();
-        let m: f64 = pts
-            .iter()
-            .map(|p| p.d2min_over_r2.ln() - p.predict(1.0, ec).ln())
-            .sum::<f64>()
-            / pts.len() as f64;
-        m
+    let cost = LogCost {
+        pts,
+        ln_y: pts.iter().map(|p| p.d2min_over_r2.ln()).collect(),
     };
     let (mut g_ec, mut g_th, mut g_c) = (0.0, 0.0, f64::INFINITY);
-    for k in 0..=60 {
-        let ln_ec = (1e-5f64).ln() + k as f64 * ((1e2f64).ln() - (1e-5f64).ln()) / 60.0;
-        let ln_th = best_ln_theta(ln_ec);
+    // η_c grid 1e-5 … 1e2, 4 per decade; Nelder–Mead refines from the best node.
+    for k in 0..=28 {
+        let ln_ec = (1e-5f64).ln() + k as f64 * ((1e2f64).ln() - (1e-5f64).ln()) / 28.0;
+        let ln_th = cost.best_ln_theta(ln_ec);
         let c = cost.eval(ln_th, ln_ec);
         if c < g_c {
             (g_ec, g_th, g_c) = (ln_ec, ln_th, c);
@@ -195,11 +203,11 @@ pub fn fit_points(pts: &[BinPoint]) -> Result<PointFit> {
     }
     let simplex = vec![
         vec![g_th, g_ec],
-        vec![g_th + 0.2, g_ec],
+        vec![g_th + 0.1, g_ec],
         vec![g_th, g_ec + 0.3],
     ];
     let solver = NelderMead::new(simplex)
-        .with_sd_tolerance(1e-12)
+        .with_sd_tolerance(1e-11)
         .map_err(|e| Error::Other(format!("fit setup: {e}")))?;
     let res = Executor::new(cost, solver)
         .configure(|s| s.max_iters(2000))

@@ -116,18 +116,18 @@ impl std::fmt::Display for FitReport {
         writeln!(f, "fit           Eq. 19 by {}, {} points from {} starts", self.method.name(), self.n_points, self.n_starts)?;
         writeln!(
             f,
-            "Theta         {:.4}  [{:.4}, {:.4}]{}",
-            self.theta, self.theta_interval[0], self.theta_interval[1], flag(self.theta_constrained)
+            "Theta         {}  [{}, {}]{}",
+            num(self.theta), num(self.theta_interval[0]), num(self.theta_interval[1]), flag(self.theta_constrained)
         )?;
         writeln!(
             f,
-            "eta_c         {:.4}  [{:.4}, {:.4}]{}",
-            self.eta_c, self.eta_c_interval[0], self.eta_c_interval[1], flag(self.eta_c_constrained)
+            "eta_c         {}  [{}, {}]{}",
+            num(self.eta_c), num(self.eta_c_interval[0]), num(self.eta_c_interval[1]), flag(self.eta_c_constrained)
         )?;
         writeln!(f, "              (95% bootstrap over start times, {} replicates, seed {})", self.bootstrap, self.seed)?;
         for (name, v) in &self.estimators {
             match (v.get("theta"), v.get("eta_c")) {
-                (Some(t), Some(e)) => writeln!(f, "  {name:14} Theta {:.4}  eta_c {:.4}", t.as_f64().unwrap_or(f64::NAN), e.as_f64().unwrap_or(f64::NAN))?,
+                (Some(t), Some(e)) => writeln!(f, "  {name:14} Theta {}  eta_c {}", num(t.as_f64().unwrap_or(f64::NAN)), num(e.as_f64().unwrap_or(f64::NAN)))?,
                 _ => writeln!(f, "  {name:14} failed: {}", v.get("error").and_then(|e| e.as_str()).unwrap_or("?"))?,
             }
         }
@@ -135,6 +135,15 @@ impl std::fmt::Display for FitReport {
             writeln!(f, "note: {n}")?;
         }
         write!(f, "lags          {:?} frames = {:.3?} R/v_c", self.protocol.lags_frames, self.protocol.lags_used)
+    }
+}
+
+/// Four significant digits, scientific outside [1e-3, 1e4).
+pub fn num(x: f64) -> String {
+    if x == 0.0 || (x.abs() >= 1e-3 && x.abs() < 1e4) {
+        format!("{x:.4}")
+    } else {
+        format!("{x:.3e}")
     }
 }
 
