@@ -152,6 +152,11 @@ enum Cmd {
         #[arg(long)]
         quiet: bool,
     },
+    /// Benchmarks of the hot paths against a reference measured in the same run.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCmd,
+    },
     /// Ground-truth tracks: a bidisperse packing mapped by a known affine transform.
     Synth {
         #[arg(short, long)]
@@ -168,6 +173,32 @@ enum Cmd {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+}
+
+#[derive(Subcommand)]
+enum BenchCmd {
+    /// One frame pair of the kinematics kernel, 1 and 2 threads.
+    Kinematics {
+        #[arg(long, value_delimiter = ',', default_value = "64000,1000000")]
+        n: Vec<usize>,
+        #[arg(long, default_value_t = 3)]
+        reps: usize,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Ingest of a generated trackpy CSV vs polars' plain CSV read (time, peak memory).
+    Ingest {
+        #[arg(long, default_value_t = 10_000_000)]
+        rows: usize,
+        /// Where to put the generated CSV (default: the system temp dir).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+        /// Keep the generated CSV.
+        #[arg(long)]
+        keep: bool,
+    },
+    #[command(hide = true)]
+    IngestChild { mode: String, csv: PathBuf },
 }
 
 fn parse_pair(s: &str) -> std::result::Result<(f64, f64), String> {
@@ -270,7 +301,9 @@ fn run(cli: Cli) -> Result<()> {
                 (Some(l), _, _) => LagSpec::Frames(vec![l]),
                 (_, Some(s), _) => LagSpec::Time(s),
                 (_, _, Some(v)) => LagSpec::Frames(v),
-                _ => anyhow::bail!("give the lag: --lag FRAMES, --lag-time SECONDS or --lags 2,4,8"),
+                _ => {
+                    anyhow::bail!("give the lag: --lag FRAMES, --lag-time SECONDS or --lags 2,4,8")
+                }
             };
             let output = output.unwrap_or_else(|| kin::default_output(&tracks));
             let opt = KinematicsOptions {
@@ -331,7 +364,12 @@ fn run(cli: Cli) -> Result<()> {
             for w in &rep.warnings {
                 println!("warning: {w}");
             }
-            println!("wrote         {} and {} ({:.2} s)", output.display(), rep.scatter, rep.elapsed_s);
+            println!(
+                "wrote         {} and {} ({:.2} s)",
+                output.display(),
+                rep.scatter,
+                rep.elapsed_s
+            );
         }
         Cmd::Compare { a, b, json } => {
             let c = pillar_pipe::stages::compare::run(&a, &b)?;
@@ -366,6 +404,7 @@ fn run(cli: Cli) -> Result<()> {
                 rep.out, rep.elapsed_s
             );
         }
+        Cmd::Bench { what } => bench(what)?,
         Cmd::Synth {
             output,
             n,
@@ -376,7 +415,10 @@ fn run(cli: Cli) -> Result<()> {
             use pillar_pipe::geom::Mat2;
             use pillar_pipe::synth::{bidisperse_packing, two_frame_tracks};
             if affine.len() != 4 {
-                anyhow::bail!("--affine needs 4 numbers f11,f12,f21,f22, got {}", affine.len());
+                anyhow::bail!(
+                    "--affine needs 4 numbers f11,f12,f21,f22, got {}",
+                    affine.len()
+                );
             }
             let f = Mat2::new(affine[0], affine[1], affine[2], affine[3]);
             let p = bidisperse_packing(n, 1.0, 0.1, seed);
@@ -384,7 +426,8 @@ fn run(cli: Cli) -> Result<()> {
             t.meta.provenance.tool = pillar_pipe::stages::TOOL.into();
             t.meta.provenance.tool_version = pillar_pipe::stages::VERSION.into();
             t.meta.provenance.source = "synth".into();
-            t.meta.provenance.parameters = serde_json::json!({"n": n, "affine": affine, "noise": noise, "seed": seed});
+            t.meta.provenance.parameters =
+                serde_json::json!({"n": n, "affine": affine, "noise": noise, "seed": seed});
             pillar_pipe::io::write_tracks(&t, &output)?;
             let s = pillar_pipe::kinematics::strain_from_j(&f, Convention::Paper);
             println!(
@@ -394,6 +437,98 @@ fn run(cli: Cli) -> Result<()> {
                 s.eta_s,
                 s.eta_m
             );
+        }
+    }
+    Ok(())
+}
+
+fn bench(what: BenchCmd) -> Result<()> {
+    use pillar_pipe::bench;
+    match what {
+        BenchCmd::Kinematics { n, reps, json } => {
+            let mut all = Vec::new();
+            for &n in &n {
+                for threads in [1, 2] {
+                    let b = bench::bench_kinematics(n, threads, reps)?;
+                    if !json {
+                        println!(
+                            "kinematics n={:>8} threads={} {:>8.4} s/pair {:>12.0} particles/s   (same-run reference: cell list + neighbour count {:.4} s, ratio {:.2})",
+                            b.n,
+                            b.threads,
+                            b.seconds,
+                            b.particles_per_s,
+                            b.neighbour_pass_seconds,
+                            b.seconds / b.neighbour_pass_seconds
+                        );
+                    }
+                    all.push(b);
+                }
+                let (t1, t2) = (all[all.len() - 2].seconds, all[all.len() - 1].seconds);
+                if !json {
+                    println!("  speed-up 2 threads / 1 thread: {:.2}x", t1 / t2);
+                }
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&all)?);
+            }
+        }
+        BenchCmd::Ingest { rows, dir, keep } => {
+            let dir = dir.unwrap_or_else(std::env::temp_dir);
+            let csv = dir.join(format!("pillar-pipe-bench-{rows}.csv"));
+            eprintln!(
+                "generating {} rows of trackpy CSV at {} ...",
+                rows,
+                csv.display()
+            );
+            bench::write_trackpy_csv(&csv, rows, 1)?;
+            let size = std::fs::metadata(&csv)?.len();
+            let exe = std::env::current_exe()?;
+            let mut res = Vec::new();
+            for mode in ["polars", "ingest"] {
+                let out = std::process::Command::new(&exe)
+                    .args([
+                        "bench",
+                        "ingest-child",
+                        mode,
+                        csv.to_str().unwrap_or_default(),
+                    ])
+                    .output()?;
+                if !out.status.success() {
+                    anyhow::bail!(
+                        "{mode} child failed: {}",
+                        String::from_utf8_lossy(&out.stderr)
+                    );
+                }
+                let c: bench::IngestChild = serde_json::from_slice(&out.stdout)?;
+                res.push(c);
+            }
+            if !keep {
+                let _ = std::fs::remove_file(&csv);
+            }
+            let table = rows as f64 * 52.0;
+            println!(
+                "ingest bench: {rows} rows, CSV {:.0} MB, canonical table {:.0} MB in memory",
+                size as f64 / 1e6,
+                table / 1e6
+            );
+            for c in &res {
+                println!(
+                    "  {:7} {:7.2} s  {:>10.0} rows/s  peak RSS {:7.0} MB ({:.2}x the table)",
+                    c.mode,
+                    c.seconds,
+                    c.rows as f64 / c.seconds,
+                    c.peak_rss_bytes as f64 / 1e6,
+                    c.peak_rss_bytes as f64 / table
+                );
+            }
+            println!(
+                "  ingest / polars read time: {:.2}x",
+                res[1].seconds / res[0].seconds
+            );
+        }
+        BenchCmd::IngestChild { mode, csv } => {
+            let c = bench::ingest_child(&mode, &csv)?;
+            println!("{}", serde_json::to_string(&c)?);
         }
     }
     Ok(())

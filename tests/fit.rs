@@ -16,7 +16,11 @@ fn tmpdir(name: &str) -> PathBuf {
 
 fn run(args: &[&str]) -> (bool, String) {
     let out = Command::new(BIN).args(args).output().expect("binary runs");
-    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
     (out.status.success(), text)
 }
 
@@ -24,16 +28,24 @@ fn run(args: &[&str]) -> (bool, String) {
 /// multiplicative log-normal scatter `s`; 10 start frames, lags 1, 2, 4.
 fn kinematics_csv(path: &Path, theta: f64, eta_c: f64, s: f64, lo: f64, hi: f64, seed: u64) {
     let mut rng = Rng::new(seed);
-    let mut out = String::from("frame,frame_end,dt,particle,x,y,species,n_neighbors,valid,j11,j12,j21,j22,eta_xx,eta_xy,eta_yy,eta_m,eta_s,j2,d2min,vx,vy,speed\n");
+    let mut out = String::from(
+        "frame,frame_end,dt,particle,x,y,species,n_neighbors,valid,j11,j12,j21,j22,eta_xx,eta_xy,eta_yy,eta_m,eta_s,j2,d2min,vx,vy,speed\n",
+    );
     for start in 0..10 {
         for lag in [1, 2, 4] {
             for p in 0..150 {
                 let eta = (lo.ln() + rng.uniform() * (hi.ln() - lo.ln())).exp();
                 let d2 = 0.25 * d2min_over_r2(eta, theta, eta_c) * (s * rng.normal()).exp();
-                out += &format!("{start},{},{lag}.0,{p},0,0,1,6,true,1,0,0,1,0,0,0,0,{eta},{eta},{d2},0,0,0\n", start + lag);
+                out += &format!(
+                    "{start},{},{lag}.0,{p},0,0,1,6,true,1,0,0,1,0,0,0,0,{eta},{eta},{d2},0,0,0\n",
+                    start + lag
+                );
             }
             // An invalid row that must be ignored.
-            out += &format!("{start},{},{lag}.0,999,0,0,1,1,false,0,0,0,0,0,0,0,0,0,0,0,0,0,0\n", start + lag);
+            out += &format!(
+                "{start},{},{lag}.0,999,0,0,1,1,false,0,0,0,0,0,0,0,0,0,0,0,0,0,0\n",
+                start + lag
+            );
         }
     }
     std::fs::write(path, out).unwrap();
@@ -45,13 +57,26 @@ fn recovers_theta_and_eta_c_from_a_kinematics_table() {
     let k = dir.join("kinematics.csv");
     kinematics_csv(&k, 0.3, 0.05, 0.1, 1e-3, 1.0, 1);
     let fit = dir.join("fit.json");
-    let (ok, text) = run(&["fit", k.to_str().unwrap(), "--diameter", "1", "-o", fit.to_str().unwrap(), "--bootstrap", "200"]);
+    let (ok, text) = run(&[
+        "fit",
+        k.to_str().unwrap(),
+        "--diameter",
+        "1",
+        "-o",
+        fit.to_str().unwrap(),
+        "--bootstrap",
+        "200",
+    ]);
     assert!(ok, "{text}");
-    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
     let (th, ec) = (j["theta"].as_f64().unwrap(), j["eta_c"].as_f64().unwrap());
     assert!((th / 0.3 - 1.0).abs() < 0.05, "{th}");
     assert!((ec / 0.05 - 1.0).abs() < 0.05, "{ec}");
-    assert!(j["theta_interval"][0].as_f64().unwrap() <= 0.3 && j["theta_interval"][1].as_f64().unwrap() >= 0.3 * 0.99);
+    assert!(
+        j["theta_interval"][0].as_f64().unwrap() <= 0.3
+            && j["theta_interval"][1].as_f64().unwrap() >= 0.3 * 0.99
+    );
     assert_eq!(j["method"], "binned-median");
     assert_eq!(j["n_points"], 4500);
     for e in ["binned-median", "binned-mean", "points"] {
@@ -69,8 +94,23 @@ fn compare_agrees_on_same_law_and_refuses_different_estimators() {
     kinematics_csv(&ka, 0.3, 0.05, 0.2, 1e-3, 1.0, 2);
     kinematics_csv(&kb, 0.3, 0.05, 0.2, 1e-3, 1.0, 3);
     let (fa, fb, fc) = (dir.join("a.json"), dir.join("b.json"), dir.join("c.json"));
-    for (k, f, m) in [(&ka, &fa, "binned-median"), (&kb, &fb, "binned-median"), (&kb, &fc, "binned-mean")] {
-        let (ok, text) = run(&["fit", k.to_str().unwrap(), "--diameter", "1", "-o", f.to_str().unwrap(), "--method", m, "--bootstrap", "100"]);
+    for (k, f, m) in [
+        (&ka, &fa, "binned-median"),
+        (&kb, &fb, "binned-median"),
+        (&kb, &fc, "binned-mean"),
+    ] {
+        let (ok, text) = run(&[
+            "fit",
+            k.to_str().unwrap(),
+            "--diameter",
+            "1",
+            "-o",
+            f.to_str().unwrap(),
+            "--method",
+            m,
+            "--bootstrap",
+            "100",
+        ]);
         assert!(ok, "{text}");
     }
     let (ok, text) = run(&["compare", fa.to_str().unwrap(), fb.to_str().unwrap()]);
@@ -88,18 +128,39 @@ fn degenerate_inputs_are_flagged_or_refused() {
     let k = dir.join("k.csv");
     kinematics_csv(&k, 0.3, 0.05, 0.1, 1e-4, 4e-3, 4);
     let f = dir.join("f.json");
-    let (ok, text) = run(&["fit", k.to_str().unwrap(), "--diameter", "1", "-o", f.to_str().unwrap(), "--bootstrap", "50"]);
+    let (ok, text) = run(&[
+        "fit",
+        k.to_str().unwrap(),
+        "--diameter",
+        "1",
+        "-o",
+        f.to_str().unwrap(),
+        "--bootstrap",
+        "50",
+    ]);
     assert!(ok, "{text}");
     assert!(text.contains("not constrained"), "{text}");
     let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
     assert_eq!(j["eta_c_constrained"], false);
     // No diameter anywhere: refused with the flag to pass.
-    let (ok, text) = run(&["fit", k.to_str().unwrap(), "-o", dir.join("g.json").to_str().unwrap()]);
+    let (ok, text) = run(&[
+        "fit",
+        k.to_str().unwrap(),
+        "-o",
+        dir.join("g.json").to_str().unwrap(),
+    ]);
     assert!(!ok && text.contains("--diameter"), "{text}");
     assert!(!dir.join("g.json").exists());
     // Two points.
     let tiny = dir.join("tiny.csv");
     std::fs::write(&tiny, "frame,frame_end,particle,valid,eta_s,d2min\n0,1,1,true,0.01,0.001\n0,1,2,true,0.02,0.002\n").unwrap();
-    let (ok, text) = run(&["fit", tiny.to_str().unwrap(), "--diameter", "1", "-o", dir.join("h.json").to_str().unwrap()]);
+    let (ok, text) = run(&[
+        "fit",
+        tiny.to_str().unwrap(),
+        "--diameter",
+        "1",
+        "-o",
+        dir.join("h.json").to_str().unwrap(),
+    ]);
     assert!(!ok && text.contains("too few"), "{text}");
 }

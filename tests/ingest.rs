@@ -54,6 +54,7 @@ fn scaled_sample(dir: &Path) -> PathBuf {
     out
 }
 
+#[allow(clippy::needless_range_loop)]
 /// Species and positions against the sample's ground truth: every detection in frame 0
 /// lies within 0.1 cm of a true grain, and the species agrees for >= 99 % of them.
 #[test]
@@ -94,7 +95,11 @@ fn sample_matches_ground_truth() {
         worst = worst.max(bd);
         agree += usize::from(large == (species[r] == 1));
         let want_r = if large { 0.3175 } else { 0.238125 };
-        assert!((t.radius[r] - want_r).abs() < 0.02, "radius {}", t.radius[r]);
+        assert!(
+            (t.radius[r] - want_r).abs() < 0.02,
+            "radius {}",
+            t.radius[r]
+        );
     }
     assert!(n >= 980, "{n} detections in frame 0");
     assert!(worst < 0.1, "worst position error {worst} cm");
@@ -140,10 +145,17 @@ fn bare_ingest_uses_settings_and_default_output() {
     assert!(text.contains("settings      from"), "{text}");
     assert!(dir.join("tracks.tracks.parquet").exists());
     assert!(dir.join("tracks.tracks.parquet.meta.json").exists());
-    std::fs::write(dir.join("ingest.toml"), "px_per_unit = 31.4\nunits = \"cm\"\n").unwrap();
+    std::fs::write(
+        dir.join("ingest.toml"),
+        "px_per_unit = 31.4\nunits = \"cm\"\n",
+    )
+    .unwrap();
     let (ok, text) = run(&["ingest", dir.join("tracks.csv").to_str().unwrap()]);
     assert!(!ok);
-    assert!(text.contains("ingest.toml") && text.contains("units"), "{text}");
+    assert!(
+        text.contains("ingest.toml") && text.contains("units"),
+        "{text}"
+    );
 }
 
 /// Each bad input: non-zero exit, the message names file/line/column, and no output.
@@ -169,9 +181,17 @@ fn bad_inputs_fail_clearly_and_leave_nothing() {
         let input = dir.join(name);
         std::fs::write(&input, body).unwrap();
         let out = dir.join(format!("{name}.out.parquet"));
-        let (ok, text) = run(&["ingest", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        let (ok, text) = run(&[
+            "ingest",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
         assert!(!ok, "{name} should fail: {text}");
-        assert!(text.contains(name), "{name}: message must name the file: {text}");
+        assert!(
+            text.contains(name),
+            "{name}: message must name the file: {text}"
+        );
         for n in needles {
             assert!(text.contains(n), "{name}: expected '{n}' in: {text}");
         }
@@ -199,14 +219,21 @@ fn lammps_triclinic_scaled() {
     let input = dir.join("run.dump");
     std::fs::write(&input, s).unwrap();
     let out = dir.join("run.parquet");
-    let (ok, text) = run(&["ingest", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let (ok, text) = run(&[
+        "ingest",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert!(ok, "{text}");
     let (t, _) = read_tracks(&out).unwrap();
     assert_eq!(t.len(), 4);
     assert_eq!(t.meta.boxes.len(), 2);
     assert!((t.meta.boxes[1].xy - 1.0).abs() < 1e-12);
     // frame 1, particle 1: x = xlo + xs*lx + ys*xy with lx = xhi - xlo for xy >= 0
-    let r = (0..t.len()).find(|&r| t.frame[r] == 1 && t.particle[r] == 1).unwrap();
+    let r = (0..t.len())
+        .find(|&r| t.frame[r] == 1 && t.particle[r] == 1)
+        .unwrap();
     assert!((t.y[r] - 5.0).abs() < 1e-12);
     assert!((t.radius[r] - 0.5).abs() < 1e-12);
 }
@@ -232,7 +259,35 @@ fn schema_files_and_code_agree() {
     assert_eq!(sch.names(), expect);
     // The files on disk are the embedded ones (no stale copy in the binary).
     for (name, text) in schema::SCHEMA_FILES {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("data_schema/{name}.schema.json"));
+        let p =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("data_schema/{name}.schema.json"));
         assert_eq!(std::fs::read_to_string(p).unwrap(), *text);
     }
+}
+
+/// An output that exists and is not a regular file (a FIFO, a device such as
+/// /dev/null) is refused rather than replaced by a file.
+#[test]
+fn non_regular_output_is_refused_not_replaced() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tmpdir("fifo");
+    let fifo = dir.join("out.parquet");
+    let st = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
+    assert!(st.success());
+    let input = dir.join("t.csv");
+    std::fs::write(&input, "frame,particle,x,y,radius\n0,1,0,0,0.5\n").unwrap();
+    let (ok, text) = run(&[
+        "ingest",
+        input.to_str().unwrap(),
+        "-o",
+        fifo.to_str().unwrap(),
+    ]);
+    assert!(!ok, "{text}");
+    assert!(text.contains("not a regular file"), "{text}");
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
 }

@@ -9,7 +9,19 @@ use argmin::solver::neldermead::NelderMead;
 use serde::{Deserialize, Serialize};
 
 /// How the scatter is reduced before fitting.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    PartialOrd,
+    Ord,
+    Hash,
+    Serialize,
+    Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Median D²min in log-spaced η^s bins (the bulk of the cloud; default).
@@ -71,7 +83,11 @@ impl BinPoint {
     fn predict(&self, theta: f64, eta_c: f64) -> f64 {
         match &self.nodes {
             Some(nodes) => {
-                nodes.iter().map(|&e| d2min_over_r2(e, theta, eta_c)).sum::<f64>() / NODES as f64
+                nodes
+                    .iter()
+                    .map(|&e| d2min_over_r2(e, theta, eta_c))
+                    .sum::<f64>()
+                    / NODES as f64
             }
             None => d2min_over_r2(self.eta_s, theta, eta_c),
         }

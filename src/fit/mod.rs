@@ -133,9 +133,9 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     };
     let theta_interval = interval(|p| p.theta);
     let eta_c_interval = interval(|p| p.eta_c);
-    let (lo, hi) = pts
-        .iter()
-        .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.eta_s), a.1.max(p.eta_s)));
+    let (lo, hi) = pts.iter().fold((f64::MAX, f64::MIN), |a, p| {
+        (a.0.min(p.eta_s), a.1.max(p.eta_s))
+    });
     let mut notes = Vec::new();
     let mut theta_ok = true;
     let mut eta_c_ok = true;
@@ -179,16 +179,20 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
         bootstrap_replicates: reps,
         bootstrap_failures: reps - ok.len(),
         iterations: best.iterations,
-        curve: if method == Method::Points { Vec::new() } else { pts },
+        curve: if method == Method::Points {
+            Vec::new()
+        } else {
+            pts
+        },
     })
 }
 
+/// Each estimator's result or its error message, by name.
+pub type AllEstimators = BTreeMap<String, std::result::Result<EstimatorResult, String>>;
+
 /// Every estimator, the chosen one first in importance. Fails only if the chosen one
 /// cannot be fitted; the others' failures are recorded as notes by the caller.
-pub fn fit_all(
-    s: &Samples,
-    set: &FitSettings,
-) -> Result<(EstimatorResult, BTreeMap<String, std::result::Result<EstimatorResult, String>>)> {
+pub fn fit_all(s: &Samples, set: &FitSettings) -> Result<(EstimatorResult, AllEstimators)> {
     if s.len() < 3 {
         return Err(Error::Other(format!(
             "{} (η^s, D²min) samples: too few to fit Eq. 19",
@@ -202,9 +206,7 @@ pub fn fit_all(
             fit_estimator(s, m, set).map_err(|e| e.to_string()),
         );
     }
-    let chosen = all[set.method.name()]
-        .clone()
-        .map_err(Error::Other)?;
+    let chosen = all[set.method.name()].clone().map_err(Error::Other)?;
     Ok((chosen, all))
 }
 

@@ -33,8 +33,8 @@ mod tests {
         let e = 5.0;
         assert!((d2min_over_r2(e, th, ec) / (4.0 * th * (e - ec)) - 1.0).abs() < 1e-12);
         // series branch joins the direct formula continuously
-        let x = 1e-3;
-        let direct = x - (1.0 - (-x as f64).exp());
+        let x: f64 = 1e-3;
+        let direct = x - (1.0 - (-x).exp());
         assert!((crossover_shape(x) / direct - 1.0).abs() < 1e-8);
     }
 }

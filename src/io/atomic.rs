@@ -25,6 +25,15 @@ pub fn atomic_write<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&mut std::fs::File) -> Result<()>,
 {
+    // Renaming over a device or FIFO (say `-o /dev/null`) would replace it with a file.
+    if let Ok(m) = std::fs::symlink_metadata(path)
+        && !m.is_file()
+    {
+        return Err(Error::io(
+            path,
+            std::io::Error::other("output exists and is not a regular file; give a file path"),
+        ));
+    }
     if let Some(dir) = path.parent()
         && !dir.as_os_str().is_empty()
         && !dir.exists()

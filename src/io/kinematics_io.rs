@@ -17,15 +17,26 @@ pub fn kinematics_dataframe(
         Column::new("frame".into(), vec![frame; n]),
         Column::new("frame_end".into(), vec![frame_end; n]),
         Column::new("dt".into(), vec![dt; n]),
-        Column::new("particle".into(), ks.iter().map(|k| k.particle).collect::<Vec<_>>()),
+        Column::new(
+            "particle".into(),
+            ks.iter().map(|k| k.particle).collect::<Vec<_>>(),
+        ),
         Column::new("x".into(), f(|k| k.pos.x)),
         Column::new("y".into(), f(|k| k.pos.y)),
-        Column::new("species".into(), ks.iter().map(|k| k.species).collect::<Vec<i32>>()),
+        Column::new(
+            "species".into(),
+            ks.iter().map(|k| k.species).collect::<Vec<i32>>(),
+        ),
         Column::new(
             "n_neighbors".into(),
-            ks.iter().map(|k| k.n_neighbors as i32).collect::<Vec<i32>>(),
+            ks.iter()
+                .map(|k| k.n_neighbors as i32)
+                .collect::<Vec<i32>>(),
         ),
-        Column::new("valid".into(), ks.iter().map(|k| k.valid).collect::<Vec<bool>>()),
+        Column::new(
+            "valid".into(),
+            ks.iter().map(|k| k.valid).collect::<Vec<bool>>(),
+        ),
         Column::new("j11".into(), f(|k| k.j.a11)),
         Column::new("j12".into(), f(|k| k.j.a12)),
         Column::new("j21".into(), f(|k| k.j.a21)),

@@ -9,7 +9,7 @@ use std::fs::File;
 use std::path::Path;
 
 enum Writer<'a> {
-    Parquet(polars::io::parquet::write::BatchedWriter<&'a mut File>),
+    Parquet(Box<polars::io::parquet::write::BatchedWriter<&'a mut File>>),
     Csv(polars::io::csv::write::BatchedWriter<&'a mut File>),
 }
 
@@ -49,7 +49,12 @@ where
     atomic_write(path, |f| {
         let pe = |e| Error::polars(format!("{file}: opening"), e);
         let w = match TableFormat::of(path) {
-            TableFormat::Parquet => Writer::Parquet(ParquetWriter::new(f).batched(schema).map_err(pe)?),
+            TableFormat::Parquet => Writer::Parquet(Box::new(
+                ParquetWriter::new(f)
+                    .with_compression(ParquetCompression::Lz4Raw)
+                    .batched(schema)
+                    .map_err(pe)?,
+            )),
             TableFormat::Csv => Writer::Csv(
                 CsvWriter::new(f)
                     .include_header(true)

@@ -45,6 +45,16 @@ pub struct Table {
 /// Read a CSV or Parquet table. Columns named in `expect` are parsed with that type;
 /// on any parse failure the file is scanned again to name the line and column.
 pub fn read_table(path: &Path, expect: &[(&str, Expect)]) -> Result<Table> {
+    read_table_columns(path, expect, false)
+}
+
+/// As `read_table`; with `only_expected`, CSV columns not named in `expect` are not
+/// parsed at all (trackpy files carry six columns we never use).
+pub fn read_table_columns(
+    path: &Path,
+    expect: &[(&str, Expect)],
+    only_expected: bool,
+) -> Result<Table> {
     let file = path.display().to_string();
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if meta.len() == 0 {
@@ -71,8 +81,14 @@ pub fn read_table(path: &Path, expect: &[(&str, Expect)]) -> Result<Table> {
                     Field::new((*c).into(), dt)
                 });
             let schema = Schema::from_iter(fields);
+            let keep: Vec<PlSmallStr> = expect
+                .iter()
+                .filter(|(c, _)| header.iter().any(|h| h == c))
+                .map(|(c, _)| (*c).into())
+                .collect();
             let read = CsvReadOptions::default()
                 .with_has_header(true)
+                .with_columns((only_expected && !keep.is_empty()).then(|| keep.into()))
                 .with_schema_overwrite(Some(Arc::new(schema)))
                 .try_into_reader_with_file_path(Some(path.to_path_buf()))
                 .and_then(|r| r.finish());
@@ -224,7 +240,10 @@ pub fn write_table(df: &mut DataFrame, path: &Path) -> Result<()> {
     let file = path.display().to_string();
     atomic_write(path, |f| {
         match TableFormat::of(path) {
-            TableFormat::Parquet => ParquetWriter::new(f).finish(df).map(|_| ()),
+            TableFormat::Parquet => ParquetWriter::new(f)
+                .with_compression(ParquetCompression::Lz4Raw)
+                .finish(df)
+                .map(|_| ()),
             TableFormat::Csv => CsvWriter::new(f).include_header(true).finish(df),
         }
         .map_err(|e| Error::polars(format!("{file}: writing"), e))

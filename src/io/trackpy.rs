@@ -7,7 +7,7 @@
 //! up with the bar on top).
 
 use super::csvdiag::Expect;
-use super::table::read_table;
+use super::table::read_table_columns;
 use crate::error::{Error, Result};
 use crate::neighbors::{CellList, Cutoff};
 use crate::tracks::{LARGE, RowLocator, SMALL, Tracks, TracksMeta, finalize};
@@ -65,7 +65,7 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
             "missing length unit: --px-per-unit needs --unit (e.g. --unit cm)",
         )
     })?;
-    let table = read_table(path, EXPECT)?;
+    let table = read_table_columns(path, EXPECT, true)?;
     table.require(&["x", "y", "frame", "particle"])?;
     let x_px = table.f64("x")?;
     let y_px = table.f64("y")?;
@@ -183,23 +183,25 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
 /// Species per row from the per-trajectory median `size`, split into two populations by
 /// Otsu's threshold (the split minimising the within-class variance).
 fn split_by_size(particle: &[i64], size: &[f64]) -> (Vec<i32>, f64, usize, usize) {
-    let mut per: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
-    for (&p, &s) in particle.iter().zip(size) {
-        per.entry(p).or_default().push(s);
-    }
-    let med: BTreeMap<i64, f64> = per
-        .into_iter()
-        .map(|(p, mut v)| {
-            v.sort_by(f64::total_cmp);
-            (p, crate::stats::median_sorted(&v))
+    let g = crate::tracks::ByParticle::new(particle);
+    let med: Vec<f64> = (0..g.len())
+        .map(|k| {
+            let mut v: Vec<f64> = g.rows_of(k).iter().map(|&r| size[r]).collect();
+            crate::stats::median_select(&mut v)
         })
         .collect();
-    let mut vals: Vec<f64> = med.values().copied().collect();
+    let mut vals = med.clone();
     vals.sort_by(f64::total_cmp);
     let threshold = otsu(&vals);
-    let sp = |p: &i64| if med[p] > threshold { LARGE } else { SMALL };
-    let n_large = med.values().filter(|&&m| m > threshold).count();
-    let species = particle.iter().map(sp).collect();
+    let n_large = med.iter().filter(|&&m| m > threshold).count();
+    let mut species = vec![SMALL; particle.len()];
+    for (k, &m) in med.iter().enumerate() {
+        if m > threshold {
+            for &r in g.rows_of(k) {
+                species[r] = LARGE;
+            }
+        }
+    }
     (species, threshold, med.len() - n_large, n_large)
 }
 

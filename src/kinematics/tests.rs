@@ -51,7 +51,11 @@ fn simple_shear_closed_form() {
         // η = ½[[0, γ], [γ, γ²]]: η^s = (γ/2)√(1 + γ²/4), η^m = γ²/4.
         let eta_s = 0.5 * gamma * (1.0 + 0.25 * gamma * gamma).sqrt();
         for k in &ks {
-            assert!(close(k.strain.eta_s, eta_s, 1e-10), "{} vs {eta_s}", k.strain.eta_s);
+            assert!(
+                close(k.strain.eta_s, eta_s, 1e-10),
+                "{} vs {eta_s}",
+                k.strain.eta_s
+            );
             assert!(close(k.strain.eta_m, 0.25 * gamma * gamma, 1e-9));
             assert!(close(k.strain.eta_xy, 0.5 * gamma, 1e-10));
             assert!(close(k.j2, eta_s, 1e-10)); // Δt = 1
@@ -88,9 +92,16 @@ fn one_displaced_particle_closed_form() {
     let a = p.spacing;
     let mut t = two_frame_tracks(&p, Mat2::IDENTITY, 0.0, 0);
     let n = p.pos.len();
-    let centre = Vec2::new(p.simbox.x_lo + 0.5 * p.simbox.lx, p.simbox.y_lo + 0.5 * p.simbox.ly);
+    let centre = Vec2::new(
+        p.simbox.x_lo + 0.5 * p.simbox.lx,
+        p.simbox.y_lo + 0.5 * p.simbox.ly,
+    );
     let i = (0..n)
-        .min_by(|&u, &v| (p.pos[u] - centre).norm2().total_cmp(&(p.pos[v] - centre).norm2()))
+        .min_by(|&u, &v| {
+            (p.pos[u] - centre)
+                .norm2()
+                .total_cmp(&(p.pos[v] - centre).norm2())
+        })
         .unwrap();
     let delta = Vec2::new(0.03, -0.02);
     t.x[n + i] += delta.x;
@@ -99,7 +110,12 @@ fn one_displaced_particle_closed_form() {
     let ki = ks[i];
     assert_eq!(ki.n_neighbors, 6);
     assert!((ki.j - Mat2::IDENTITY).frobenius2() < 1e-24);
-    assert!(close(ki.d2min, delta.norm2(), 1e-12), "{} vs {}", ki.d2min, delta.norm2());
+    assert!(
+        close(ki.d2min, delta.norm2(), 1e-12),
+        "{} vs {}",
+        ki.d2min,
+        delta.norm2()
+    );
     let (ko, _) = run(&t, Convention::Ovito);
     assert!(close(ko[i].d2min, 6.0 * delta.norm2(), 1e-12));
     // A neighbour j of i.
@@ -110,13 +126,19 @@ fn one_displaced_particle_closed_form() {
         .filter(|&k| k != j && (p.pos[k] - p.pos[j]).norm() < RC)
         .map(|k| (k, p.pos[k] - p.pos[j]))
         .collect();
-    let y = rel.iter().fold(Mat2::ZERO, |m, &(_, r)| m + Mat2::outer(r, r));
+    let y = rel
+        .iter()
+        .fold(Mat2::ZERO, |m, &(_, r)| m + Mat2::outer(r, r));
     let yinv = y.inverse(1e-12).unwrap();
     let u = p.pos[i] - p.pos[j];
     let g = yinv * u; // Y⁻¹u (Y symmetric)
     let mut s = 0.0;
     for &(k, r) in &rel {
-        s += if k == i { (1.0 - g.dot(r)).powi(2) } else { g.dot(r).powi(2) };
+        s += if k == i {
+            (1.0 - g.dot(r)).powi(2)
+        } else {
+            g.dot(r).powi(2)
+        };
     }
     let want = delta.norm2() * s / rel.len() as f64;
     assert!(close(ks[j].d2min, want, 1e-10), "{} vs {want}", ks[j].d2min);
@@ -194,7 +216,12 @@ fn lees_edwards_neighbours_and_unwrapping() {
     let mut near_edge = 0;
     for k in &ks {
         assert!(k.valid);
-        assert!((k.j - want).frobenius2() < 1e-20, "{:?} at {:?}", k.j, k.pos);
+        assert!(
+            (k.j - want).frobenius2() < 1e-20,
+            "{:?} at {:?}",
+            k.j,
+            k.pos
+        );
         assert!(k.d2min < 1e-20);
         near_edge += usize::from(k.pos.y < p.simbox.y_lo + RC);
     }
@@ -205,7 +232,10 @@ fn lees_edwards_neighbours_and_unwrapping() {
     let total: u32 = ks.iter().map(|k| k.n_neighbors).sum();
     let total_flat: u32 = kf.iter().map(|k| k.n_neighbors).sum();
     // Shearing the lattice by 0.3 changes who is within R_c, but both counts are bulk-like.
-    assert!(ks.iter().all(|k| k.n_neighbors >= 4), "lost neighbours at the seam");
+    assert!(
+        ks.iter().all(|k| k.n_neighbors >= 4),
+        "lost neighbours at the seam"
+    );
     assert!(total > 0 && total_flat > 0);
 }
 
@@ -213,7 +243,13 @@ fn lees_edwards_neighbours_and_unwrapping() {
 fn isolated_collinear_and_missing_particles_are_counted() {
     let mut t = Tracks::default();
     // frame 0: a lone particle (0), three on a line (1..3), one missing at t+Δt (4).
-    let pts = [(0.0, 0.0), (10.0, 0.0), (11.0, 0.0), (12.0, 0.0), (30.0, 0.0)];
+    let pts = [
+        (0.0, 0.0),
+        (10.0, 0.0),
+        (11.0, 0.0),
+        (12.0, 0.0),
+        (30.0, 0.0),
+    ];
     for f in 0..2i64 {
         for (id, &(x, y)) in pts.iter().enumerate() {
             if f == 1 && id == 4 {

@@ -39,10 +39,16 @@ pub fn incompatibility(a: &FitReport, b: &FitReport) -> Option<String> {
     }
     let (pa, pb) = (&a.protocol, &b.protocol);
     if (pa.rc_over_d / pb.rc_over_d - 1.0).abs() > 1e-6 {
-        return Some(format!("different R_c: {} D vs {} D", pa.rc_over_d, pb.rc_over_d));
+        return Some(format!(
+            "different R_c: {} D vs {} D",
+            pa.rc_over_d, pb.rc_over_d
+        ));
     }
     if pa.binning != pb.binning {
-        return Some(format!("different binning: {:?} vs {:?}", pa.binning, pb.binning));
+        return Some(format!(
+            "different binning: {:?} vs {:?}",
+            pa.binning, pb.binning
+        ));
     }
     // Lags compare in R/v_c when both have a time scale, else in frames.
     let same_lags = if !pa.lags_used.is_empty() && !pb.lags_used.is_empty() {
@@ -113,7 +119,11 @@ impl std::fmt::Display for Comparison {
                 p.b_interval[0],
                 p.b_interval[1],
                 if p.agree { "yes" } else { "no" },
-                if p.both_constrained { "" } else { " (a parameter is not constrained)" }
+                if p.both_constrained {
+                    ""
+                } else {
+                    " (a parameter is not constrained)"
+                }
             )?;
         }
         Ok(())

@@ -113,28 +113,57 @@ pub struct FitReport {
 impl std::fmt::Display for FitReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let flag = |ok: bool| if ok { "" } else { "  (not constrained)" };
-        writeln!(f, "fit           Eq. 19 by {}, {} points from {} starts", self.method.name(), self.n_points, self.n_starts)?;
+        writeln!(
+            f,
+            "fit           Eq. 19 by {}, {} points from {} starts",
+            self.method.name(),
+            self.n_points,
+            self.n_starts
+        )?;
         writeln!(
             f,
             "Theta         {}  [{}, {}]{}",
-            num(self.theta), num(self.theta_interval[0]), num(self.theta_interval[1]), flag(self.theta_constrained)
+            num(self.theta),
+            num(self.theta_interval[0]),
+            num(self.theta_interval[1]),
+            flag(self.theta_constrained)
         )?;
         writeln!(
             f,
             "eta_c         {}  [{}, {}]{}",
-            num(self.eta_c), num(self.eta_c_interval[0]), num(self.eta_c_interval[1]), flag(self.eta_c_constrained)
+            num(self.eta_c),
+            num(self.eta_c_interval[0]),
+            num(self.eta_c_interval[1]),
+            flag(self.eta_c_constrained)
         )?;
-        writeln!(f, "              (95% bootstrap over start times, {} replicates, seed {})", self.bootstrap, self.seed)?;
+        writeln!(
+            f,
+            "              (95% bootstrap over start times, {} replicates, seed {})",
+            self.bootstrap, self.seed
+        )?;
         for (name, v) in &self.estimators {
             match (v.get("theta"), v.get("eta_c")) {
-                (Some(t), Some(e)) => writeln!(f, "  {name:14} Theta {}  eta_c {}", num(t.as_f64().unwrap_or(f64::NAN)), num(e.as_f64().unwrap_or(f64::NAN)))?,
-                _ => writeln!(f, "  {name:14} failed: {}", v.get("error").and_then(|e| e.as_str()).unwrap_or("?"))?,
+                (Some(t), Some(e)) => writeln!(
+                    f,
+                    "  {name:14} Theta {}  eta_c {}",
+                    num(t.as_f64().unwrap_or(f64::NAN)),
+                    num(e.as_f64().unwrap_or(f64::NAN))
+                )?,
+                _ => writeln!(
+                    f,
+                    "  {name:14} failed: {}",
+                    v.get("error").and_then(|e| e.as_str()).unwrap_or("?")
+                )?,
             }
         }
         for n in &self.notes {
             writeln!(f, "note: {n}")?;
         }
-        write!(f, "lags          {:?} frames = {:.3?} R/v_c", self.protocol.lags_frames, self.protocol.lags_used)
+        write!(
+            f,
+            "lags          {:?} frames = {:.3?} R/v_c",
+            self.protocol.lags_frames, self.protocol.lags_used
+        )
     }
 }
 
@@ -165,13 +194,19 @@ fn nearest_frame(frames: &[i64], times: &BTreeMap<i64, f64>, t: f64) -> i64 {
 }
 
 /// Run the protocol on tracks: samples plus the protocol actually used.
-fn from_tracks(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Result<(Samples, ScatterRows, Protocol)> {
+fn from_tracks(
+    input: &Path,
+    opt: &FitOptions,
+    warnings: &mut Vec<String>,
+) -> Result<(Samples, ScatterRows, Protocol)> {
     let file = input.display().to_string();
     let (tracks, w) = read_tracks(input)?;
     warnings.extend(w);
     let d = match opt.diameter {
         Some(d) => d,
-        None => tracks.large_diameter().ok_or_else(|| Error::input(&file, "no rows"))?,
+        None => tracks
+            .large_diameter()
+            .ok_or_else(|| Error::input(&file, "no rows"))?,
     };
     let r = 0.5 * d;
     let v = opt.bar_speed.or(tracks.meta.bar_speed).ok_or_else(|| {
@@ -185,7 +220,12 @@ fn from_tracks(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Re
     let ft = tracks.meta.frame_time.unwrap_or(1.0);
     let times: BTreeMap<i64, f64> = ranges
         .iter()
-        .map(|(f, rg)| (*f, tracks.time.as_ref().map_or(*f as f64 * ft, |t| t[rg.start])))
+        .map(|(f, rg)| {
+            (
+                *f,
+                tracks.time.as_ref().map_or(*f as f64 * ft, |t| t[rg.start]),
+            )
+        })
         .collect();
     let frames: Vec<i64> = times.keys().copied().collect();
     let (first, last) = (frames[0], *frames.last().expect("rows"));
@@ -200,7 +240,11 @@ fn from_tracks(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Re
     }
     lags_frames.sort_unstable();
     let lags_used: Vec<f64> = lags_frames.iter().map(|&l| l as f64 * ft / tau).collect();
-    for (&req, lf) in lags_req.iter().zip(lags_req.iter().map(|&l| ((l * tau / ft).round() as i64).max(1))) {
+    for (&req, lf) in lags_req.iter().zip(
+        lags_req
+            .iter()
+            .map(|&l| ((l * tau / ft).round() as i64).max(1)),
+    ) {
         let got = lf as f64 * ft / tau;
         if (got / req - 1.0).abs() > 0.1 {
             warnings.push(format!(
@@ -224,7 +268,10 @@ fn from_tracks(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Re
             start_frames.push(f);
         }
     }
-    let full = start_frames.iter().filter(|&&s| s + max_lag <= last).count();
+    let full = start_frames
+        .iter()
+        .filter(|&&s| s + max_lag <= last)
+        .count();
     if start_frames.len() < MIN_STARTS {
         warnings.push(format!(
             "{} start times (the protocol asks for at least {MIN_STARTS}): the run is short for spacing {:.3} R/v_c",
@@ -239,11 +286,29 @@ fn from_tracks(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Re
             start_frames.len()
         ));
     }
-    let index: BTreeMap<i64, usize> = ranges.iter().enumerate().map(|(k, (f, _))| (*f, k)).collect();
-    let params = KinematicsParams { rc: opt.rc_over_d * d, convention: Convention::Paper };
+    let index: BTreeMap<i64, usize> = ranges
+        .iter()
+        .enumerate()
+        .map(|(k, (f, _))| (*f, k))
+        .collect();
+    let params = KinematicsParams {
+        rc: opt.rc_over_d * d,
+        convention: Convention::Paper,
+    };
     let mut s = Samples::default();
-    let mut rows = ScatterRows { start: vec![], end: vec![], particle: vec![], species: vec![], eta_s: vec![], y: vec![] };
-    let bar = super::progress((start_frames.len() * lags_frames.len()) as u64, "fit sampling", opt.quiet);
+    let mut rows = ScatterRows {
+        start: vec![],
+        end: vec![],
+        particle: vec![],
+        species: vec![],
+        eta_s: vec![],
+        y: vec![],
+    };
+    let bar = super::progress(
+        (start_frames.len() * lags_frames.len()) as u64,
+        "fit sampling",
+        opt.quiet,
+    );
     for (g, &fs) in start_frames.iter().enumerate() {
         for &lf in &lags_frames {
             bar.inc(1);
@@ -283,44 +348,79 @@ fn from_tracks(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Re
 }
 
 /// Fit the rows of a `kinematics` table as they are (valid rows only).
-fn from_kinematics(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -> Result<(Samples, ScatterRows, Protocol)> {
+fn from_kinematics(
+    input: &Path,
+    opt: &FitOptions,
+    warnings: &mut Vec<String>,
+) -> Result<(Samples, ScatterRows, Protocol)> {
     let file = input.display().to_string();
     let t = read_table(
         input,
-        &[("frame", Expect::Int), ("frame_end", Expect::Int), ("particle", Expect::Int), ("eta_s", Expect::Float), ("d2min", Expect::Float)],
+        &[
+            ("frame", Expect::Int),
+            ("frame_end", Expect::Int),
+            ("particle", Expect::Int),
+            ("eta_s", Expect::Float),
+            ("d2min", Expect::Float),
+        ],
     )?;
     t.require(&["frame", "frame_end", "particle", "valid", "eta_s", "d2min"])?;
     let meta: Option<serde_json::Value> = std::fs::read_to_string(crate::io::sidecar_path(input))
         .ok()
         .and_then(|s| serde_json::from_str(&s).ok());
-    let d = match (opt.diameter, meta.as_ref().and_then(|m| m["d_large"].as_f64())) {
+    let d = match (
+        opt.diameter,
+        meta.as_ref().and_then(|m| m["d_large"].as_f64()),
+    ) {
         (Some(d), _) | (None, Some(d)) => d,
         _ => {
             return Err(Error::param(
                 "diameter",
-                format!("{file}: no large-grain diameter in a sidecar; pass --diameter D (D²min is scaled by R² = (D/2)²)"),
+                format!(
+                    "{file}: no large-grain diameter in a sidecar; pass --diameter D (D²min is scaled by R² = (D/2)²)"
+                ),
             ));
         }
     };
     if let Some(rc) = meta.as_ref().and_then(|m| m["rc"].as_f64())
         && ((rc / d) / opt.rc_over_d - 1.0).abs() > 1e-6
     {
-        warnings.push(format!("the table was computed with R_c = {:.4} D, not {} D", rc / d, opt.rc_over_d));
+        warnings.push(format!(
+            "the table was computed with R_c = {:.4} D, not {} D",
+            rc / d,
+            opt.rc_over_d
+        ));
     }
     let r = 0.5 * d;
     let (start, end, particle) = (t.i64("frame")?, t.i64("frame_end")?, t.i64("particle")?);
     let (eta, d2, valid) = (t.f64("eta_s")?, t.f64("d2min")?, t.bool("valid")?);
-    let species: Vec<i32> = if t.has("species") { t.i64("species")?.into_iter().map(|v| v as i32).collect() } else { vec![-1; start.len()] };
+    let species: Vec<i32> = if t.has("species") {
+        t.i64("species")?.into_iter().map(|v| v as i32).collect()
+    } else {
+        vec![-1; start.len()]
+    };
     let mut groups: BTreeMap<i64, u32> = BTreeMap::new();
     let mut s = Samples::default();
-    let mut rows = ScatterRows { start: vec![], end: vec![], particle: vec![], species: vec![], eta_s: vec![], y: vec![] };
+    let mut rows = ScatterRows {
+        start: vec![],
+        end: vec![],
+        particle: vec![],
+        species: vec![],
+        eta_s: vec![],
+        y: vec![],
+    };
     let mut lags: Vec<i64> = Vec::new();
     for k in 0..start.len() {
         if !valid[k] {
             continue;
         }
         if !(eta[k].is_finite() && d2[k].is_finite()) {
-            return Err(Error::Value { file: file.clone(), loc: format!("row {}", k + 1), column: "eta_s/d2min".into(), msg: "not finite in a valid row".into() });
+            return Err(Error::Value {
+                file: file.clone(),
+                loc: format!("row {}", k + 1),
+                column: "eta_s/d2min".into(),
+                msg: "not finite in a valid row".into(),
+            });
         }
         let n = groups.len() as u32;
         let g = *groups.entry(start[k]).or_insert(n);
@@ -339,12 +439,18 @@ fn from_kinematics(input: &Path, opt: &FitOptions, warnings: &mut Vec<String>) -
     }
     lags.sort_unstable();
     if lags.len() == 1 {
-        warnings.push(format!("a single lag ({} frames): η^s spans only what one lag gives", lags[0]));
+        warnings.push(format!(
+            "a single lag ({} frames): η^s spans only what one lag gives",
+            lags[0]
+        ));
     }
     let protocol = Protocol {
         source: "kinematics".into(),
         diameter: d,
-        rc_over_d: meta.as_ref().and_then(|m| m["rc"].as_f64()).map_or(opt.rc_over_d, |rc| rc / d),
+        rc_over_d: meta
+            .as_ref()
+            .and_then(|m| m["rc"].as_f64())
+            .map_or(opt.rc_over_d, |rc| rc / d),
         bar_speed: opt.bar_speed,
         time_scale: None,
         lags_frames: lags,
@@ -363,14 +469,23 @@ fn is_kinematics(input: &Path) -> Result<bool> {
 
 /// Default scatter path: `fit.json` → `fit.scatter.parquet`.
 pub fn scatter_path(output: &Path) -> PathBuf {
-    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "fit".into());
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "fit".into());
     output.with_file_name(format!("{stem}.scatter.parquet"))
 }
 
 pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
     let t0 = std::time::Instant::now();
     if opt.bootstrap < 10 {
-        return Err(Error::param("bootstrap", format!("{} replicates: need at least 10 for an interval", opt.bootstrap)));
+        return Err(Error::param(
+            "bootstrap",
+            format!(
+                "{} replicates: need at least 10 for an interval",
+                opt.bootstrap
+            ),
+        ));
     }
     if !(opt.rc_over_d > 0.0) {
         return Err(Error::param("rc", "R_c must be > 0"));
@@ -381,8 +496,14 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
     } else {
         from_tracks(input, opt, &mut warnings)?
     };
-    let settings = FitSettings { method: opt.method, binning: opt.binning, bootstrap: opt.bootstrap, seed: opt.seed };
-    let (chosen, all) = fit_all(&samples, &settings).map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
+    let settings = FitSettings {
+        method: opt.method,
+        binning: opt.binning,
+        bootstrap: opt.bootstrap,
+        seed: opt.seed,
+    };
+    let (chosen, all) = fit_all(&samples, &settings)
+        .map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
     let scatter = opt.scatter.clone().unwrap_or_else(|| scatter_path(output));
     write_scatter(&scatter, &rows)?;
     let estimators = all
@@ -395,7 +516,17 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
             (k, j)
         })
         .collect();
-    let EstimatorResult { theta, eta_c, theta_interval, eta_c_interval, theta_constrained, eta_c_constrained, notes, residual_rms, .. } = chosen;
+    let EstimatorResult {
+        theta,
+        eta_c,
+        theta_interval,
+        eta_c_interval,
+        theta_constrained,
+        eta_c_constrained,
+        notes,
+        residual_rms,
+        ..
+    } = chosen;
     let rep = FitReport {
         theta,
         eta_c,
@@ -445,5 +576,6 @@ fn write_scatter(path: &Path, r: &ScatterRows) -> Result<()> {
 /// Read a `fit.json`.
 pub fn read_fit(path: &Path) -> Result<FitReport> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    serde_json::from_str(&text).map_err(|e| Error::input(path.display(), format!("not a pillar-pipe fit.json: {e}")))
+    serde_json::from_str(&text)
+        .map_err(|e| Error::input(path.display(), format!("not a pillar-pipe fit.json: {e}")))
 }

@@ -121,9 +121,12 @@ pub struct IngestSettings {
 pub fn settings_path(input: &Path) -> Option<PathBuf> {
     let stem = input.file_stem()?.to_string_lossy().into_owned();
     let dir = input.parent().unwrap_or(Path::new("."));
-    [dir.join(format!("{stem}.ingest.toml")), dir.join("ingest.toml")]
-        .into_iter()
-        .find(|p| p.is_file())
+    [
+        dir.join(format!("{stem}.ingest.toml")),
+        dir.join("ingest.toml"),
+    ]
+    .into_iter()
+    .find(|p| p.is_file())
 }
 
 /// Fill the options the user did not give from the settings file beside the input.
@@ -140,21 +143,21 @@ pub fn apply_settings(input: &Path, opt: &mut IngestOptions) -> Result<Option<Pa
             .unwrap_or(0);
         Error::input(path.display(), format!("line {line}: {}", e.message()))
     })?;
-    if opt.format.is_none() || opt.format == Some(Format::Auto) {
-        if let Some(f) = &s.format {
-            opt.format = Some(match f.as_str() {
-                "trackpy" => Format::Trackpy,
-                "lammps" => Format::Lammps,
-                "canonical" => Format::Canonical,
-                "auto" => Format::Auto,
-                other => {
-                    return Err(Error::input(
-                        path.display(),
-                        format!("format '{other}' unknown; supported: {SUPPORTED}"),
-                    ));
-                }
-            });
-        }
+    if (opt.format.is_none() || opt.format == Some(Format::Auto))
+        && let Some(f) = &s.format
+    {
+        opt.format = Some(match f.as_str() {
+            "trackpy" => Format::Trackpy,
+            "lammps" => Format::Lammps,
+            "canonical" => Format::Canonical,
+            "auto" => Format::Auto,
+            other => {
+                return Err(Error::input(
+                    path.display(),
+                    format!("format '{other}' unknown; supported: {SUPPORTED}"),
+                ));
+            }
+        });
     }
     opt.px_per_unit = opt.px_per_unit.or(s.px_per_unit);
     opt.unit = opt.unit.take().or(s.unit);
@@ -184,54 +187,65 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         f => f,
     };
     let mut warnings = Vec::new();
-    let mut split = None;
-    let mut tracks = match format {
-        Format::Trackpy => {
-            let keep_px = opt.px_per_unit.is_none() && opt.unit.as_deref() == Some("px");
-            let o = TrackpyOptions {
-                px_per_unit: if keep_px { Some(1.0) } else { opt.px_per_unit },
-                unit: opt.unit.clone(),
-                frame_time: opt.frame_time,
-                radii: opt.radii,
-                origin_px: opt.origin_px,
-            };
-            let (mut t, s) = read_trackpy(input, &o)?;
-            split = Some(s);
-            if !opt.keep_detached {
-                let ids = detached_trajectories(&t);
-                if !ids.is_empty() {
-                    warnings.push(format!(
+    // Hash the input on another thread while it is parsed.
+    let (source_sha256, tracks) = rayon::join(
+        || sha256_file(input),
+        || -> Result<_> {
+            let mut warnings = Vec::new();
+            let mut split = None;
+            let tracks = match format {
+                Format::Trackpy => {
+                    let keep_px = opt.px_per_unit.is_none() && opt.unit.as_deref() == Some("px");
+                    let o = TrackpyOptions {
+                        px_per_unit: if keep_px { Some(1.0) } else { opt.px_per_unit },
+                        unit: opt.unit.clone(),
+                        frame_time: opt.frame_time,
+                        radii: opt.radii,
+                        origin_px: opt.origin_px,
+                    };
+                    let (mut t, s) = read_trackpy(input, &o)?;
+                    split = Some(s);
+                    if !opt.keep_detached {
+                        let ids = detached_trajectories(&t);
+                        if !ids.is_empty() {
+                            warnings.push(format!(
                         "dropped {} detached trajectories (fewer than 2 detections within 1.25 D in most of their frames; tracker artefacts such as bar corners): particles {:?}; --keep-detached keeps them",
                         ids.len(),
                         ids
                     ));
-                    drop_trajectories(&mut t, &ids);
+                            drop_trajectories(&mut t, &ids);
+                        }
+                    }
+                    t
                 }
-            }
-            t
-        }
-        Format::Lammps => read_lammps(
-            input,
-            &LammpsOptions {
-                unit: opt.unit.clone(),
-                frame_time: opt.frame_time,
-                radii: opt.radii,
-            },
-        )?,
-        Format::Canonical => {
-            let (mut t, w) = read_tracks(input)?;
-            warnings.extend(w);
-            if let Some(u) = &opt.unit {
-                t.meta.length_unit = u.clone();
-            }
-            if let Some(dt) = opt.frame_time {
-                t.meta.frame_time = Some(dt);
-                t.meta.time_unit = "s".into();
-            }
-            t
-        }
-        Format::Auto => unreachable!("resolved above"),
-    };
+                Format::Lammps => read_lammps(
+                    input,
+                    &LammpsOptions {
+                        unit: opt.unit.clone(),
+                        frame_time: opt.frame_time,
+                        radii: opt.radii,
+                    },
+                )?,
+                Format::Canonical => {
+                    let (mut t, w) = read_tracks(input)?;
+                    warnings.extend(w);
+                    if let Some(u) = &opt.unit {
+                        t.meta.length_unit = u.clone();
+                    }
+                    if let Some(dt) = opt.frame_time {
+                        t.meta.frame_time = Some(dt);
+                        t.meta.time_unit = "s".into();
+                    }
+                    t
+                }
+                Format::Auto => unreachable!("resolved above"),
+            };
+            Ok((tracks, warnings, split))
+        },
+    );
+    let (mut tracks, w, s) = tracks?;
+    warnings.extend(w);
+    let split = s;
     if tracks.meta.frame_time.is_none() {
         warnings.push("no frame time given (--fps or --frame-time): times are in frames".into());
     }
@@ -244,7 +258,7 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         tool_version: super::VERSION.into(),
         source: input.display().to_string(),
         source_format: format!("{format:?}").to_lowercase(),
-        source_sha256: sha256_file(input)?,
+        source_sha256: source_sha256?,
         parameters: serde_json::json!({
             "px_per_unit": opt.px_per_unit, "unit": opt.unit, "frame_time": opt.frame_time,
             "radii": opt.radii, "origin_px": opt.origin_px, "bar_speed": opt.bar_speed,

@@ -114,7 +114,12 @@ fn frame_times(t: &Tracks, ranges: &[(i64, Range<usize>)]) -> (BTreeMap<i64, f64
 }
 
 /// The (start, end) frame pairs to compute.
-pub fn plan_pairs(frames: &[i64], lags: &[i64], start: Option<i64>, every: Option<i64>) -> Vec<(i64, i64)> {
+pub fn plan_pairs(
+    frames: &[i64],
+    lags: &[i64],
+    start: Option<i64>,
+    every: Option<i64>,
+) -> Vec<(i64, i64)> {
     let (Some(&first), Some(&last)) = (frames.first(), frames.last()) else {
         return Vec::new();
     };
@@ -144,14 +149,20 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         .ok_or_else(|| Error::input(&file, "no rows"))?;
     let rc = opt.rc.unwrap_or(1.25 * d_large);
     if !(rc > 0.0 && rc.is_finite()) {
-        return Err(Error::param("rc", format!("{rc} must be a positive length")));
+        return Err(Error::param(
+            "rc",
+            format!("{rc} must be a positive length"),
+        ));
     }
     let (times, time_unit) = frame_times(&tracks, &ranges);
     let lags = match &opt.lag {
         LagSpec::Frames(l) => l.clone(),
         LagSpec::Time(s) => {
             let ft = tracks.meta.frame_time.ok_or_else(|| {
-                Error::param("lag-time", format!("{file} has no frame time; give --lag in frames"))
+                Error::param(
+                    "lag-time",
+                    format!("{file} has no frame time; give --lag in frames"),
+                )
             })?;
             let lag = (s / ft).round() as i64;
             if ((lag as f64) * ft - s).abs() > 1e-9 * s.abs().max(1.0) {
@@ -171,7 +182,11 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
     {
         return Err(Error::param("every", format!("{e} must be >= 1 frame")));
     }
-    let index: BTreeMap<i64, usize> = ranges.iter().enumerate().map(|(k, (f, _))| (*f, k)).collect();
+    let index: BTreeMap<i64, usize> = ranges
+        .iter()
+        .enumerate()
+        .map(|(k, (f, _))| (*f, k))
+        .collect();
     let frames: Vec<i64> = index.keys().copied().collect();
     let planned = plan_pairs(&frames, &lags, opt.start, opt.every);
     let pairs: Vec<(i64, i64)> = planned
@@ -196,7 +211,10 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
             ),
         ));
     }
-    let params = KinematicsParams { rc, convention: opt.convention };
+    let params = KinematicsParams {
+        rc,
+        convention: opt.convention,
+    };
     let mut counts = PairCounts::default();
     let bar = crate::stages::progress(pairs.len() as u64, "kinematics", opt.quiet);
     let meta = serde_json::json!({

@@ -24,7 +24,13 @@ pub struct QuickstartReport {
     pub elapsed_s: f64,
 }
 
-pub fn run(input: &Path, out: &Path, seed: u64, bootstrap: usize, quiet: bool) -> Result<QuickstartReport> {
+pub fn run(
+    input: &Path,
+    out: &Path,
+    seed: u64,
+    bootstrap: usize,
+    quiet: bool,
+) -> Result<QuickstartReport> {
     let t0 = std::time::Instant::now();
     std::fs::create_dir_all(out).map_err(|e| crate::Error::io(out, e))?;
     let tracks = out.join("tracks.parquet");
@@ -59,6 +65,9 @@ pub fn run(input: &Path, out: &Path, seed: u64, bootstrap: usize, quiet: bool) -
         fit,
         elapsed_s: t0.elapsed().as_secs_f64(),
     };
-    atomic_write_str(&out.join("manifest.json"), &serde_json::to_string_pretty(&rep).expect("json"))?;
+    atomic_write_str(
+        &out.join("manifest.json"),
+        &serde_json::to_string_pretty(&rep).expect("json"),
+    )?;
     Ok(rep)
 }

@@ -2,11 +2,13 @@
 //! memory, its sidecar metadata, validation and the per-frame view that the analysis
 //! kernels consume. No file I/O here (that is `io`).
 
+mod dense;
 mod detached;
 mod meta;
 mod summary;
 mod validate;
 
+pub use dense::{ByParticle, dense_ids};
 pub use detached::{detached_trajectories, drop_trajectories};
 pub use meta::{FrameBox, Provenance, TracksMeta};
 pub use summary::{TracksSummary, summarize};

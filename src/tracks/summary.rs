@@ -3,7 +3,6 @@
 
 use super::{LARGE, SMALL, Tracks};
 use serde::Serialize;
-use std::collections::BTreeMap;
 
 /// A one-frame step longer than this fraction of D is counted as suspicious.
 pub const JUMP_FRACTION: f64 = 0.3;
@@ -46,23 +45,20 @@ pub fn summarize(t: &Tracks) -> TracksSummary {
     let ranges = t.frame_ranges();
     let counts: Vec<usize> = ranges.iter().map(|(_, r)| r.len()).collect();
     let frames_sorted: Vec<i64> = ranges.iter().map(|(f, _)| *f).collect();
-    let frame_pos: BTreeMap<i64, usize> = frames_sorted
-        .iter()
-        .enumerate()
-        .map(|(i, f)| (*f, i))
-        .collect();
-    // Per trajectory: (frame positions, first row index) in frame order.
-    let mut per: BTreeMap<i64, Vec<usize>> = BTreeMap::new();
-    for r in 0..t.len() {
-        per.entry(t.particle[r]).or_default().push(r);
+    // Rows are sorted by frame, so each particle's rows come out in frame order.
+    let per = super::ByParticle::new(&t.particle);
+    let mut fpos = vec![0usize; t.len()];
+    for (k, (_, r)) in ranges.iter().enumerate() {
+        fpos[r.clone()].fill(k);
     }
     let nf = ranges.len();
     let d_large = t.large_diameter().unwrap_or(f64::INFINITY);
     let (mut full, mut short, mut late, mut early, mut with_gaps, mut gap_frames, mut jumps) =
         (0, 0, 0, 0, 0, 0, 0);
     let (mut n_small, mut n_large) = (0, 0);
-    for rows in per.values() {
-        let pos: Vec<usize> = rows.iter().map(|&r| frame_pos[&t.frame[r]]).collect();
+    for k in 0..per.len() {
+        let rows = per.rows_of(k);
+        let pos: Vec<usize> = rows.iter().map(|&r| fpos[r]).collect();
         let span = pos[pos.len() - 1] - pos[0] + 1;
         if rows.len() == nf {
             full += 1;
@@ -82,7 +78,7 @@ pub fn summarize(t: &Tracks) -> TracksSummary {
         }
         for w in rows.windows(2) {
             let (a, b) = (w[0], w[1]);
-            if frame_pos[&t.frame[b]] == frame_pos[&t.frame[a]] + 1 {
+            if fpos[b] == fpos[a] + 1 {
                 let d = ((t.x[b] - t.x[a]).powi(2) + (t.y[b] - t.y[a]).powi(2)).sqrt();
                 if d > JUMP_FRACTION * d_large {
                     jumps += 1;
