@@ -35,13 +35,24 @@ fn best_of<F: FnMut()>(reps: usize, mut f: F) -> f64 {
 pub fn bench_kinematics(n: usize, threads: usize, reps: usize) -> Result<KinematicsBench> {
     let p = bidisperse_packing(n, 1.0, 0.1, 1);
     let t = two_frame_tracks(&p, Mat2::new(1.0, 0.02, 0.0, 0.99), 0.01, 2);
+    bench_kinematics_tracks(&t, 1.25, Convention::Paper, threads, reps)
+}
+
+/// The first two frames of `t` (e.g. the frames OVITO is timed on), R_c = `rc`.
+pub fn bench_kinematics_tracks(
+    t: &crate::tracks::Tracks,
+    rc: f64,
+    convention: Convention,
+    threads: usize,
+    reps: usize,
+) -> Result<KinematicsBench> {
     let fr = t.frame_ranges();
+    if fr.len() < 2 {
+        return Err(Error::Other("need two frames to time a frame pair".into()));
+    }
     let a = t.view(fr[0].0, fr[0].1.clone());
     let b = t.view(fr[1].0, fr[1].1.clone());
-    let params = KinematicsParams {
-        rc: 1.25,
-        convention: Convention::Paper,
-    };
+    let params = KinematicsParams { rc, convention };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -59,7 +70,7 @@ pub fn bench_kinematics(n: usize, threads: usize, reps: usize) -> Result<Kinemat
     }
     let pos: Vec<Vec2> = (0..a.len()).map(|i| a.pos(i)).collect();
     let neighbour_pass_seconds = best_of(reps, || {
-        let cl = CellList::new(&pos, 1.25, Cutoff::Strict, None).expect("cell list");
+        let cl = CellList::new(&pos, rc, Cutoff::Strict, None).expect("cell list");
         let mut c = 0usize;
         for &q in &pos {
             cl.for_each_within(q, |_, _| c += 1);

@@ -183,6 +183,14 @@ enum BenchCmd {
         n: Vec<usize>,
         #[arg(long, default_value_t = 3)]
         reps: usize,
+        /// Time the first two frames of these tracks instead (e.g. the frames OVITO ran on).
+        #[arg(long)]
+        input: Option<PathBuf>,
+        /// R_c for --input (length unit).
+        #[arg(long, default_value_t = 1.25)]
+        rc: f64,
+        #[arg(long, value_enum, default_value = "paper")]
+        convention: Convention,
         #[arg(long)]
         json: bool,
     },
@@ -445,11 +453,28 @@ fn run(cli: Cli) -> Result<()> {
 fn bench(what: BenchCmd) -> Result<()> {
     use pillar_pipe::bench;
     match what {
-        BenchCmd::Kinematics { n, reps, json } => {
+        BenchCmd::Kinematics {
+            n,
+            reps,
+            input,
+            rc,
+            convention,
+            json,
+        } => {
             let mut all = Vec::new();
-            for &n in &n {
+            let given = match &input {
+                Some(p) => Some(pillar_pipe::io::read_tracks(p)?.0),
+                None => None,
+            };
+            let sizes = if given.is_some() { vec![0] } else { n };
+            for &n in &sizes {
                 for threads in [1, 2] {
-                    let b = bench::bench_kinematics(n, threads, reps)?;
+                    let b = match &given {
+                        Some(t) => {
+                            bench::bench_kinematics_tracks(t, rc, convention, threads, reps)?
+                        }
+                        None => bench::bench_kinematics(n, threads, reps)?,
+                    };
                     if !json {
                         println!(
                             "kinematics n={:>8} threads={} {:>8.4} s/pair {:>12.0} particles/s   (same-run reference: cell list + neighbour count {:.4} s, ratio {:.2})",
