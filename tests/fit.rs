@@ -164,3 +164,120 @@ fn degenerate_inputs_are_flagged_or_refused() {
     ]);
     assert!(!ok && text.contains("too few"), "{text}");
 }
+
+/// End to end through the real kinematics stage. A perfect periodic triangular lattice is
+/// sheared by γ_k between frames 2k and 2k+1 (Lees–Edwards box), and each grain also takes a
+/// step δ_c of its sublattice c ∈ {0, 1, 2} (the lattice's 3-colouring), the three steps of
+/// equal length |δ| at 120° in a random direction. Every grain's 6 neighbours alternate
+/// between the other two sublattices at directions summing to zero, so the fit's J is
+/// exactly the imposed shear (η^s = the imposed η) and D²min = (3·3|δ|²)·2/6 = 3|δ|². With
+/// |δ|² = R² Eq.19(η_k; Θ, η_c) · e^{s·N(0,1)} / 3 the steps grow with the strain, D²min/R²
+/// follows Eq. 19 with log-normal scatter over start times, and the fit must give back Θ
+/// and η_c.
+#[test]
+fn random_steps_sized_by_strain_give_back_theta_and_eta_c() {
+    use pillar_pipe::geom::{SimBox, Vec2};
+    use pillar_pipe::synth::bidisperse_packing;
+    use pillar_pipe::tracks::{FrameBox, Tracks, TracksMeta};
+    let (theta, eta_c) = (0.3, 0.05);
+    let dir = tmpdir("e2e");
+    // 36 columns (a multiple of 3) × an even number of rows: the colouring is periodic.
+    let p = bidisperse_packing(1500, 1.0, 0.0, 1);
+    let b = p.simbox;
+    let nx = (b.lx / p.spacing).round() as usize;
+    assert_eq!(nx % 3, 0);
+    let colour = |i: usize| {
+        let (r, c) = ((i / nx) as i64, (i % nx) as i64);
+        (c - r / 2 - r).rem_euclid(3) as usize
+    };
+    let r = 0.5; // R = D/2, D = 1
+    let mut t = Tracks {
+        meta: TracksMeta {
+            length_unit: "D".into(),
+            time_unit: "s".into(),
+            frame_time: Some(1.0),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let mut rng = Rng::new(77);
+    let pairs = 14;
+    for k in 0..pairs {
+        let gamma = 2e-3 * (200f64).powf(k as f64 / (pairs - 1) as f64); // 2e-3 … 0.4
+        let eta = 0.5 * gamma * (1.0 + 0.25 * gamma * gamma).sqrt();
+        let step2 = r * r * d2min_over_r2(eta, theta, eta_c) * (0.1 * rng.normal()).exp() / 3.0;
+        let phi = 2.0 * std::f64::consts::PI * rng.uniform();
+        let steps: Vec<Vec2> = (0..3)
+            .map(|c| {
+                let a = phi + 2.0 * std::f64::consts::PI * c as f64 / 3.0;
+                Vec2::new(a.cos(), a.sin()) * step2.sqrt()
+            })
+            .collect();
+        for (f, g) in [(2 * k as i64, 0.0), (2 * k as i64 + 1, gamma)] {
+            let bk = SimBox { xy: g * b.ly, ..b };
+            for (i, q) in p.pos.iter().enumerate() {
+                let mut v = Vec2::new(q.x + g * (q.y - b.y_lo), q.y);
+                if g > 0.0 {
+                    v += steps[colour(i)];
+                }
+                let w = bk.wrap(v);
+                t.frame.push(f);
+                t.particle.push(i as i64);
+                t.x.push(w.x);
+                t.y.push(w.y);
+                t.radius.push(p.radius[i]);
+            }
+            t.meta.boxes.push(FrameBox::from_simbox(f, &bk));
+        }
+    }
+    let tp = dir.join("t.parquet");
+    pillar_pipe::io::write_tracks(&t, &tp).unwrap();
+    let kp = dir.join("k.parquet");
+    let (ok, text) = run(&[
+        "kinematics",
+        tp.to_str().unwrap(),
+        "--lag",
+        "1",
+        "--every",
+        "2",
+        "--rc",
+        "1.25",
+        "-o",
+        kp.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{text}");
+    assert!(text.contains(&format!("{pairs} frame pairs")), "{text}");
+    for method in ["binned-median", "binned-mean", "points"] {
+        let fj = dir.join(format!("fit-{method}.json"));
+        let (ok, text) = run(&[
+            "fit",
+            kp.to_str().unwrap(),
+            "--diameter",
+            "1",
+            "--method",
+            method,
+            "--bootstrap",
+            "200",
+            "-o",
+            fj.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&fj).unwrap()).unwrap();
+        let (th, ec) = (j["theta"].as_f64().unwrap(), j["eta_c"].as_f64().unwrap());
+        assert!(
+            (th / theta - 1.0).abs() < 0.05,
+            "{method}: theta {th}\n{text}"
+        );
+        assert!(
+            (ec / eta_c - 1.0).abs() < 0.1,
+            "{method}: eta_c {ec}\n{text}"
+        );
+        let ci = &j["eta_c_interval"];
+        assert!(
+            ci[0].as_f64().unwrap() <= eta_c && ci[1].as_f64().unwrap() >= eta_c,
+            "{method}: {ci}"
+        );
+    }
+}
