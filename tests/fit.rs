@@ -41,6 +41,12 @@ fn kinematics_csv(path: &Path, theta: f64, eta_c: f64, s: f64, lo: f64, hi: f64,
                     start + lag
                 );
             }
+            // A valid grain with only 2 neighbours: its D²min is round-off (≡ 0 in exact
+            // arithmetic) and must not enter the log-space fit.
+            out += &format!(
+                "{start},{},{lag}.0,998,0,0,1,2,true,1,0,0,1,0,0,0,0,0.01,0.01,1e-31,0,0,0\n",
+                start + lag
+            );
             // An invalid row that must be ignored.
             out += &format!(
                 "{start},{},{lag}.0,999,0,0,1,1,false,0,0,0,0,0,0,0,0,0,0,0,0,0,0\n",
@@ -85,6 +91,10 @@ fn recovers_theta_and_eta_c_from_a_kinematics_table() {
     assert!(j["seed"].is_number() && j["input_sha256"].as_str().unwrap().len() == 64);
     assert!(Path::new(j["scatter"].as_str().unwrap()).exists());
     assert!(text.contains("Theta") && text.contains("eta_c"), "{text}");
+    assert!(
+        text.contains("30 valid samples with only 2 neighbours left out"),
+        "{text}"
+    );
 }
 
 #[test]

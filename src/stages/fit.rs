@@ -18,6 +18,9 @@ use std::path::{Path, PathBuf};
 /// Paper defaults, in units of R/v_c.
 pub const START_SPACING: f64 = 2.0 / 3.0;
 pub const MIN_STARTS: usize = 8;
+/// Fewest neighbours for a D²min sample: with N_i = 2 the four components of J fit the
+/// two neighbour vectors exactly, so D²min ≡ 0 (round-off) and carries no information.
+pub const MIN_NEIGHBORS_FOR_D2MIN: u32 = 3;
 pub fn default_lags() -> Vec<f64> {
     [2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0]
         .iter()
@@ -309,6 +312,7 @@ fn from_tracks(
         "fit sampling",
         opt.quiet,
     );
+    let mut two_neighbours = 0usize;
     for (g, &fs) in start_frames.iter().enumerate() {
         for &lf in &lags_frames {
             bar.inc(1);
@@ -319,7 +323,14 @@ fn from_tracks(
             let a = tracks.view(fs, ranges[ia].1.clone());
             let b = tracks.view(fe, ranges[ib].1.clone());
             let (ks, _) = frame_pair(&a, &b, times[&fe] - times[&fs], &params)?;
-            for k in ks.iter().filter(|k| k.valid) {
+            two_neighbours += ks
+                .iter()
+                .filter(|k| k.valid && k.n_neighbors < MIN_NEIGHBORS_FOR_D2MIN)
+                .count();
+            for k in ks
+                .iter()
+                .filter(|k| k.valid && k.n_neighbors >= MIN_NEIGHBORS_FOR_D2MIN)
+            {
                 let y = k.d2min / (r * r);
                 s.push(k.strain.eta_s, y, g as u32);
                 rows.start.push(fs);
@@ -332,6 +343,7 @@ fn from_tracks(
         }
     }
     bar.finish_and_clear();
+    note_two_neighbours(two_neighbours, warnings);
     let protocol = Protocol {
         source: "tracks".into(),
         diameter: d,
@@ -394,6 +406,11 @@ fn from_kinematics(
     let r = 0.5 * d;
     let (start, end, particle) = (t.i64("frame")?, t.i64("frame_end")?, t.i64("particle")?);
     let (eta, d2, valid) = (t.f64("eta_s")?, t.f64("d2min")?, t.bool("valid")?);
+    let n_nb: Option<Vec<i64>> = if t.has("n_neighbors") {
+        Some(t.i64("n_neighbors")?)
+    } else {
+        None
+    };
     let species: Vec<i32> = if t.has("species") {
         t.i64("species")?.into_iter().map(|v| v as i32).collect()
     } else {
@@ -410,8 +427,16 @@ fn from_kinematics(
         y: vec![],
     };
     let mut lags: Vec<i64> = Vec::new();
+    let mut two_neighbours = 0usize;
     for k in 0..start.len() {
         if !valid[k] {
+            continue;
+        }
+        if n_nb
+            .as_ref()
+            .is_some_and(|n| n[k] < MIN_NEIGHBORS_FOR_D2MIN as i64)
+        {
+            two_neighbours += 1;
             continue;
         }
         if !(eta[k].is_finite() && d2[k].is_finite()) {
@@ -438,6 +463,7 @@ fn from_kinematics(
         rows.y.push(y);
     }
     lags.sort_unstable();
+    note_two_neighbours(two_neighbours, warnings);
     if lags.len() == 1 {
         warnings.push(format!(
             "a single lag ({} frames): η^s spans only what one lag gives",
@@ -460,6 +486,14 @@ fn from_kinematics(
         binning: opt.binning,
     };
     Ok((s, rows, protocol))
+}
+
+fn note_two_neighbours(n: usize, warnings: &mut Vec<String>) {
+    if n > 0 {
+        warnings.push(format!(
+            "{n} valid samples with only 2 neighbours left out: their D²min is identically 0"
+        ));
+    }
 }
 
 fn is_kinematics(input: &Path) -> Result<bool> {

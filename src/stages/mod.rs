@@ -28,3 +28,4 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
 pub mod compare;
 pub mod fit;
 pub mod quickstart;
+pub mod report;

@@ -10,9 +10,22 @@ use crate::kinematics::Convention;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// The bundled experiment sample (trackpy output) and its ingest settings.
+/// The bundled experiment sample (trackpy output) and its ingest settings, looked up
+/// from the working directory first (the README runs from the repository root), then
+/// beside the executable's ancestors, then where the crate was compiled — a binary built
+/// in another checkout must not read that checkout's files when this one has them.
 pub fn bundled_sample() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/sample/tracks.csv")
+    const REL: &str = "data/sample/tracks.csv";
+    let mut candidates = vec![PathBuf::from(REL)];
+    if let Ok(exe) = std::env::current_exe() {
+        candidates.extend(exe.ancestors().skip(1).map(|a| a.join(REL)));
+    }
+    candidates.push(Path::new(env!("CARGO_MANIFEST_DIR")).join(REL));
+    candidates
+        .iter()
+        .find(|p| p.is_file())
+        .cloned()
+        .unwrap_or_else(|| PathBuf::from(REL))
 }
 
 #[derive(Debug, Serialize)]
@@ -21,6 +34,7 @@ pub struct QuickstartReport {
     pub ingest: IngestReport,
     pub kinematics: KinematicsReport,
     pub fit: FitReport,
+    pub report: super::report::ReportOutput,
     pub elapsed_s: f64,
 }
 
@@ -58,11 +72,27 @@ pub fn run(
             ..Default::default()
         },
     )?;
+    let report = super::report::run(
+        out,
+        &super::report::ReportOptions {
+            title: "pillar-pipe quickstart: bundled experiment sample".into(),
+            datasets: vec![super::report::DatasetInputs {
+                label: "experiment".into(),
+                tracks: Some(tracks.clone()),
+                kinematics: Some(kin.clone()),
+                fit: Some(out.join("fit.json")),
+                stress: None,
+            }],
+            map_stages: 3,
+            provenance: serde_json::json!({"input": input.display().to_string(), "seed": seed, "bootstrap": bootstrap}),
+        },
+    )?;
     let rep = QuickstartReport {
         out: out.display().to_string(),
         ingest,
         kinematics,
         fit,
+        report,
         elapsed_s: t0.elapsed().as_secs_f64(),
     };
     atomic_write_str(
