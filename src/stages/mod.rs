@@ -29,3 +29,4 @@ pub mod compare;
 pub mod fit;
 pub mod quickstart;
 pub mod report;
+pub mod simulate;
