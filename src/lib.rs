@@ -24,3 +24,4 @@ pub mod synth;
 pub mod tracks;
 
 pub use error::{Error, Result};
+pub mod dem;
