@@ -21,6 +21,10 @@ pub struct PillarBench {
     /// Same run: one pass over the pair list computing distances only, per particle.
     pub floor_ns_per_particle: f64,
     pub list_builds: u64,
+    /// Same steps, same state, with the resting-pair skip off (same run; the timed run has it on).
+    pub ns_per_particle_step_no_skip: f64,
+    /// Fraction of pair evaluations the skip reused.
+    pub reused_fraction: f64,
 }
 
 /// A jammed periodic packing of 1000 grains tiled k × k (N = 1000 k²; the packing is
@@ -77,12 +81,27 @@ pub fn bench_pillar(
     if let Some(dir) = export {
         export_state(&sim, dir)?;
     }
+    sim.scratch.skip_resting = true;
+    let mut plain = sim.clone();
+    plain.scratch.skip_resting = false;
+    let t = Instant::now();
+    for _ in 0..steps {
+        plain.step();
+    }
+    let seconds_plain = t.elapsed().as_secs_f64();
     let builds0 = sim.list.builds;
     let t = Instant::now();
     for _ in 0..steps {
         sim.step();
     }
     let seconds = t.elapsed().as_secs_f64();
+    if plain.grains != sim.grains {
+        return Err(Error::Other(
+            "the resting-pair skip changed the results".into(),
+        ));
+    }
+    let c = &sim.scratch.cache;
+    let reused_fraction = c.reused as f64 / (c.reused + c.computed).max(1) as f64;
     let n = sim.grains.len();
     let floor = {
         let g = &sim.grains;
@@ -110,6 +129,8 @@ pub fn bench_pillar(
         ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
         floor_ns_per_particle: floor,
         list_builds: sim.list.builds - builds0,
+        ns_per_particle_step_no_skip: seconds_plain / (n as f64 * steps as f64) * 1e9,
+        reused_fraction,
     })
 }
 
