@@ -192,6 +192,7 @@ impl PillarSim {
             y_ref: d.f64s()?,
             skin: d.f64()?,
             builds: d.u64()?,
+            offset_ref: 0.0,
         };
         let (bottom_y, top_y0) = (d.f64()?, d.f64()?);
         let (top_shear, bottom_shear, step) = (d.f64s()?, d.f64s()?, d.u64()?);

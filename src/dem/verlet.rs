@@ -13,6 +13,9 @@ pub enum Boundary {
     Open,
     /// Periodic in x and y with sides `lx`, `ly` (m); minimum-image separations.
     Periodic { lx: f64, ly: f64 },
+    /// Lees–Edwards: periodic, and the image above is shifted along x by `offset`
+    /// (= γ L_y for accumulated strain γ; any real value, not wrapped).
+    LeesEdwards { lx: f64, ly: f64, offset: f64 },
 }
 
 impl Boundary {
@@ -24,6 +27,36 @@ impl Boundary {
             Boundary::Periodic { lx, ly } => {
                 (dx - lx * (dx / lx).round(), dy - ly * (dy / ly).round())
             }
+            Boundary::LeesEdwards { .. } => {
+                let (dx, dy, _) = self.delta_image(dx, dy);
+                (dx, dy)
+            }
+        }
+    }
+
+    /// As [`Boundary::delta`], also returning the y image index n used for j (the
+    /// image of j sits at y_j + n L_y, x_j + n offset, moving n γ̇ L_y faster along x).
+    #[inline(always)]
+    pub fn delta_image(&self, dx: f64, dy: f64) -> (f64, f64, f64) {
+        match *self {
+            Boundary::LeesEdwards { lx, ly, offset } => {
+                let n = (dy / ly).round();
+                let dy = dy - n * ly;
+                let dx = dx - n * offset;
+                (dx - lx * (dx / lx).round(), dy, n)
+            }
+            _ => {
+                let (a, b) = self.delta(dx, dy);
+                (a, b, 0.0)
+            }
+        }
+    }
+
+    /// The Lees–Edwards offset (0 for other boundaries).
+    pub fn offset(&self) -> f64 {
+        match *self {
+            Boundary::LeesEdwards { offset, .. } => offset,
+            _ => 0.0,
         }
     }
 }
@@ -42,6 +75,8 @@ pub struct PairList {
     pub skin: f64,
     /// How many times the list was built.
     pub builds: u64,
+    /// Lees–Edwards offset at the last build (m).
+    pub offset_ref: f64,
 }
 
 impl PairList {
@@ -62,10 +97,18 @@ impl PairList {
 
     /// Whether some grain moved more than skin/2 since the last build (or none yet).
     pub fn needs_rebuild(&self, x: &[f64], y: &[f64]) -> bool {
-        if self.x_ref.len() != x.len() {
+        self.needs_rebuild_sheared(x, y, 0.0)
+    }
+
+    /// As [`PairList::needs_rebuild`] when the Lees–Edwards offset moved by `shift`
+    /// since the build: pairs across the boundary moved apart by that much, so each
+    /// grain may move only (skin − |shift|)/2.
+    pub fn needs_rebuild_sheared(&self, x: &[f64], y: &[f64], shift: f64) -> bool {
+        if self.x_ref.len() != x.len() || shift.abs() >= self.skin {
             return true;
         }
-        let lim = 0.25 * self.skin * self.skin;
+        let half = 0.5 * (self.skin - shift.abs());
+        let lim = half * half;
         x.iter()
             .zip(y)
             .zip(self.x_ref.iter().zip(&self.y_ref))
@@ -74,7 +117,7 @@ impl PairList {
 
     /// Rebuild if needed; returns whether it did.
     pub fn update(&mut self, x: &[f64], y: &[f64], r: &[f64], b: Boundary) -> bool {
-        if self.needs_rebuild(x, y) {
+        if self.needs_rebuild_sheared(x, y, b.offset() - self.offset_ref) {
             self.build(x, y, r, b);
             true
         } else {
@@ -104,7 +147,7 @@ impl PairList {
                 }
             };
             match &grid {
-                Some(g) => g.for_neighbours(g.cell_of(x[i], y[i]), &mut consider),
+                Some(g) => g.for_neighbours(x[i], y[i], &mut consider),
                 None => (i + 1..n).for_each(&mut consider),
             }
             seg.sort_unstable();
@@ -135,6 +178,7 @@ impl PairList {
         self.shear = shear;
         self.x_ref = x.to_vec();
         self.y_ref = y.to_vec();
+        self.offset_ref = b.offset();
         self.builds += 1;
     }
 }
@@ -145,6 +189,8 @@ struct Grid {
     ncx: usize,
     ncy: usize,
     periodic: bool,
+    /// Lees–Edwards offset (0 otherwise).
+    offset: f64,
     x0: f64,
     y0: f64,
     cx: f64,
@@ -158,7 +204,7 @@ impl Grid {
     fn new(x: &[f64], y: &[f64], cut: f64, b: Boundary) -> Option<Grid> {
         let n = x.len();
         let (periodic, x0, y0, w, h) = match b {
-            Boundary::Periodic { lx, ly } => (true, 0.0, 0.0, lx, ly),
+            Boundary::Periodic { lx, ly } | Boundary::LeesEdwards { lx, ly, .. } => (true, 0.0, 0.0, lx, ly),
             Boundary::Open => {
                 let f =
                     |v: &[f64], m: fn(f64, f64) -> f64, init: f64| v.iter().cloned().fold(init, m);
@@ -196,6 +242,7 @@ impl Grid {
             ncx,
             ncy,
             periodic,
+            offset: b.offset(),
             x0,
             y0,
             cx,
@@ -203,7 +250,7 @@ impl Grid {
             head: vec![0; ncx * ncy + 1],
             items: vec![0; n],
         };
-        let cells: Vec<usize> = (0..n).map(|i| g.cell_of(x[i], y[i])).collect();
+        let cells: Vec<usize> = (0..n).map(|i| g.cell_of_wrapped(x[i], y[i])).collect();
         for &c in &cells {
             g.head[c + 1] += 1;
         }
@@ -218,27 +265,62 @@ impl Grid {
         Some(g)
     }
 
-    fn cell_of(&self, x: f64, y: f64) -> usize {
-        let idx = |v: f64, o: f64, c: f64, n: usize| -> usize {
-            let k = ((v - o) / c).floor() as i64;
-            if self.periodic {
-                k.rem_euclid(n as i64) as usize
-            } else {
-                k.clamp(0, n as i64 - 1) as usize
-            }
-        };
-        idx(y, self.y0, self.cy, self.ncy) * self.ncx + idx(x, self.x0, self.cx, self.ncx)
+    /// Column and row of a point in the primary cell (positions may be unwrapped:
+    /// crossing the y boundary n times shifts x by −n·offset).
+    fn col_row(&self, x: f64, y: f64) -> (i64, i64) {
+        let (mut x, mut y) = (x, y);
+        if self.periodic {
+            let h = self.cy * self.ncy as f64;
+            let n = ((y - self.y0) / h).floor();
+            y -= n * h;
+            x -= n * self.offset;
+        }
+        let cx = ((x - self.x0) / self.cx).floor() as i64;
+        let cy = ((y - self.y0) / self.cy).floor() as i64;
+        if self.periodic {
+            (cx.rem_euclid(self.ncx as i64), cy.rem_euclid(self.ncy as i64))
+        } else {
+            (cx.clamp(0, self.ncx as i64 - 1), cy.clamp(0, self.ncy as i64 - 1))
+        }
     }
 
-    fn for_neighbours(&self, cell: usize, f: &mut impl FnMut(usize)) {
-        let (cx, cy) = ((cell % self.ncx) as i64, (cell / self.ncx) as i64);
+    fn cell_of_wrapped(&self, x: f64, y: f64) -> usize {
+        let (cx, cy) = self.col_row(x, y);
+        cy as usize * self.ncx + cx as usize
+    }
+
+    /// Every grain in the cells around the point. Rows across the y boundary are seen
+    /// through the Lees–Edwards shift, so their columns are re-centred on the point's
+    /// shifted x.
+    fn for_neighbours(&self, x: f64, y: f64, f: &mut impl FnMut(usize)) {
+        let (cx, cy) = self.col_row(x, y);
         for dy in -1..=1 {
-            for dx in -1..=1 {
-                let (mut nx, mut ny) = (cx + dx, cy + dy);
+            let mut ny = cy + dy;
+            let mut ccx = cx;
+            if self.periodic {
+                let wrap = if ny < 0 {
+                    -1.0
+                } else if ny >= self.ncy as i64 {
+                    1.0
+                } else {
+                    0.0
+                };
+                if wrap != 0.0 && self.offset != 0.0 {
+                    // The point's image seen from the row on the other side.
+                    let (wx, _) = self.col_row_raw(x, y);
+                    let shifted = wx - wrap * self.offset;
+                    ccx = ((shifted - self.x0) / self.cx).floor() as i64;
+                }
+                ny = ny.rem_euclid(self.ncy as i64);
+            } else if ny < 0 || ny >= self.ncy as i64 {
+                continue;
+            }
+            let span: &[i64] = if self.periodic && self.ncx < 3 { &[0] } else { &[-1, 0, 1] };
+            for &dx in span {
+                let mut nx = ccx + dx;
                 if self.periodic {
                     nx = nx.rem_euclid(self.ncx as i64);
-                    ny = ny.rem_euclid(self.ncy as i64);
-                } else if nx < 0 || ny < 0 || nx >= self.ncx as i64 || ny >= self.ncy as i64 {
+                } else if nx < 0 || nx >= self.ncx as i64 {
                     continue;
                 }
                 let c = ny as usize * self.ncx + nx as usize;
@@ -247,5 +329,14 @@ impl Grid {
                 }
             }
         }
+    }
+
+    /// The point mapped into the primary cell (x, y), Lees–Edwards aware.
+    fn col_row_raw(&self, x: f64, y: f64) -> (f64, f64) {
+        let h = self.cy * self.ncy as f64;
+        let w = self.cx * self.ncx as f64;
+        let n = ((y - self.y0) / h).floor();
+        let (x, y) = (x - n * self.offset, y - n * h);
+        (x - ((x - self.x0) / w).floor() * w, y)
     }
 }
