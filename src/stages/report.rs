@@ -67,10 +67,7 @@ fn scatter_points(fit: &FitReport) -> Result<Vec<(f64, f64)>> {
 type PanelData = (String, i64, Vec<(f64, f64, f64, [f64; 3])>);
 
 /// Per-particle maps for one data set: `stages` start frames spread over the run.
-fn map_panels(
-    d: &DatasetInputs,
-    stages: usize,
-) -> Result<Vec<PanelData>> {
+fn map_panels(d: &DatasetInputs, stages: usize) -> Result<Vec<PanelData>> {
     let Some(kp) = &d.kinematics else {
         return Ok(Vec::new());
     };
