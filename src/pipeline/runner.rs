@@ -153,6 +153,10 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
     }
     let (id, run_dir) = runs::new_run_dir(&runs_dir, &config)?;
     m.run_id = id.clone();
+    // Rewritten after every stage: a run that is killed stays listed as "incomplete",
+    // with the stages it finished.
+    m.status = "incomplete".into();
+    write_manifest(&run_dir, &m)?;
     let mut done: BTreeMap<String, Done> = BTreeMap::new();
     for (i, s) in p.stages.iter().enumerate() {
         let k = &keyed[&s.name];
@@ -245,8 +249,11 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
             outputs: record.outputs.clone(),
         });
         done.insert(s.name.clone(), Done { record, dir });
+        m.elapsed_s = t0.elapsed().as_secs_f64();
+        write_manifest(&run_dir, &m)?;
     }
     m.report = place_reports(&p, &done, &run_dir)?;
+    m.status = "ok".into();
     m.elapsed_s = t0.elapsed().as_secs_f64();
     write_manifest(&run_dir, &m)?;
     Ok(m)

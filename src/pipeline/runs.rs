@@ -44,7 +44,7 @@ pub struct StageRun {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunManifest {
     pub run_id: String,
-    /// "ok" or "failed".
+    /// "ok", "failed", or "incomplete" (running, or killed).
     pub status: String,
     pub failed_stage: Option<String>,
     pub error: Option<String>,

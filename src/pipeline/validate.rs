@@ -96,10 +96,7 @@ pub fn stage_params(src: &Source, schema: &PipelineSchema, s: &RawStage) -> Resu
         if ks.required && !s.table.contains_key(&ks.name) {
             return Err(src.err(
                 &s.name,
-                format!(
-                    "missing required key '{}' ({}: {})",
-                    ks.name, ks.ty, ks.description
-                ),
+                format!("missing required key '{}': {}", ks.name, ks.description),
             ));
         }
         if s.table.contains_key(&ks.name) {
