@@ -537,8 +537,8 @@ fn run_pipeline(opt: pillar_pipe::pipeline::RunOptions) -> Result<()> {
             e.stage.kind.name()
         );
     };
-    let m = pillar_pipe::pipeline::run(&opt, &mut print)
-        .with_context(|| format!("pipeline {}", opt.pipeline.display()))?;
+    // Errors name the file (validation) or the stage (a failed stage) themselves.
+    let m = pillar_pipe::pipeline::run(&opt, &mut print)?;
     if opt.dry_run {
         println!(
             "pipeline {} is valid ({} stages); nothing run",
