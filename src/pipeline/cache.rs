@@ -97,7 +97,9 @@ impl Cache {
         }
         let text = std::fs::read_to_string(d.join(RECORD)).ok()?;
         let r: StageRecord = serde_json::from_str(&text).ok()?;
-        (r.key == key).then_some(r)
+        // An output deleted by hand makes the entry stale rather than a broken input.
+        let whole = r.outputs.values().all(|o| d.join(o).exists());
+        (r.key == key && whole).then_some(r)
     }
 
     /// Compute a stage into a temporary directory with `f(tmp, final)` and move it into
@@ -148,15 +150,20 @@ impl Cache {
         Ok(rec)
     }
 
-    /// Remove temporary directories of this stage left by processes that no longer run.
+    /// Remove temporary (and replaced) directories of this stage left by processes that
+    /// no longer run.
     fn sweep(&self, name: &str) {
         let Ok(rd) = std::fs::read_dir(&self.dir) else {
             return;
         };
-        let prefix = format!(".tmp-{name}-");
+        let prefixes = [format!(".tmp-{name}-"), format!(".old-{name}-")];
         for e in rd.flatten() {
             let n = e.file_name().to_string_lossy().into_owned();
-            let Some(pid) = n.strip_prefix(&prefix).and_then(|r| r.split('-').next()) else {
+            let Some(pid) = prefixes
+                .iter()
+                .find_map(|p| n.strip_prefix(p.as_str()))
+                .and_then(|r| r.split('-').next())
+            else {
                 continue;
             };
             if !process_alive(pid) {
@@ -190,4 +197,19 @@ fn relocate_json(dir: &Path, tmp: &Path, fin: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn canonical_json_ignores_key_order() {
+        let a = serde_json::json!({"b": 1, "a": {"y": [1.5, "x"], "x": null}});
+        let b: serde_json::Value =
+            serde_json::from_str(r#"{"a": {"x": null, "y": [1.5, "x"]}, "b": 1}"#).unwrap();
+        assert_eq!(super::canonical(&a), super::canonical(&b));
+        assert_eq!(
+            super::canonical(&a),
+            r#"{"a":{"x":null,"y":[1.5,"x"]},"b":1}"#
+        );
+    }
 }

@@ -176,3 +176,14 @@ pub fn find(runs: &Path, id: &str) -> Result<RunManifest> {
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn utc_dates() {
+        assert_eq!(super::utc(0), (1970, 1, 1, 0, 0, 0));
+        // A leap day, and the last second of a century year.
+        assert_eq!(super::utc(951_782_400 + 3661), (2000, 2, 29, 1, 1, 1));
+        assert_eq!(super::utc(4_102_444_799), (2099, 12, 31, 23, 59, 59));
+    }
+}
