@@ -25,3 +25,4 @@ pub mod synth;
 pub mod tracks;
 
 pub use error::{Error, Result};
+pub mod dem;

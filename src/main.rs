@@ -1,5 +1,7 @@
 //! `pillar-pipe` command line: parse, validate, call a stage, print its report.
 
+mod cli_sim;
+
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use pillar_pipe::kinematics::Convention;
@@ -152,6 +154,13 @@ enum Cmd {
         #[arg(long)]
         quiet: bool,
     },
+    /// Run the bundled DEM (pillar; sheared disks).
+    Simulate {
+        #[command(subcommand)]
+        what: cli_sim::SimulateCmd,
+    },
+    /// Generate a jammed bidisperse packing (li-granular-pillars Sec. II.A).
+    Pack(cli_sim::PackArgs),
     /// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
     Run {
         pipeline: PathBuf,
@@ -471,6 +480,8 @@ fn run(cli: Cli) -> Result<()> {
         })?,
         Cmd::Runs { what, runs_dir } => runs(what, &runs_dir)?,
         Cmd::Bench { what } => bench(what)?,
+        Cmd::Simulate { what } => cli_sim::simulate(what)?,
+        Cmd::Pack(a) => cli_sim::pack(a)?,
         Cmd::Synth {
             output,
             n,

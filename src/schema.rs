@@ -59,6 +59,11 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         "bar_forces",
         include_str!("../data_schema/bar_forces.schema.json"),
     ),
+    (
+        "stress_strain",
+        include_str!("../data_schema/stress_strain.schema.json"),
+    ),
+    ("forces", include_str!("../data_schema/forces.schema.json")),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,

@@ -27,6 +27,9 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
 }
 pub mod compare;
 pub mod fit;
+pub mod pack;
 pub mod quickstart;
 pub mod report;
+pub mod sim_setup;
+pub mod sim_tables;
 pub mod simulate;

@@ -1,29 +1,49 @@
 //! `simulate pillar`: the bundled DEM of li-granular-pillars Sec. II, run into a
 //! directory of canonical tables (tracks, bar_forces, stress_strain, forces) and a
-//! manifest.
+//! manifest. Long runs checkpoint and resume bit-exactly; the manifest is written last,
+//! so a directory without one holds an unfinished run.
 
+use super::sim_tables::{Buffers, FrameStats, TABLES, drop_parts_from, merge_parts};
+use crate::dem::checkpoint::{Dec, Enc};
+use crate::dem::forces::ContactRecord;
+use crate::dem::params::PillarParams;
+use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};
+use crate::io::{atomic_write, atomic_write_str, sidecar_path};
+use crate::tracks::TracksMeta;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// What a pillar run is asked to do (CLI flags and pipeline keys map onto these).
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SimulateOptions {
     /// Number of grains for a generated packing (ignored with `packing`).
     pub n: usize,
     pub seed: u64,
-    /// A packing table (canonical tracks, first frame used) instead of generating one.
+    /// A packing table (canonical tracks in cm, mm or m; first frame used) instead of
+    /// generating one: `pillar-pipe pack` output or an experiment's ingested tracks.
     pub packing: Option<PathBuf>,
     /// `paper` or `fast` (li-granular-pillars Sec. II.C; `fast` for demos and CI).
     pub preset: String,
+    /// Parameter overrides by name (SI units), e.g. `k_n = 5000.0`, `mu_g = 0.3`.
+    pub set: BTreeMap<String, f64>,
     /// Final engineering strain ε = ΔH/H0.
     pub strain: f64,
     /// Steps between output frames (default: the preset's, Δt_frame = R/(15 v_c)).
     pub output_every: Option<u64>,
-    /// Steps between checkpoints (0: none).
+    /// Output frames between per-grain force snapshots.
+    pub forces_every: u64,
+    /// Steps between checkpoints (0: none); rounded up to a multiple of output_every.
     pub checkpoint_every: u64,
+    /// Continue the unfinished run in the output directory from its checkpoint.
+    pub resume: bool,
     pub quiet: bool,
+    /// Testing aid: stop with an error right after the first checkpoint at or past
+    /// this step, as a kill would.
+    #[serde(skip)]
+    pub halt_after: Option<u64>,
 }
 
 impl Default for SimulateOptions {
@@ -33,11 +53,62 @@ impl Default for SimulateOptions {
             seed: 1,
             packing: None,
             preset: "fast".into(),
+            set: BTreeMap::new(),
             strain: 0.3,
             output_every: None,
+            forces_every: 5,
             checkpoint_every: 0,
+            resume: false,
             quiet: false,
+            halt_after: None,
         }
+    }
+}
+
+impl SimulateOptions {
+    /// The options that determine the numbers (a resume must match these).
+    fn physics(&self) -> serde_json::Value {
+        let mut v = serde_json::to_value(self).expect("options serialise");
+        for k in ["resume", "quiet", "checkpoint_every"] {
+            v.as_object_mut().expect("object").remove(k);
+        }
+        v
+    }
+
+    /// The preset with overrides applied, validated.
+    pub fn params(&self) -> Result<PillarParams> {
+        let base = PillarParams::preset(&self.preset).ok_or_else(|| {
+            Error::param(
+                "preset",
+                format!(
+                    "unknown preset '{}'; expected one of: paper, fast",
+                    self.preset
+                ),
+            )
+        })?;
+        let mut v = serde_json::to_value(&base).expect("params serialise");
+        for (k, x) in &self.set {
+            if k == "preset" || v.get(k).is_none() {
+                let known: Vec<&String> = v
+                    .as_object()
+                    .expect("object")
+                    .keys()
+                    .filter(|k| *k != "preset")
+                    .collect();
+                return Err(Error::param(
+                    "set",
+                    format!("unknown parameter '{k}'; known: {known:?}"),
+                ));
+            }
+            v[k] = serde_json::json!(x);
+        }
+        if !self.set.is_empty() {
+            v["preset"] = serde_json::json!(format!("{}+custom", self.preset));
+        }
+        let p: PillarParams =
+            serde_json::from_value(v).map_err(|e| Error::param("set", e.to_string()))?;
+        p.validate().map_err(|e| Error::param("set", e))?;
+        Ok(p)
     }
 }
 
@@ -46,19 +117,275 @@ impl Default for SimulateOptions {
 pub struct SimulateReport {
     pub out: PathBuf,
     /// Files written into `out`, by table name (tracks, bar_forces, stress_strain, forces).
-    pub tables: std::collections::BTreeMap<String, PathBuf>,
+    pub tables: BTreeMap<String, PathBuf>,
     pub n: usize,
     pub frames: usize,
     pub steps: u64,
-    /// Mean flow stress for 0.05 ≤ ε ≤ 0.2 (N/m), when the run reached ε = 0.2.
+    /// Mean flow stress ⟨σ⟩ for 0.05 ≤ ε ≤ 0.2 (N/m), when the run reached ε = 0.2.
     pub mean_flow_stress: Option<f64>,
     pub elapsed_s: f64,
 }
 
+/// Output bookkeeping saved with each checkpoint.
+struct Progress {
+    frames: u64,
+    parts: u64,
+    prev_x: Vec<f64>,
+    prev_y: Vec<f64>,
+    physics: String,
+    setup: String,
+}
+
+impl Progress {
+    fn encode(&self) -> Vec<u8> {
+        let mut e = Enc::default();
+        e.u64(self.frames);
+        e.u64(self.parts);
+        e.f64s(&self.prev_x);
+        e.f64s(&self.prev_y);
+        e.bytes(self.physics.as_bytes());
+        e.bytes(self.setup.as_bytes());
+        e.0
+    }
+    fn decode(b: &[u8]) -> std::result::Result<Self, String> {
+        let mut d = Dec::new(b);
+        let p = Progress {
+            frames: d.u64()?,
+            parts: d.u64()?,
+            prev_x: d.f64s()?,
+            prev_y: d.f64s()?,
+            physics: String::from_utf8(d.bytes()?).map_err(|e| e.to_string())?,
+            setup: String::from_utf8(d.bytes()?).map_err(|e| e.to_string())?,
+        };
+        Ok(p)
+    }
+}
+
+const CHECKPOINT: &str = "checkpoint.bin";
+const PARTS: &str = ".parts";
+pub const MANIFEST: &str = "manifest.json";
+
 /// Run a pillar simulation into `out`.
 pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
-    let _ = (out, opt);
-    Err(Error::NotImplemented(
-        "simulate pillar: the DEM is being built (issue 5)".into(),
-    ))
+    let t0 = std::time::Instant::now();
+    let params = opt.params()?;
+    if !(opt.strain > 0.0 && opt.strain < 0.9) {
+        return Err(Error::param(
+            "strain",
+            format!("must be in (0, 0.9), got {}", opt.strain),
+        ));
+    }
+    if opt.forces_every == 0 {
+        return Err(Error::param("forces_every", "must be ≥ 1"));
+    }
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let ckpt = out.join(CHECKPOINT);
+    let parts_dir = out.join(PARTS);
+    let physics = serde_json::to_string(&opt.physics()).expect("json");
+    let (mut sim, mut prog) = if opt.resume {
+        let bytes = std::fs::read(&ckpt).map_err(|e| {
+            Error::input(
+                ckpt.display(),
+                format!("cannot resume: no checkpoint here ({e})"),
+            )
+        })?;
+        let (sim, extra) = PillarSim::load(&bytes).map_err(|e| Error::input(ckpt.display(), e))?;
+        let prog = Progress::decode(&extra).map_err(|e| Error::input(ckpt.display(), e))?;
+        if prog.physics != physics {
+            return Err(Error::param(
+                "resume",
+                format!(
+                    "the options differ from the interrupted run's:\n  then: {}\n  now:  {physics}",
+                    prog.physics
+                ),
+            ));
+        }
+        drop_parts_from(&parts_dir, prog.parts)?;
+        (sim, prog)
+    } else {
+        if out.join(MANIFEST).exists() {
+            return Err(Error::param(
+                "output",
+                format!(
+                    "{} already holds a finished run; choose another directory",
+                    out.display()
+                ),
+            ));
+        }
+        if ckpt.exists() {
+            return Err(Error::param(
+                "output",
+                format!(
+                    "{} holds an unfinished run; pass --resume to continue it, or choose another directory",
+                    out.display()
+                ),
+            ));
+        }
+        let _ = std::fs::remove_dir_all(&parts_dir);
+        let (sim, setup) = super::sim_setup::initial_pillar(opt, params.clone())?;
+        let prog = Progress {
+            frames: 0,
+            parts: 0,
+            prev_x: sim.grains.x.clone(),
+            prev_y: sim.grains.y.clone(),
+            physics,
+            setup: serde_json::to_string(&setup).expect("json"),
+        };
+        (sim, prog)
+    };
+    let p = sim.params.clone();
+    let h0 = sim.top_y0 - sim.bottom_y;
+    let total = (opt.strain * h0 / (p.bar_speed * p.dt)).ceil() as u64;
+    let out_every = opt
+        .output_every
+        .unwrap_or_else(|| ((0.5 * p.d_large / (15.0 * p.bar_speed) / p.dt).round() as u64).max(1));
+    let ck_every = if opt.checkpoint_every == 0 {
+        0
+    } else {
+        opt.checkpoint_every.div_ceil(out_every) * out_every
+    };
+    let mut buf = Buffers::new();
+    let bar = super::progress(total, "simulate", opt.quiet);
+    bar.set_position(sim.step);
+    let record_frame = |sim: &PillarSim, buf: &mut Buffers, prog: &mut Progress| {
+        // Eq. 21 with Eq. 13's mean velocity over the output interval.
+        let dt_frame = out_every as f64 * p.dt;
+        let g = &sim.grains;
+        let p_gs = if sim.step == 0 {
+            0.0
+        } else {
+            (0..g.len())
+                .map(|i| {
+                    g.mass[i]
+                        * p.g
+                        * p.mu
+                        * (g.x[i] - prog.prev_x[i]).hypot(g.y[i] - prog.prev_y[i])
+                        / dt_frame
+                })
+                .sum()
+        };
+        let frame = prog.frames as i64;
+        buf.record(sim, &FrameStats { frame, p_gs });
+        if sim.record.is_some() {
+            buf.record_forces(sim, frame);
+        }
+        prog.prev_x.clone_from(&g.x);
+        prog.prev_y.clone_from(&g.y);
+        prog.frames += 1;
+    };
+    if sim.step == 0 {
+        // Re-evaluate on a copy (a second evaluation would advance contact history) so
+        // the step-0 snapshot has its per-grain record.
+        let mut c = sim.clone();
+        c.record = Some(ContactRecord::default());
+        c.refresh_forces();
+        record_frame(&c, &mut buf, &mut prog);
+    }
+    while sim.step < total {
+        let next = sim.step + 1;
+        if next % out_every == 0 && (prog.frames % opt.forces_every) == 0 {
+            sim.record = Some(ContactRecord::default());
+        }
+        sim.step();
+        if sim.step % out_every == 0 || sim.step == total {
+            record_frame(&sim, &mut buf, &mut prog);
+            sim.record = None;
+            sim.interval = Interval::default();
+            bar.set_position(sim.step);
+            if ck_every > 0 && sim.step % ck_every == 0 && sim.step < total {
+                buf.flush(&parts_dir, prog.parts)?;
+                prog.parts += 1;
+                let bytes = sim.save(&prog.encode());
+                atomic_write(&ckpt, |f| {
+                    use std::io::Write;
+                    f.write_all(&bytes).map_err(|e| Error::io(&ckpt, e))
+                })?;
+                if opt.halt_after.is_some_and(|h| sim.step >= h) {
+                    return Err(Error::Other(format!(
+                        "halted after the checkpoint at step {} (testing)",
+                        sim.step
+                    )));
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    buf.flush(&parts_dir, prog.parts)?;
+    prog.parts += 1;
+    let mut tables = BTreeMap::new();
+    let mut rows = BTreeMap::new();
+    for name in TABLES {
+        let path = out.join(format!("{name}.parquet"));
+        rows.insert(name, merge_parts(&parts_dir, name, prog.parts, &path)?);
+        tables.insert(name.to_string(), path);
+    }
+    let setup: serde_json::Value = serde_json::from_str(&prog.setup).expect("own json");
+    let meta = tracks_meta(&sim, opt, out_every, &setup);
+    atomic_write_str(
+        &sidecar_path(&tables["tracks"]),
+        &serde_json::to_string_pretty(&meta).expect("json"),
+    )?;
+    let mean_flow_stress = super::sim_setup::mean_flow_stress(&tables["stress_strain"])?;
+    let elapsed = t0.elapsed().as_secs_f64();
+    let report = SimulateReport {
+        out: out.to_path_buf(),
+        tables,
+        n: sim.grains.len(),
+        frames: prog.frames as usize,
+        steps: sim.step,
+        mean_flow_stress,
+        elapsed_s: elapsed,
+    };
+    let manifest = serde_json::json!({
+        "tool": super::TOOL,
+        "tool_version": super::VERSION,
+        "command": "simulate pillar",
+        "options": opt,
+        "params": p,
+        "checks": {
+            "eq12_ratio_2kn_vc_dt_over_m_g_mu": p.quasistatic_ratio(),
+            "dt_over_sqrt_m_over_2kn": p.stiffness_ratio(),
+        },
+        "setup": setup,
+        "output_every_steps": out_every,
+        "frame_time_s": out_every as f64 * p.dt,
+        "h0_cm": h0 * 100.0,
+        "rows": rows,
+        "pair_list_builds": sim.list.builds,
+        "report": &report,
+        "particle_steps_per_s_this_session": (sim.grains.len() as f64 * sim.step as f64) / elapsed,
+        "decisions": super::sim_setup::DECISIONS,
+    });
+    atomic_write_str(
+        &out.join(MANIFEST),
+        &serde_json::to_string_pretty(&manifest).expect("json"),
+    )?;
+    let _ = std::fs::remove_file(&ckpt);
+    let _ = std::fs::remove_dir_all(&parts_dir);
+    Ok(report)
+}
+
+fn tracks_meta(
+    sim: &PillarSim,
+    opt: &SimulateOptions,
+    out_every: u64,
+    setup: &serde_json::Value,
+) -> TracksMeta {
+    let p = &sim.params;
+    TracksMeta {
+        length_unit: "cm".into(),
+        time_unit: "s".into(),
+        frame_time: Some(out_every as f64 * p.dt),
+        bar_speed: Some(p.bar_speed * 100.0),
+        coordinate_frame: "simulation: y up along the compression axis (top bar on top), bottom bar face at y = 0, x = 0 at the initial pillar centre".into(),
+        provenance: crate::tracks::Provenance {
+            tool: super::TOOL.into(),
+            tool_version: super::VERSION.into(),
+            source: "pillar-pipe simulate pillar".into(),
+            source_format: "simulation".into(),
+            source_sha256: setup["packing_sha256"].as_str().unwrap_or("").into(),
+            parameters: serde_json::json!({"options": opt, "params": p}),
+        },
+        ..TracksMeta::default()
+    }
 }

@@ -1,0 +1,249 @@
+//! Exact binary checkpoints: every f64 is stored bit for bit, so a resumed run
+//! continues with the very numbers an uninterrupted one would have had.
+
+use super::grains::Grains;
+use super::params::PillarParams;
+use super::pillar::{Interval, PillarSim};
+use super::verlet::PairList;
+
+const MAGIC: &[u8; 8] = b"PPCKPT01";
+
+#[derive(Default)]
+pub struct Enc(pub Vec<u8>);
+
+impl Enc {
+    pub fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn f64(&mut self, v: f64) {
+        self.u64(v.to_bits());
+    }
+    pub fn bytes(&mut self, b: &[u8]) {
+        self.u64(b.len() as u64);
+        self.0.extend_from_slice(b);
+    }
+    pub fn f64s(&mut self, v: &[f64]) {
+        self.u64(v.len() as u64);
+        v.iter().for_each(|&x| self.f64(x));
+    }
+    pub fn i64s(&mut self, v: &[i64]) {
+        self.u64(v.len() as u64);
+        v.iter().for_each(|&x| self.u64(x as u64));
+    }
+    pub fn u32s(&mut self, v: &[u32]) {
+        self.u64(v.len() as u64);
+        v.iter().for_each(|&x| self.u64(x as u64));
+    }
+    pub fn i32s(&mut self, v: &[i32]) {
+        self.u64(v.len() as u64);
+        v.iter().for_each(|&x| self.u64(x as i64 as u64));
+    }
+}
+
+pub struct Dec<'a> {
+    b: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Dec<'a> {
+    pub fn new(b: &'a [u8]) -> Self {
+        Dec { b, pos: 0 }
+    }
+    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+        if self.pos + n > self.b.len() {
+            return Err(format!(
+                "truncated at byte {} (wanted {n} more of {})",
+                self.pos,
+                self.b.len()
+            ));
+        }
+        let s = &self.b[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    pub fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+    pub fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_bits(self.u64()?))
+    }
+    fn len(&mut self) -> Result<usize, String> {
+        let n = self.u64()? as usize;
+        if n > self.b.len() {
+            return Err(format!("implausible length {n} at byte {}", self.pos));
+        }
+        Ok(n)
+    }
+    pub fn bytes(&mut self) -> Result<Vec<u8>, String> {
+        let n = self.len()?;
+        Ok(self.take(n)?.to_vec())
+    }
+    pub fn f64s(&mut self) -> Result<Vec<f64>, String> {
+        let n = self.len()?;
+        (0..n).map(|_| self.f64()).collect()
+    }
+    pub fn i64s(&mut self) -> Result<Vec<i64>, String> {
+        let n = self.len()?;
+        (0..n).map(|_| self.u64().map(|v| v as i64)).collect()
+    }
+    pub fn u32s(&mut self) -> Result<Vec<u32>, String> {
+        let n = self.len()?;
+        (0..n).map(|_| self.u64().map(|v| v as u32)).collect()
+    }
+    pub fn i32s(&mut self) -> Result<Vec<i32>, String> {
+        let n = self.len()?;
+        (0..n)
+            .map(|_| self.u64().map(|v| v as i64 as i32))
+            .collect()
+    }
+    pub fn done(&self) -> bool {
+        self.pos == self.b.len()
+    }
+}
+
+impl PillarSim {
+    /// The whole dynamical state, bit-exact. `extra` is the caller's own state (output
+    /// bookkeeping), stored alongside.
+    pub fn save(&self, extra: &[u8]) -> Vec<u8> {
+        let mut e = Enc::default();
+        e.0.extend_from_slice(MAGIC);
+        e.bytes(
+            serde_json::to_string(&self.params)
+                .expect("params serialise")
+                .as_bytes(),
+        );
+        let g = &self.grains;
+        e.i64s(&g.id);
+        e.i32s(&g.species);
+        for v in [
+            &g.radius, &g.mass, &g.inertia, &g.x, &g.y, &g.vx, &g.vy, &g.ax, &g.ay, &g.theta,
+            &g.omega,
+        ] {
+            e.f64s(v);
+        }
+        let l = &self.list;
+        e.u32s(&l.start);
+        e.u32s(&l.j);
+        e.f64s(&l.shear);
+        e.f64s(&l.x_ref);
+        e.f64s(&l.y_ref);
+        e.f64(l.skin);
+        e.u64(l.builds);
+        e.f64(self.bottom_y);
+        e.f64(self.top_y0);
+        e.f64s(&self.top_shear);
+        e.f64s(&self.bottom_shear);
+        e.u64(self.step);
+        for v in [&self.fx, &self.fy, &self.tq, &self.sub_fx, &self.sub_fy] {
+            e.f64s(v);
+        }
+        e.f64(self.top_force);
+        e.f64(self.bottom_force);
+        e.f64(self.bar_shear_force);
+        let iv = &self.interval;
+        e.u64(iv.steps);
+        for v in [
+            iv.top_force,
+            iv.bottom_force,
+            iv.substrate_power,
+            iv.substrate_power_rot,
+        ] {
+            e.f64(v);
+        }
+        e.bytes(extra);
+        e.0
+    }
+
+    /// Inverse of [`PillarSim::save`]: the state and the caller's extra bytes.
+    pub fn load(b: &[u8]) -> Result<(PillarSim, Vec<u8>), String> {
+        if b.len() < 8 || &b[..8] != MAGIC {
+            return Err("not a pillar-pipe checkpoint (bad magic)".into());
+        }
+        let mut d = Dec::new(&b[8..]);
+        let params: PillarParams =
+            serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
+        let mut g = Grains {
+            id: d.i64s()?,
+            species: d.i32s()?,
+            ..Default::default()
+        };
+        for v in [
+            &mut g.radius,
+            &mut g.mass,
+            &mut g.inertia,
+            &mut g.x,
+            &mut g.y,
+            &mut g.vx,
+            &mut g.vy,
+            &mut g.ax,
+            &mut g.ay,
+            &mut g.theta,
+            &mut g.omega,
+        ] {
+            *v = d.f64s()?;
+        }
+        let list = PairList {
+            start: d.u32s()?,
+            j: d.u32s()?,
+            shear: d.f64s()?,
+            x_ref: d.f64s()?,
+            y_ref: d.f64s()?,
+            skin: d.f64()?,
+            builds: d.u64()?,
+        };
+        let (bottom_y, top_y0) = (d.f64()?, d.f64()?);
+        let (top_shear, bottom_shear, step) = (d.f64s()?, d.f64s()?, d.u64()?);
+        let (fx, fy, tq, sub_fx, sub_fy) = (d.f64s()?, d.f64s()?, d.f64s()?, d.f64s()?, d.f64s()?);
+        let (top_force, bottom_force, bar_shear_force) = (d.f64()?, d.f64()?, d.f64()?);
+        let interval = Interval {
+            steps: d.u64()?,
+            top_force: d.f64()?,
+            bottom_force: d.f64()?,
+            substrate_power: d.f64()?,
+            substrate_power_rot: d.f64()?,
+        };
+        let extra = d.bytes()?;
+        if !d.done() {
+            return Err("trailing bytes after the checkpoint".into());
+        }
+        let n = g.len();
+        let lens = [
+            g.id.len(),
+            g.species.len(),
+            g.vx.len(),
+            g.omega.len(),
+            top_shear.len(),
+            fx.len(),
+            sub_fy.len(),
+        ];
+        if lens.iter().any(|&l| l != n)
+            || list.start.len() != n + 1
+            || list.shear.len() != list.j.len()
+        {
+            return Err("inconsistent array lengths".into());
+        }
+        let sim = PillarSim {
+            params,
+            grains: g,
+            list,
+            bottom_y,
+            top_y0,
+            top_shear,
+            bottom_shear,
+            step,
+            fx,
+            fy,
+            tq,
+            sub_fx,
+            sub_fy,
+            top_force,
+            bottom_force,
+            bar_shear_force,
+            interval,
+            record: None,
+        };
+        Ok((sim, extra))
+    }
+}

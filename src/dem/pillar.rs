@@ -1,0 +1,371 @@
+//! li-granular-pillars Sec. II.B: grains on a frictional substrate between a fixed
+//! bottom bar and a top bar moving down at v_c.
+//!
+//! One step (velocity Verlet for positions, explicit finite difference for spins):
+//! 1. v ← v + ½ δt a; r ← r + δt v; θ ← θ + δt ω; the top bar moves to y_top(t + δt);
+//! 2. contact forces and torques at the new positions (grain–grain, grain–bar) with the
+//!    mid-step velocities;
+//! 3. substrate friction from those (Sec. II.B.3: opposite the motion, or cancelling
+//!    the contact force of a grain at rest up to m g μ); a ← (F + f)/m; v ← v + ½ δt a;
+//!    ω ← ω + δt (T + T_μ)/I;
+//! 4. the ξ rule of Eq. 11: a grain slower than ξ_v whose contact force is within
+//!    m g μ is stopped (v = 0, a = 0); likewise for spins with ξ_ω and (2/3) m g μ R.
+//!
+//! The substrate's static test uses grain–grain and grain–bar forces only.
+
+use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, TangentialLaw};
+use super::forces::{ContactRecord, pair_forces};
+use super::grains::{Grains, LARGE};
+use super::params::PillarParams;
+use super::verlet::{Boundary, PairList};
+
+/// Sums over an output interval (for averages the paper's σ and κ use).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Interval {
+    pub steps: u64,
+    /// Σ over steps of the top/bottom bar force (N).
+    pub top_force: f64,
+    pub bottom_force: f64,
+    /// Σ over steps of the substrate's translational / rotational dissipation
+    /// Σ_i |f_i · v_i|, Σ_i |T_μ,i ω_i| (W).
+    pub substrate_power: f64,
+    pub substrate_power_rot: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PillarSim {
+    pub params: PillarParams,
+    pub grains: Grains,
+    pub list: PairList,
+    /// Bottom bar face (m), fixed.
+    pub bottom_y: f64,
+    /// Top bar face at step 0 (m); y_top(step) = top_y0 − v_c δt step.
+    pub top_y0: f64,
+    /// Tangential springs of each grain's contact with the top / bottom bar (m).
+    pub top_shear: Vec<f64>,
+    pub bottom_shear: Vec<f64>,
+    pub step: u64,
+    /// Contact force (N) and torque (N m) on each grain at the last evaluation.
+    pub fx: Vec<f64>,
+    pub fy: Vec<f64>,
+    pub tq: Vec<f64>,
+    /// Substrate friction force on each grain at the last step (N).
+    pub sub_fx: Vec<f64>,
+    pub sub_fy: Vec<f64>,
+    /// Force of the grains on the top bar (N, positive pushing it up) and on the
+    /// bottom bar (positive pushing it down), last step.
+    pub top_force: f64,
+    pub bottom_force: f64,
+    /// Σ of the bars' tangential (x) forces on the grains, last step (N).
+    pub bar_shear_force: f64,
+    pub interval: Interval,
+    /// Filled during the next force evaluation when set (force snapshots).
+    pub record: Option<ContactRecord>,
+}
+
+impl PillarSim {
+    /// A pillar from grain centres (m) and species; bars touch the lowest and highest
+    /// grains (initial bar force zero).
+    pub fn new(params: PillarParams, x: &[f64], y: &[f64], species: &[i32], ids: &[i64]) -> Self {
+        let mut g = Grains::default();
+        for k in 0..x.len() {
+            let large = species[k] == LARGE;
+            let (r, m) = if large {
+                (0.5 * params.d_large, params.m_large)
+            } else {
+                (0.5 * params.d_small, params.m_small)
+            };
+            g.push(ids[k], species[k], r, m, x[k], y[k]);
+        }
+        let bottom = (0..g.len())
+            .map(|i| g.y[i] - g.radius[i])
+            .fold(f64::INFINITY, f64::min);
+        let top = (0..g.len())
+            .map(|i| g.y[i] + g.radius[i])
+            .fold(f64::NEG_INFINITY, f64::max);
+        Self::with_bars(params, g, bottom, top)
+    }
+
+    /// Grains as given, bars where given (tests put them far away).
+    pub fn with_bars(params: PillarParams, mut grains: Grains, bottom_y: f64, top_y0: f64) -> Self {
+        let d = params.d_large;
+        grains.sort_spatially(d);
+        let n = grains.len();
+        let mut s = PillarSim {
+            list: PairList::new(0.15 * d),
+            params,
+            grains,
+            bottom_y,
+            top_y0,
+            top_shear: vec![0.0; n],
+            bottom_shear: vec![0.0; n],
+            step: 0,
+            fx: vec![0.0; n],
+            fy: vec![0.0; n],
+            tq: vec![0.0; n],
+            sub_fx: vec![0.0; n],
+            sub_fy: vec![0.0; n],
+            top_force: 0.0,
+            bottom_force: 0.0,
+            bar_shear_force: 0.0,
+            interval: Interval::default(),
+            record: None,
+        };
+        s.list
+            .build(&s.grains.x, &s.grains.y, &s.grains.radius, Boundary::Open);
+        s.contact_forces();
+        s.accelerate(false);
+        s
+    }
+
+    pub fn normal(&self) -> Hooke {
+        Hooke {
+            k_n: self.params.k_n,
+            damping: self.params.damping_n,
+        }
+    }
+    pub fn tangential(&self) -> CundallStrack {
+        CundallStrack {
+            k_t: self.params.kt_over_kn * self.params.k_n,
+            mu: self.params.mu_g,
+        }
+    }
+    pub fn substrate(&self) -> SubstrateFriction {
+        SubstrateFriction {
+            g: self.params.g,
+            mu: self.params.mu,
+        }
+    }
+
+    /// Top bar face at the current step (m).
+    pub fn top_y(&self) -> f64 {
+        self.top_y0 - self.params.bar_speed * self.params.dt * self.step as f64
+    }
+
+    /// Time since the bar started (s).
+    pub fn time(&self) -> f64 {
+        self.params.dt * self.step as f64
+    }
+
+    /// Engineering strain ε = ΔH/H0 (Sec. III), H0 the initial bar separation.
+    pub fn strain(&self) -> f64 {
+        (self.top_y0 - self.top_y()) / (self.top_y0 - self.bottom_y)
+    }
+
+    /// Advance one time step δt.
+    pub fn step(&mut self) {
+        let dt = self.params.dt;
+        let g = &mut self.grains;
+        for i in 0..g.len() {
+            g.vx[i] += 0.5 * dt * g.ax[i];
+            g.vy[i] += 0.5 * dt * g.ay[i];
+            g.x[i] += dt * g.vx[i];
+            g.y[i] += dt * g.vy[i];
+            g.theta[i] += dt * g.omega[i];
+        }
+        self.step += 1;
+        self.list.update(&g.x, &g.y, &g.radius, Boundary::Open);
+        self.contact_forces();
+        self.accelerate(true);
+    }
+
+    /// Evaluate forces and accelerations at the current state without moving anything
+    /// (contact history does advance by δt × the current slip, so use on a copy or at
+    /// rest).
+    pub fn refresh_forces(&mut self) {
+        self.contact_forces();
+        self.accelerate(false);
+    }
+
+    /// Contact forces and torques on every grain: grain–grain, then the bars.
+    fn contact_forces(&mut self) {
+        let n = self.grains.len();
+        for v in [&mut self.fx, &mut self.fy, &mut self.tq] {
+            v.iter_mut().for_each(|f| *f = 0.0);
+        }
+        if let Some(rec) = self.record.as_mut() {
+            *rec = ContactRecord::zeroed(n);
+        }
+        let (normal, tangential) = (self.normal(), self.tangential());
+        pair_forces(
+            &self.grains,
+            &mut self.list,
+            Boundary::Open,
+            &normal,
+            &tangential,
+            self.params.dt,
+            &mut self.fx,
+            &mut self.fy,
+            &mut self.tq,
+            self.record.as_mut(),
+        );
+        self.bar_forces();
+    }
+
+    /// Grain–bar contacts: the bar is a grain of infinite radius with 2 k_n and 2 k_t
+    /// (Sec. II.B.2), friction μ_bar, unaffected by the grains.
+    fn bar_forces(&mut self) {
+        let p = &self.params;
+        let normal = Hooke {
+            k_n: 2.0 * p.k_n,
+            damping: p.damping_n,
+        };
+        let tangential = CundallStrack {
+            k_t: 2.0 * p.kt_over_kn * p.k_n,
+            mu: p.mu_bar,
+        };
+        let (top, bottom) = (self.top_y(), self.bottom_y);
+        let (dt, v_bar) = (p.dt, p.bar_speed);
+        let g = &self.grains;
+        let (mut top_force, mut bottom_force, mut shear_force) = (0.0, 0.0, 0.0);
+        for i in 0..g.len() {
+            let r = g.radius[i];
+            // n points from the bar into the grain; t̂ = ẑ × n.
+            for (face, ny, bar_vy, shear, total) in [
+                (top, -1.0, -v_bar, &mut self.top_shear[i], &mut top_force),
+                (
+                    bottom,
+                    1.0,
+                    0.0,
+                    &mut self.bottom_shear[i],
+                    &mut bottom_force,
+                ),
+            ] {
+                let gap = (g.y[i] - face) * ny;
+                let delta = r - gap;
+                if delta <= 0.0 {
+                    *shear = 0.0;
+                    continue;
+                }
+                let vn = (g.vy[i] - bar_vy) * ny;
+                let f_n = normal.force(delta, vn);
+                // t̂ = (−n_y, 0); contact point at −gap n from the centre.
+                let tx = -ny;
+                let vt = g.vx[i] * tx - gap * g.omega[i];
+                let f_t = tangential.force(shear, vt, dt, f_n);
+                self.fx[i] += f_t * tx;
+                shear_force += f_t * tx;
+                self.fy[i] += f_n * ny;
+                self.tq[i] += -gap * f_t;
+                *total += f_n;
+            }
+        }
+        self.top_force = top_force;
+        self.bottom_force = bottom_force;
+        self.bar_shear_force = shear_force;
+    }
+
+    /// Substrate friction, new accelerations, the second half kick (when `kick`) and
+    /// the spin update, then the ξ rule (Eq. 11).
+    fn accelerate(&mut self, kick: bool) {
+        let sub = self.substrate();
+        let dt = self.params.dt;
+        let xi_v = sub.xi_v(dt);
+        let g = &mut self.grains;
+        let (mut p_t, mut p_r) = (0.0, 0.0);
+        for i in 0..g.len() {
+            let m = g.mass[i];
+            let (fx, fy) = (self.fx[i], self.fy[i]);
+            let (sx, sy) = sub.force(m, g.vx[i], g.vy[i], fx, fy);
+            p_t += (sx * g.vx[i] + sy * g.vy[i]).abs();
+            self.sub_fx[i] = sx;
+            self.sub_fy[i] = sy;
+            g.ax[i] = (fx + sx) / m;
+            g.ay[i] = (fy + sy) / m;
+            if kick {
+                g.vx[i] += 0.5 * dt * g.ax[i];
+                g.vy[i] += 0.5 * dt * g.ay[i];
+                let f_max = m * sub.g * sub.mu;
+                if g.vx[i] * g.vx[i] + g.vy[i] * g.vy[i] < xi_v * xi_v
+                    && fx * fx + fy * fy <= f_max * f_max
+                {
+                    g.vx[i] = 0.0;
+                    g.vy[i] = 0.0;
+                    g.ax[i] = 0.0;
+                    g.ay[i] = 0.0;
+                }
+                let (r, t) = (g.radius[i], self.tq[i]);
+                let ts = sub.torque(m, r, g.omega[i], t);
+                p_r += (ts * g.omega[i]).abs();
+                g.omega[i] += dt * (t + ts) / g.inertia[i];
+                if g.omega[i].abs() < sub.xi_omega(dt, r) && t.abs() <= sub.torque_max(m, r) {
+                    g.omega[i] = 0.0;
+                }
+            }
+        }
+        if kick {
+            let iv = &mut self.interval;
+            iv.steps += 1;
+            iv.top_force += self.top_force;
+            iv.bottom_force += self.bottom_force;
+            iv.substrate_power += p_t;
+            iv.substrate_power_rot += p_r;
+        }
+    }
+
+    /// Grain–grain elastic energy (J), for tests and diagnostics.
+    pub fn contact_energy(&self) -> f64 {
+        let normal = self.normal();
+        let g = &self.grains;
+        let mut e = 0.0;
+        for i in 0..g.len() {
+            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
+                let j = self.list.j[k] as usize;
+                let (dx, dy) = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
+                let delta = g.radius[i] + g.radius[j] - (dx * dx + dy * dy).sqrt();
+                if delta > 0.0 {
+                    e += normal.energy(delta);
+                    let kt = self.tangential().k_t;
+                    e += 0.5 * kt * self.list.shear[k] * self.list.shear[k];
+                }
+            }
+        }
+        e
+    }
+
+    /// Number of grain–grain contacts (pairs with overlap > 0).
+    pub fn contacts(&self) -> usize {
+        let g = &self.grains;
+        let mut c = 0;
+        for i in 0..g.len() {
+            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
+                let j = self.list.j[k] as usize;
+                let (dx, dy) = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
+                let rs = g.radius[i] + g.radius[j];
+                if dx * dx + dy * dy < rs * rs {
+                    c += 1;
+                }
+            }
+        }
+        c
+    }
+
+    /// Lateral extent (m), radii included, of the grains whose centres lie within
+    /// `band` of the top bar (the paper's pillar width W at the top edge).
+    pub fn width_near_top(&self, band: f64) -> f64 {
+        let top = self.top_y();
+        let g = &self.grains;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for i in 0..g.len() {
+            if top - g.y[i] <= band {
+                lo = lo.min(g.x[i] - g.radius[i]);
+                hi = hi.max(g.x[i] + g.radius[i]);
+            }
+        }
+        if hi > lo { hi - lo } else { 0.0 }
+    }
+
+    /// Span (m), radii included, of the grains touching the top bar.
+    pub fn contact_span_top(&self) -> f64 {
+        let top = self.top_y();
+        let g = &self.grains;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for i in 0..g.len() {
+            if top - g.y[i] < g.radius[i] {
+                lo = lo.min(g.x[i] - g.radius[i]);
+                hi = hi.max(g.x[i] + g.radius[i]);
+            }
+        }
+        if hi > lo { hi - lo } else { 0.0 }
+    }
+}

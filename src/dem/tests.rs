@@ -1,0 +1,276 @@
+//! Analytic and conservation checks of the DEM (issue 5's correctness list).
+
+use super::grains::{Grains, LARGE, SMALL};
+use super::pack::{Lj, PackOptions, pack};
+use super::params::PillarParams;
+use super::pillar::PillarSim;
+use super::verlet::Boundary;
+
+/// One grain far from both bars.
+fn lone(params: PillarParams, species: i32) -> PillarSim {
+    let mut g = Grains::default();
+    let (r, m) = if species == LARGE {
+        (0.5 * params.d_large, params.m_large)
+    } else {
+        (0.5 * params.d_small, params.m_small)
+    };
+    g.push(0, species, r, m, 0.0, 0.0);
+    PillarSim::with_bars(params, g, -1.0, 1.0)
+}
+
+fn still_bars(mut p: PillarParams) -> PillarParams {
+    p.bar_speed = 0.0;
+    p
+}
+
+#[test]
+fn lone_grain_slides_v2_over_2_g_mu() {
+    for (v, species) in [(0.05, LARGE), (0.013, SMALL)] {
+        let p = still_bars(PillarParams::paper());
+        let mut s = lone(p.clone(), species);
+        s.grains.vx[0] = v * 0.6;
+        s.grains.vy[0] = v * 0.8;
+        s.step(); // the first step sets the friction acceleration from the motion
+        let mut steps = 1;
+        while s.grains.vx[0] != 0.0 || s.grains.vy[0] != 0.0 {
+            s.step();
+            steps += 1;
+            assert!(steps < 10_000_000);
+        }
+        let dist = (s.grains.x[0].powi(2) + s.grains.y[0].powi(2)).sqrt();
+        let want = v * v / (2.0 * p.g * p.mu);
+        // Within one step's travel at the start speed.
+        assert!((dist - want).abs() < v * p.dt, "{dist} vs {want}");
+        let t_stop = v / (p.g * p.mu);
+        assert!((steps as f64 * p.dt - t_stop).abs() <= 2.0 * p.dt);
+        // It stays stopped, exactly.
+        let x = s.grains.x[0];
+        for _ in 0..1000 {
+            s.step();
+        }
+        assert_eq!(s.grains.x[0], x);
+    }
+}
+
+#[test]
+fn spinning_lone_grain_stops_at_3_r_omega_over_4_g_mu() {
+    let p = still_bars(PillarParams::paper());
+    let mut s = lone(p.clone(), LARGE);
+    let w0 = 20.0;
+    s.grains.omega[0] = w0;
+    let mut steps = 0u64;
+    while s.grains.omega[0] != 0.0 {
+        s.step();
+        steps += 1;
+        assert!(steps < 10_000_000);
+    }
+    let r = 0.5 * p.d_large;
+    let want = 3.0 * r * w0 / (4.0 * p.g * p.mu);
+    assert!(
+        (steps as f64 * p.dt - want).abs() <= 2.0 * p.dt,
+        "{} vs {want}",
+        steps as f64 * p.dt
+    );
+    // Spinning alone moves nothing.
+    assert_eq!((s.grains.x[0], s.grains.y[0]), (0.0, 0.0));
+}
+
+/// Two small grains overlapping by `delta`: repulsion k_n δ against m g μ.
+fn pair(delta: f64) -> PillarSim {
+    let p = still_bars(PillarParams::paper());
+    let r = 0.5 * p.d_small;
+    let mut g = Grains::default();
+    g.push(0, SMALL, r, p.m_small, 0.0, 0.0);
+    g.push(1, SMALL, r, p.m_small, 2.0 * r - delta, 0.0);
+    PillarSim::with_bars(p, g, -1.0, 1.0)
+}
+
+#[test]
+fn a_push_below_m_g_mu_never_moves_a_grain_and_above_it_does() {
+    let p = PillarParams::paper();
+    let f_static = p.m_small * p.g * p.mu;
+    let below = 0.9 * f_static / p.k_n;
+    let mut s = pair(below);
+    let x0 = s.grains.x.clone();
+    for _ in 0..20_000 {
+        s.step();
+    }
+    assert_eq!(s.grains.x, x0, "held by the substrate");
+    assert_eq!(s.grains.vx, vec![0.0, 0.0]);
+    let start = 1.5 * f_static / p.k_n;
+    let mut s = pair(start);
+    for _ in 0..20_000 {
+        s.step();
+    }
+    // Pushed apart until the repulsion no longer beats the substrate, then held.
+    let overlap = p.d_small - (s.grains.x[1] - s.grains.x[0]).abs();
+    assert!(
+        overlap < 0.99 * start,
+        "moved: overlap {overlap} of {start}"
+    );
+    assert!(
+        p.k_n * overlap <= f_static,
+        "stopped only once k_n δ ≤ m g μ"
+    );
+    assert_eq!(s.grains.vx, vec![0.0, 0.0]);
+}
+
+#[test]
+fn frictionless_collision_conserves_momentum_and_energy() {
+    let mut p = still_bars(PillarParams::paper());
+    p.mu = 0.0;
+    p.mu_g = 0.0;
+    let (rl, rs) = (0.5 * p.d_large, 0.5 * p.d_small);
+    let mut g = Grains::default();
+    g.push(0, LARGE, rl, p.m_large, 0.0, 0.0);
+    g.push(1, SMALL, rs, p.m_small, 0.02, 0.003);
+    let mut s = PillarSim::with_bars(p, g, -1.0, 1.0);
+    s.grains.vx[1] = -0.3;
+    s.grains.omega[0] = 5.0;
+    let p0 = s.grains.momentum();
+    let e0 = s.grains.kinetic_energy();
+    let mut touched = false;
+    for _ in 0..20_000 {
+        s.step();
+        touched |= s.contacts() > 0;
+        let e = s.grains.kinetic_energy() + s.contact_energy();
+        assert!((e - e0).abs() < 1e-3 * e0, "energy drift {}", (e - e0) / e0);
+    }
+    assert!(touched, "the grains collided");
+    assert_eq!(s.contacts(), 0, "and separated");
+    let p1 = s.grains.momentum();
+    let scale = p0.0.abs() + p0.1.abs();
+    assert!(
+        (p1.0 - p0.0).abs() < 1e-14 * scale && (p1.1 - p0.1).abs() < 1e-14 * scale,
+        "{p0:?} {p1:?}"
+    );
+    // No friction: spins are untouched.
+    assert_eq!(s.grains.omega[0], 5.0);
+    assert!(s.grains.vy[0] != 0.0, "an oblique collision deflects");
+}
+
+/// A small pillar from the packing protocol (fast preset), compressed for a while.
+fn small_pillar(n: usize, steps: usize, mut each: impl FnMut(&PillarSim)) -> PillarSim {
+    let pk = pack(
+        &PackOptions {
+            n,
+            seed: 3,
+            ..Default::default()
+        },
+        |_, _| {},
+    );
+    let p = PillarParams::fast();
+    let d = p.d_large;
+    let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
+    let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
+    let ids: Vec<i64> = (0..n as i64).collect();
+    let mut s = PillarSim::new(p, &x, &y, &pk.species, &ids);
+    // Speed the bar up so a short test compresses noticeably.
+    s.params.bar_speed *= 20.0;
+    for _ in 0..steps {
+        s.step();
+        each(&s);
+    }
+    s
+}
+
+#[test]
+fn coulomb_limit_holds_at_every_contact_every_step_and_forces_balance() {
+    let mut checked = 0usize;
+    let s = small_pillar(120, 6000, |s| {
+        let g = &s.grains;
+        let (kn, kt, mu) = (
+            s.params.k_n,
+            s.params.kt_over_kn * s.params.k_n,
+            s.params.mu_g,
+        );
+        let (mut sx, mut sy) = (0.0, 0.0);
+        for i in 0..g.len() {
+            for k in s.list.start[i] as usize..s.list.start[i + 1] as usize {
+                let j = s.list.j[k] as usize;
+                let dist = ((g.x[i] - g.x[j]).powi(2) + (g.y[i] - g.y[j]).powi(2)).sqrt();
+                let delta = g.radius[i] + g.radius[j] - dist;
+                if delta > 0.0 {
+                    assert!(kt * s.list.shear[k].abs() <= mu * kn * delta * (1.0 + 1e-12));
+                    checked += 1;
+                } else {
+                    assert_eq!(s.list.shear[k], 0.0);
+                }
+            }
+            sx += s.fx[i];
+            sy += s.fy[i];
+        }
+        // Internal forces cancel: the contact forces sum to what the bars exert.
+        let scale = s.top_force.abs() + s.bottom_force.abs() + 1e-12;
+        assert!(
+            (sx - s.bar_shear_force).abs() < 1e-12 * scale.max(1e-3),
+            "Σ F_x = {sx}"
+        );
+        assert!(
+            (sy - (s.bottom_force - s.top_force)).abs() < 1e-9 * scale.max(1e-3),
+            "Σ F_y = {sy}"
+        );
+    });
+    assert!(checked > 1000, "contacts checked: {checked}");
+    assert!(s.top_force > 0.0, "the bar is loaded");
+}
+
+#[test]
+fn packing_is_at_jamming_without_overlaps() {
+    let n = 150;
+    let pk = pack(
+        &PackOptions {
+            n,
+            seed: 11,
+            ..Default::default()
+        },
+        |_, _| {},
+    );
+    assert!(pk.pressure < 1e-10, "p = {}", pk.pressure);
+    assert!(pk.phi > 0.80 && pk.phi < 0.87, "phi = {}", pk.phi);
+    assert!(pk.growth_steps > 3);
+    let r: Vec<f64> = pk
+        .species
+        .iter()
+        .map(|&s| if s == LARGE { 0.5 } else { 0.375 })
+        .collect();
+    let b = Boundary::Periodic {
+        lx: pk.lx,
+        ly: pk.ly,
+    };
+    let mut closest: f64 = f64::INFINITY;
+    for i in 0..n {
+        for j in i + 1..n {
+            let (dx, dy) = b.delta(pk.x[i] - pk.x[j], pk.y[i] - pk.y[j]);
+            closest = closest.min((dx * dx + dy * dy).sqrt() / (r[i] + r[j]));
+        }
+    }
+    assert!(closest > 1.0 - 1e-9, "closest pair at {closest} of contact");
+    assert!(closest < 1.0 + 1e-3, "grains touch");
+    // The mixture is 50:50.
+    assert_eq!(
+        pk.species.iter().filter(|&&s| s == LARGE).count(),
+        n.div_ceil(2)
+    );
+    // Minimisation: a hand-made overlap is removed.
+    let mut lj = Lj::new(vec![0.5, 0.5], Boundary::Open);
+    let (mut x, mut y) = (vec![0.0, 0.9], vec![0.0, 0.0]);
+    lj.minimise(&mut x, &mut y, 1e-12);
+    assert!(x[1] - x[0] > 1.0 - 1e-9);
+}
+
+#[test]
+fn checkpoint_round_trip_is_bit_exact() {
+    let mut s = small_pillar(60, 300, |_| {});
+    let bytes = s.save(b"extra");
+    let (mut t, extra) = PillarSim::load(&bytes).unwrap();
+    assert_eq!(extra, b"extra");
+    assert_eq!(t, s);
+    for _ in 0..500 {
+        s.step();
+        t.step();
+    }
+    assert_eq!(t, s);
+    assert!(PillarSim::load(&bytes[..bytes.len() - 3]).is_err());
+    assert!(PillarSim::load(b"garbage!").is_err());
+}

@@ -1,0 +1,251 @@
+//! Verlet pair list with contact history, built from a cell grid.
+//!
+//! A half list (j > i) in CSR form. Each pair slot carries the tangential spring of
+//! that contact (`shear`), and a rebuild carries the history of pairs that survive it,
+//! so contact friction does not forget its state when the list is refreshed. Rebuilds
+//! happen only when some grain has moved more than half the skin since the last build,
+//! which in quasistatic loading is rare.
+
+/// Where the grains live.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Boundary {
+    /// Unbounded plane (the pillar: bars and substrate confine it).
+    Open,
+    /// Periodic in x and y with sides `lx`, `ly` (m); minimum-image separations.
+    Periodic { lx: f64, ly: f64 },
+}
+
+impl Boundary {
+    /// Separation r_i − r_j given as raw `(dx, dy)`, mapped to its minimum image.
+    #[inline(always)]
+    pub fn delta(&self, dx: f64, dy: f64) -> (f64, f64) {
+        match *self {
+            Boundary::Open => (dx, dy),
+            Boundary::Periodic { lx, ly } => {
+                (dx - lx * (dx / lx).round(), dy - ly * (dy / ly).round())
+            }
+        }
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PairList {
+    /// CSR offsets: the partners of i are `j[start[i]..start[i+1]]`, ascending.
+    pub start: Vec<u32>,
+    pub j: Vec<u32>,
+    /// Tangential spring displacement of each pair (m), 0 when not in contact.
+    pub shear: Vec<f64>,
+    /// Positions at the last build (m).
+    pub x_ref: Vec<f64>,
+    pub y_ref: Vec<f64>,
+    /// Extra distance beyond contact kept in the list (m).
+    pub skin: f64,
+    /// How many times the list was built.
+    pub builds: u64,
+}
+
+impl PairList {
+    pub fn new(skin: f64) -> Self {
+        PairList {
+            skin,
+            start: vec![0],
+            ..Default::default()
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.j.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.j.is_empty()
+    }
+
+    /// Whether some grain moved more than skin/2 since the last build (or none yet).
+    pub fn needs_rebuild(&self, x: &[f64], y: &[f64]) -> bool {
+        if self.x_ref.len() != x.len() {
+            return true;
+        }
+        let lim = 0.25 * self.skin * self.skin;
+        x.iter()
+            .zip(y)
+            .zip(self.x_ref.iter().zip(&self.y_ref))
+            .any(|((&a, &b), (&c, &d))| (a - c) * (a - c) + (b - d) * (b - d) > lim)
+    }
+
+    /// Rebuild if needed; returns whether it did.
+    pub fn update(&mut self, x: &[f64], y: &[f64], r: &[f64], b: Boundary) -> bool {
+        if self.needs_rebuild(x, y) {
+            self.build(x, y, r, b);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Build the list: all pairs closer than R_i + R_j + skin.
+    pub fn build(&mut self, x: &[f64], y: &[f64], r: &[f64], b: Boundary) {
+        let n = x.len();
+        let mut start = Vec::with_capacity(n + 1);
+        let mut js: Vec<u32> = Vec::with_capacity(4 * n);
+        start.push(0u32);
+        let rmax = r.iter().cloned().fold(0.0, f64::max);
+        let cut = 2.0 * rmax + self.skin;
+        let grid = Grid::new(x, y, cut, b);
+        let mut seg: Vec<u32> = Vec::with_capacity(32);
+        for i in 0..n {
+            seg.clear();
+            let mut consider = |j: usize| {
+                if j > i {
+                    let (dx, dy) = b.delta(x[i] - x[j], y[i] - y[j]);
+                    let c = r[i] + r[j] + self.skin;
+                    if dx * dx + dy * dy < c * c {
+                        seg.push(j as u32);
+                    }
+                }
+            };
+            match &grid {
+                Some(g) => g.for_neighbours(g.cell_of(x[i], y[i]), &mut consider),
+                None => (i + 1..n).for_each(&mut consider),
+            }
+            seg.sort_unstable();
+            js.extend_from_slice(&seg);
+            start.push(js.len() as u32);
+        }
+        // Carry the history of surviving pairs (both segments are sorted by j).
+        let mut shear = vec![0.0; js.len()];
+        if self.start.len() == n + 1 {
+            for i in 0..n {
+                let (old, new) = (
+                    self.start[i] as usize..self.start[i + 1] as usize,
+                    start[i] as usize..start[i + 1] as usize,
+                );
+                let mut k = old.start;
+                for m in new {
+                    while k < old.end && self.j[k] < js[m] {
+                        k += 1;
+                    }
+                    if k < old.end && self.j[k] == js[m] {
+                        shear[m] = self.shear[k];
+                    }
+                }
+            }
+        }
+        self.start = start;
+        self.j = js;
+        self.shear = shear;
+        self.x_ref = x.to_vec();
+        self.y_ref = y.to_vec();
+        self.builds += 1;
+    }
+}
+
+/// Cells of side ≥ the list cutoff; `None` when the box is too small for a grid (then
+/// every pair is tested, which for such small systems is cheap).
+struct Grid {
+    ncx: usize,
+    ncy: usize,
+    periodic: bool,
+    x0: f64,
+    y0: f64,
+    cx: f64,
+    cy: f64,
+    /// CSR of grain indices per cell.
+    head: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Grid {
+    fn new(x: &[f64], y: &[f64], cut: f64, b: Boundary) -> Option<Grid> {
+        let n = x.len();
+        let (periodic, x0, y0, w, h) = match b {
+            Boundary::Periodic { lx, ly } => (true, 0.0, 0.0, lx, ly),
+            Boundary::Open => {
+                let f =
+                    |v: &[f64], m: fn(f64, f64) -> f64, init: f64| v.iter().cloned().fold(init, m);
+                let (xl, xh) = (
+                    f(x, f64::min, f64::INFINITY),
+                    f(x, f64::max, f64::NEG_INFINITY),
+                );
+                let (yl, yh) = (
+                    f(y, f64::min, f64::INFINITY),
+                    f(y, f64::max, f64::NEG_INFINITY),
+                );
+                (false, xl, yl, (xh - xl).max(cut), (yh - yl).max(cut))
+            }
+        };
+        if !(w.is_finite() && h.is_finite() && cut > 0.0) {
+            return None;
+        }
+        let ncx = ((w / cut).floor() as usize).max(1);
+        let ncy = ((h / cut).floor() as usize).max(1);
+        if periodic && (ncx < 3 || ncy < 3) || n < 16 {
+            return None;
+        }
+        // Open grids get one more cell per side so the maximum coordinate fits.
+        let (ncx, ncy) = if periodic {
+            (ncx, ncy)
+        } else {
+            (ncx + 1, ncy + 1)
+        };
+        let (cx, cy) = if periodic {
+            (w / ncx as f64, h / ncy as f64)
+        } else {
+            (cut, cut)
+        };
+        let mut g = Grid {
+            ncx,
+            ncy,
+            periodic,
+            x0,
+            y0,
+            cx,
+            cy,
+            head: vec![0; ncx * ncy + 1],
+            items: vec![0; n],
+        };
+        let cells: Vec<usize> = (0..n).map(|i| g.cell_of(x[i], y[i])).collect();
+        for &c in &cells {
+            g.head[c + 1] += 1;
+        }
+        for c in 0..ncx * ncy {
+            g.head[c + 1] += g.head[c];
+        }
+        let mut fill = g.head.clone();
+        for (i, &c) in cells.iter().enumerate() {
+            g.items[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+        Some(g)
+    }
+
+    fn cell_of(&self, x: f64, y: f64) -> usize {
+        let idx = |v: f64, o: f64, c: f64, n: usize| -> usize {
+            let k = ((v - o) / c).floor() as i64;
+            if self.periodic {
+                k.rem_euclid(n as i64) as usize
+            } else {
+                k.clamp(0, n as i64 - 1) as usize
+            }
+        };
+        idx(y, self.y0, self.cy, self.ncy) * self.ncx + idx(x, self.x0, self.cx, self.ncx)
+    }
+
+    fn for_neighbours(&self, cell: usize, f: &mut impl FnMut(usize)) {
+        let (cx, cy) = ((cell % self.ncx) as i64, (cell / self.ncx) as i64);
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let (mut nx, mut ny) = (cx + dx, cy + dy);
+                if self.periodic {
+                    nx = nx.rem_euclid(self.ncx as i64);
+                    ny = ny.rem_euclid(self.ncy as i64);
+                } else if nx < 0 || ny < 0 || nx >= self.ncx as i64 || ny >= self.ncy as i64 {
+                    continue;
+                }
+                let c = ny as usize * self.ncx + nx as usize;
+                for &j in &self.items[self.head[c] as usize..self.head[c + 1] as usize] {
+                    f(j as usize);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,334 @@
+//! `simulate pillar` and `pack` from the user's side (issue 5 acceptance): outputs and
+//! their schemas, kinematics reading the trajectories, checkpoint–kill–resume equal to
+//! an uninterrupted run, and clear refusals.
+
+use pillar_pipe::io::table::read_table;
+use pillar_pipe::schema;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("pp-sim-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> (bool, String) {
+    let out = Command::new(BIN).args(args).output().expect("binary runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
+}
+
+fn columns(p: &Path) -> Vec<String> {
+    read_table(p, &[]).unwrap().columns()
+}
+
+/// Every table of a run, as rows of strings (exact values, for equality).
+fn contents(dir: &Path) -> Vec<String> {
+    ["tracks", "bar_forces", "stress_strain", "forces"]
+        .iter()
+        .map(|t| {
+            format!(
+                "{:?}",
+                read_table(&dir.join(format!("{t}.parquet")), &[])
+                    .unwrap()
+                    .df
+            )
+        })
+        .collect()
+}
+
+/// A 120-grain fast run; `extra` may replace the preset or strain.
+fn small(dir: &Path, extra: &[&str]) -> (bool, String) {
+    let mut a = vec!["simulate", "pillar", "--n", "120", "--quiet"];
+    if !extra.contains(&"--preset") {
+        a.extend_from_slice(&["--preset", "fast"]);
+    }
+    if !extra.contains(&"--strain") {
+        a.extend_from_slice(&["--strain", "0.04"]);
+    }
+    a.extend_from_slice(extra);
+    a.extend_from_slice(&["-o", dir.to_str().unwrap()]);
+    run(&a)
+}
+
+#[test]
+fn acceptance_run_writes_every_output_and_kinematics_reads_it() {
+    let dir = tmpdir("acc");
+    let out = dir.join("p");
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--n",
+        "200",
+        "--preset",
+        "fast",
+        "--strain",
+        "0.1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    for t in ["tracks", "bar_forces", "stress_strain", "forces"] {
+        let cols = columns(&out.join(format!("{t}.parquet")));
+        assert_eq!(
+            cols,
+            schema::load(t).names(),
+            "{t} columns match data_schema/{t}.schema.json"
+        );
+    }
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["params"]["preset"], "fast");
+    assert!(
+        m["checks"]["eq12_ratio_2kn_vc_dt_over_m_g_mu"]
+            .as_f64()
+            .unwrap()
+            < 0.1
+    );
+    assert!(m["tool_version"].is_string() && m["setup"]["seed"] == 1);
+    assert!(!out.join("checkpoint.bin").exists() && !out.join(".parts").exists());
+    // The run reached ε = 0.1 and loaded the bar.
+    let ss = read_table(&out.join("stress_strain.parquet"), &[]).unwrap();
+    let strain = ss.f64("strain").unwrap();
+    assert!((strain.last().unwrap() - 0.1).abs() < 1e-3);
+    let stress = ss.f64("stress_reduced").unwrap();
+    let late: Vec<f64> = stress
+        .iter()
+        .zip(&strain)
+        .filter(|(_, e)| **e > 0.05)
+        .map(|(s, _)| *s)
+        .collect();
+    assert!(
+        late.iter().all(|s| *s > 0.5),
+        "the pillar resists: {late:?}"
+    );
+    // Substrate friction takes most of the input power (li-granular-pillars Fig. 10d).
+    let kappa = ss.f64("kappa_exact").unwrap_or_default();
+    assert!(
+        kappa.iter().skip(10).all(|k| *k > 0.2 && *k <= 1.05),
+        "{kappa:?}"
+    );
+
+    let k = dir.join("k.parquet");
+    let (ok, text) = run(&[
+        "kinematics",
+        out.join("tracks.parquet").to_str().unwrap(),
+        "--lag",
+        "10",
+        "-o",
+        k.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let kt = read_table(&k, &[]).unwrap();
+    assert!(kt.df.height() >= 200 * 4, "{}", kt.df.height());
+}
+
+#[test]
+fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
+    let dir = tmpdir("resume");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let (ok, text) = small(&a, &[]);
+    assert!(ok, "{text}");
+    let (ok, text) = small(&b, &["--checkpoint-every", "4000", "--halt-after", "9000"]);
+    assert!(!ok && text.contains("halted"), "{text}");
+    assert!(b.join("checkpoint.bin").exists() && !b.join("manifest.json").exists());
+    assert!(
+        !b.join("tracks.parquet").exists(),
+        "no complete-looking table from an interrupted run"
+    );
+    // Resuming with different physics is refused; with the same, it finishes.
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--n",
+        "120",
+        "--preset",
+        "fast",
+        "--strain",
+        "0.05",
+        "--quiet",
+        "--resume",
+        b.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("differ"), "{text}");
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--n",
+        "120",
+        "--preset",
+        "fast",
+        "--strain",
+        "0.04",
+        "--quiet",
+        "--checkpoint-every",
+        "4000",
+        "--resume",
+        b.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    assert_eq!(contents(&a), contents(&b));
+}
+
+#[test]
+fn killed_run_resumes_to_the_same_result() {
+    let dir = tmpdir("kill");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let (ok, text) = small(&a, &["--strain", "0.06"]);
+    assert!(ok, "{text}");
+    let mut child = Command::new(BIN)
+        .args([
+            "simulate", "pillar", "--n", "120", "--preset", "fast", "--strain", "0.06",
+        ])
+        .args([
+            "--quiet",
+            "--checkpoint-every",
+            "3000",
+            "-o",
+            b.to_str().unwrap(),
+        ])
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !b.join("checkpoint.bin").exists() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let _ = child.kill(); // SIGKILL: no chance to clean up
+    child.wait().unwrap();
+    if !b.join("manifest.json").exists() {
+        let (ok, text) = run(&[
+            "simulate",
+            "pillar",
+            "--n",
+            "120",
+            "--preset",
+            "fast",
+            "--strain",
+            "0.06",
+            "--quiet",
+            "--checkpoint-every",
+            "3000",
+            "--resume",
+            b.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+    }
+    assert_eq!(contents(&a), contents(&b));
+}
+
+#[test]
+fn bad_requests_are_refused_clearly() {
+    let dir = tmpdir("bad");
+    let (ok, text) = small(&dir.join("x"), &["--preset", "slow"]);
+    assert!(
+        !ok && text.contains("unknown preset 'slow'") && text.contains("paper, fast"),
+        "{text}"
+    );
+    let (ok, text) = small(&dir.join("x"), &["--strain", "1.5"]);
+    assert!(!ok && text.contains("strain"), "{text}");
+    let (ok, text) = small(&dir.join("x"), &["--param", "k_nn=3"]);
+    assert!(
+        !ok && text.contains("unknown parameter 'k_nn'") && text.contains("k_n"),
+        "{text}"
+    );
+    let (ok, text) = small(&dir.join("x"), &["--param", "dt=0.01"]);
+    assert!(!ok && text.contains("too large"), "{text}");
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--resume",
+        dir.join("nothing").to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("no checkpoint"), "{text}");
+    let (ok, text) = run(&["simulate", "shear", "-o", dir.join("s").to_str().unwrap()]);
+    assert!(!ok && text.contains("not implemented"), "{text}");
+    // A finished run is not overwritten.
+    let done = dir.join("done");
+    assert!(small(&done, &["--strain", "0.01"]).0);
+    let (ok, text) = small(&done, &["--strain", "0.01"]);
+    assert!(
+        !ok && text.contains("already holds a finished run"),
+        "{text}"
+    );
+    // A packing in pixels cannot be simulated.
+    let px = dir.join("px.csv");
+    std::fs::write(&px, "frame,particle,x,y,radius\n0,0,0,0,5\n0,1,10,0,5\n").unwrap();
+    std::fs::write(
+        dir.join("px.csv.meta.json"),
+        r#"{"schema":"tracks","schema_version":1,"length_unit":"px","time_unit":"s","frame_time":null,"coordinate_frame":"x"}"#,
+    )
+    .unwrap();
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--packing",
+        px.to_str().unwrap(),
+        "-o",
+        dir.join("y").to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("'px'"), "{text}");
+}
+
+#[test]
+fn pack_then_simulate_from_the_packing_file() {
+    let dir = tmpdir("pack");
+    let pk = dir.join("packing.parquet");
+    let (ok, text) = run(&[
+        "pack",
+        "--n",
+        "100",
+        "--seed",
+        "7",
+        "-o",
+        pk.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{text}");
+    assert!(text.contains("φ ="), "{text}");
+    let t = read_table(&pk, &[]).unwrap();
+    assert_eq!(t.df.height(), 100);
+    let out = dir.join("sim");
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--packing",
+        pk.to_str().unwrap(),
+        "--strain",
+        "0.01",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["setup"]["n"], 100);
+    assert!(m["setup"]["packing_sha256"].as_str().unwrap().len() == 64);
+    // The same seed gives the same packing.
+    let pk2 = dir.join("packing2.parquet");
+    assert!(
+        run(&[
+            "pack",
+            "--n",
+            "100",
+            "--seed",
+            "7",
+            "-o",
+            pk2.to_str().unwrap(),
+            "--quiet"
+        ])
+        .0
+    );
+    assert_eq!(
+        format!("{:?}", read_table(&pk, &[]).unwrap().df),
+        format!("{:?}", read_table(&pk2, &[]).unwrap().df)
+    );
+}
