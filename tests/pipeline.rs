@@ -158,6 +158,47 @@ fn experiment_only_runs_caches_and_reruns_only_what_changed() {
     final_dirs(&runs);
 }
 
+/// The main job: experiment and simulation meet in compare and report; a fit parameter
+/// reruns both fits, compare and report, and nothing upstream.
+#[test]
+fn quickstart_pipeline_runs_both_branches() {
+    let d = tmpdir("quick");
+    let runs = d.join("runs");
+    let qs = bundled("quickstart");
+    run_ok(&["run", &qs, "--set", "fit.bootstrap=20", "--quiet"], &runs);
+    let m = latest(&runs);
+    assert_eq!(computed(&m).len(), 8, "{m}");
+    for st in ["experiment.fit", "simulation.fit"] {
+        assert!(m["metrics"][st]["theta"].is_f64(), "{st}: {m}");
+    }
+    assert!(m["metrics"]["compare"]["theta_agree"].is_boolean());
+    assert_eq!(m["metrics"]["simulation.simulate"]["n"], 200);
+    assert_eq!(m["seeds"]["simulation.simulate"], 1);
+    let dir = runs.join(m["run_id"].as_str().unwrap());
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("fig-stress-strain") && html.contains("simulation"));
+    assert!(dir.join("figures/stress_strain.svg").is_file());
+
+    let out = run_ok(&["run", &qs, "--set", "fit.bootstrap=20"], &runs);
+    assert!(out.contains("0 computed, 8 cached"), "{out}");
+    run_ok(
+        &[
+            "run",
+            &qs,
+            "--set",
+            "fit.bootstrap=20",
+            "--set",
+            "fit.method=points",
+            "--quiet",
+        ],
+        &runs,
+    );
+    assert_eq!(
+        computed(&latest(&runs)),
+        ["experiment.fit", "simulation.fit", "compare", "report"]
+    );
+}
+
 #[test]
 fn bundled_pipelines_validate() {
     let d = tmpdir("bundled");

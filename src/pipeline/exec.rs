@@ -96,6 +96,7 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let mut o: stages::simulate::SimulateOptions = typed(&s.name, &s.params)?;
             o.packing = s.files.get("packing").cloned();
             o.quiet = q;
+            o.resume = false;
             let r = stages::simulate::run(out, &o)?;
             let rel: BTreeMap<String, String> = r
                 .tables

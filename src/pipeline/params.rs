@@ -187,8 +187,9 @@ impl Default for ReportParams {
     }
 }
 
-/// `quiet` belongs to the run (`--quiet`), not to what is computed.
-const SIMULATE_RUN_ONLY: &str = "quiet";
+/// How a run behaves, not what it computes: `--quiet`, and resuming (a pipeline stage
+/// always starts in a fresh directory).
+const SIMULATE_RUN_ONLY: [&str; 2] = ["quiet", "resume"];
 
 fn round_trip<T: Serialize + DeserializeOwned>(given: Json) -> std::result::Result<Json, String> {
     let t: T = serde_json::from_value(given).map_err(|e| e.to_string())?;
@@ -208,7 +209,9 @@ pub fn resolve(kind: Kind, given: Json) -> std::result::Result<Json, String> {
     if kind == Kind::Simulate
         && let Some(o) = v.as_object_mut()
     {
-        o.remove(SIMULATE_RUN_ONLY);
+        for k in SIMULATE_RUN_ONLY {
+            o.remove(k);
+        }
     }
     Ok(v)
 }

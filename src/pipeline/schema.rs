@@ -196,6 +196,18 @@ pub fn check(spec: &KeySpec, v: &toml::Value) -> std::result::Result<toml::Value
         }
         ("float[]", T::Array(a)) if !a.is_empty() => floats(a).map(T::Array),
         ("float[2]", T::Array(a)) if a.len() == 2 => floats(a).map(T::Array),
+        ("float{}", T::Table(t)) => {
+            let mut out = toml::Table::new();
+            for (k, x) in t {
+                let f = num(x)
+                    .ok_or_else(|| format!("'{k}': expected a number, found {}", x.type_str()))?;
+                if !f.is_finite() {
+                    return Err(format!("'{k}': {f} is not finite"));
+                }
+                out.insert(k.clone(), T::Float(f));
+            }
+            Ok(T::Table(out))
+        }
         (ty, _) => Err(format!("expected {}, found {}", describe(ty), found())),
     }
 }
@@ -212,6 +224,7 @@ fn describe(ty: &str) -> &'static str {
         "integer[]" => "a non-empty array of integers",
         "float[]" => "a non-empty array of numbers",
         "float[2]" => "an array of two numbers",
+        "float{}" => "a table of numbers, { name = value, ... }",
         _ => "a value of an unknown schema type",
     }
 }
