@@ -25,4 +25,5 @@ pub mod synth;
 pub mod tracks;
 
 pub use error::{Error, Result};
+pub mod bench_dem;
 pub mod dem;

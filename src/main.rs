@@ -240,6 +240,36 @@ enum BenchCmd {
     },
     #[command(hide = true)]
     IngestChild { mode: String, csv: PathBuf },
+    /// Stress–strain of the `fast` preset against the `paper` preset on one packing.
+    Presets {
+        #[arg(long, default_value_t = 200)]
+        n: usize,
+        #[arg(long, default_value_t = 0.1)]
+        strain: f64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Strain bin for the comparison.
+        #[arg(long, default_value_t = 0.01)]
+        bin: f64,
+    },
+    /// Pillar DEM particle-steps per second (N = 1000 k²), loaded to a small strain.
+    Dem {
+        /// Tiling factors k: N = 1000 k² grains.
+        #[arg(long, value_delimiter = ',', default_value = "1,4")]
+        k: Vec<usize>,
+        #[arg(long, default_value_t = 20_000)]
+        steps: u64,
+        #[arg(long, default_value = "paper")]
+        preset: String,
+        /// Strain to load the pillar to before timing.
+        #[arg(long, default_value_t = 0.02)]
+        preload: f64,
+        /// Write the loaded state here (for bench/lammps_pillar.py).
+        #[arg(long)]
+        export: Option<PathBuf>,
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 #[derive(Subcommand)]
@@ -597,6 +627,64 @@ fn runs(what: RunsCmd, dir: &std::path::Path) -> Result<()> {
 fn bench(what: BenchCmd) -> Result<()> {
     use pillar_pipe::bench;
     match what {
+        BenchCmd::Presets {
+            n,
+            strain,
+            seed,
+            bin,
+        } => {
+            let c = pillar_pipe::bench_dem::compare_presets(n, strain, seed, bin)?;
+            println!("strain   sigma_fast  sigma_paper   (m g mu / D, binned means)");
+            for (e, f, p) in &c.bins {
+                println!("{e:6.3}   {f:9.3}   {p:9.3}");
+            }
+            println!(
+                "mean sigma: fast {:.3}, paper {:.3}; mean |difference| {:.1}% of paper's mean; run time fast {:.1} s, paper {:.1} s",
+                c.mean_stress_fast,
+                c.mean_stress_paper,
+                100.0 * c.mean_abs_difference_rel,
+                c.seconds_fast,
+                c.seconds_paper
+            );
+        }
+        BenchCmd::Dem {
+            k,
+            steps,
+            preset,
+            preload,
+            export,
+            json,
+        } => {
+            for k in k {
+                let dir = export
+                    .as_ref()
+                    .map(|d| d.join(format!("n{}", 1000 * k * k)));
+                let b = pillar_pipe::bench_dem::bench_pillar(
+                    k,
+                    steps,
+                    &preset,
+                    preload,
+                    dir.as_deref(),
+                )?;
+                if json {
+                    println!("{}", serde_json::to_string(&b)?);
+                } else {
+                    println!(
+                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step; without the resting-pair skip {:.1} ({:.2}x, {:.0}% of pairs reused); pair-list distance pass {:.1} ns/particle; {} list builds",
+                        b.n,
+                        b.z,
+                        b.steps,
+                        b.seconds,
+                        b.ns_per_particle_step,
+                        b.ns_per_particle_step_no_skip,
+                        b.ns_per_particle_step_no_skip / b.ns_per_particle_step,
+                        100.0 * b.reused_fraction,
+                        b.floor_ns_per_particle,
+                        b.list_builds
+                    );
+                }
+            }
+        }
         BenchCmd::Kinematics {
             n,
             reps,

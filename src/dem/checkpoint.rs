@@ -243,6 +243,7 @@ impl PillarSim {
             bar_shear_force,
             interval,
             record: None,
+            scratch: Default::default(),
         };
         Ok((sim, extra))
     }

@@ -1,0 +1,238 @@
+//! DEM throughput: particle-steps per second of a loaded pillar, with the pair-list
+//! distance pass (the floor any implementation pays) timed in the same run, and an
+//! export of the loaded state for `bench/lammps_pillar.py` (LAMMPS on the same grains).
+
+use crate::dem::pack::{PackOptions, pack};
+use crate::dem::params::PillarParams;
+use crate::dem::pillar::PillarSim;
+use crate::error::{Error, Result};
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct PillarBench {
+    pub n: usize,
+    pub steps: u64,
+    /// Grain–grain contacts per grain, Z = 2 contacts / N, over the timed steps' start.
+    pub z: f64,
+    pub seconds: f64,
+    pub ns_per_particle_step: f64,
+    /// Same run: one pass over the pair list computing distances only, per particle.
+    pub floor_ns_per_particle: f64,
+    pub list_builds: u64,
+    /// Same steps, same state, with the resting-pair skip off (same run; the timed run has it on).
+    pub ns_per_particle_step_no_skip: f64,
+    /// Fraction of pair evaluations the skip reused.
+    pub reused_fraction: f64,
+}
+
+/// A jammed periodic packing of 1000 grains tiled k × k (N = 1000 k²; the packing is
+/// periodic, so the copies join without gaps or overlaps), in metres.
+pub fn tiled_packing(k: usize, seed: u64, d: f64) -> (Vec<f64>, Vec<f64>, Vec<i32>) {
+    let pk = pack(
+        &PackOptions {
+            n: 1000,
+            seed,
+            ..Default::default()
+        },
+        |_, _| {},
+    );
+    let (mut x, mut y, mut s) = (Vec::new(), Vec::new(), Vec::new());
+    for a in 0..k {
+        for b in 0..k {
+            for i in 0..pk.x.len() {
+                x.push((pk.x[i] + a as f64 * pk.lx) * d);
+                y.push((pk.y[i] + b as f64 * pk.ly) * d);
+                s.push(pk.species[i]);
+            }
+        }
+    }
+    (x, y, s)
+}
+
+/// Load a pillar of 1000 k² grains to strain `preload` (fast preset, bar 10× faster
+/// still, to get there quickly), then time `steps` steps at the `preset`'s δt and bar
+/// speed.
+pub fn bench_pillar(
+    k: usize,
+    steps: u64,
+    preset: &str,
+    preload: f64,
+    export: Option<&Path>,
+) -> Result<PillarBench> {
+    let p = PillarParams::preset(preset)
+        .ok_or_else(|| Error::param("preset", format!("unknown preset '{preset}'")))?;
+    let (x, y, s) = tiled_packing(k, 1, p.d_large);
+    let ids: Vec<i64> = (0..x.len() as i64).collect();
+    let mut load = PillarParams::fast();
+    load.bar_speed *= 10.0;
+    let mut sim = PillarSim::new(load, &x, &y, &s, &ids);
+    while sim.strain() < preload {
+        sim.step();
+    }
+    // Continue at the benchmarked preset from the loaded state (bar where it is now).
+    let top = sim.top_y();
+    sim.top_y0 = top;
+    sim.step = 0;
+    sim.params = p;
+    sim.refresh_forces();
+    let z = 2.0 * sim.contacts() as f64 / sim.grains.len() as f64;
+    if let Some(dir) = export {
+        export_state(&sim, dir)?;
+    }
+    sim.scratch.skip_resting = true;
+    let mut plain = sim.clone();
+    plain.scratch.skip_resting = false;
+    let t = Instant::now();
+    for _ in 0..steps {
+        plain.step();
+    }
+    let seconds_plain = t.elapsed().as_secs_f64();
+    let builds0 = sim.list.builds;
+    let t = Instant::now();
+    for _ in 0..steps {
+        sim.step();
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    if plain.grains != sim.grains {
+        return Err(Error::Other(
+            "the resting-pair skip changed the results".into(),
+        ));
+    }
+    let c = &sim.scratch.cache;
+    let reused_fraction = c.reused as f64 / (c.reused + c.computed).max(1) as f64;
+    let n = sim.grains.len();
+    let floor = {
+        let g = &sim.grains;
+        let reps = 200;
+        let t = Instant::now();
+        let mut c = 0usize;
+        for _ in 0..reps {
+            for i in 0..n {
+                for kk in sim.list.start[i] as usize..sim.list.start[i + 1] as usize {
+                    let j = sim.list.j[kk] as usize;
+                    let (dx, dy) = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
+                    let rs = g.radius[i] + g.radius[j];
+                    c += (dx * dx + dy * dy < rs * rs) as usize;
+                }
+            }
+        }
+        std::hint::black_box(c);
+        t.elapsed().as_secs_f64() / (reps * n) as f64 * 1e9
+    };
+    Ok(PillarBench {
+        n,
+        steps,
+        z,
+        seconds,
+        ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
+        floor_ns_per_particle: floor,
+        list_builds: sim.list.builds - builds0,
+        ns_per_particle_step_no_skip: seconds_plain / (n as f64 * steps as f64) * 1e9,
+        reused_fraction,
+    })
+}
+
+/// The loaded state for LAMMPS: `grains.csv` (id, type, diameter, density, x, y, vx,
+/// vy, omega in SI) and `setup.json` (bars, model parameters).
+fn export_state(sim: &PillarSim, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let g = &sim.grains;
+    let mut csv = String::from("id,type,diameter,mass,x,y,vx,vy,omega\n");
+    for i in 0..g.len() {
+        csv += &format!(
+            "{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+            g.id[i] + 1,
+            g.species[i] + 1,
+            2.0 * g.radius[i],
+            g.mass[i],
+            g.x[i],
+            g.y[i],
+            g.vx[i],
+            g.vy[i],
+            g.omega[i]
+        );
+    }
+    crate::io::atomic_write_str(&dir.join("grains.csv"), &csv)?;
+    let setup = serde_json::json!({"bottom_y": sim.bottom_y, "top_y": sim.top_y(), "params": sim.params,
+        "z": 2.0 * sim.contacts() as f64 / g.len() as f64});
+    crate::io::atomic_write_str(
+        &dir.join("setup.json"),
+        &serde_json::to_string_pretty(&setup).expect("json"),
+    )
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct PresetComparison {
+    pub n: usize,
+    pub strain: f64,
+    /// Strain bin centres and the mean σ (units m g μ / D) of each preset in the bin.
+    pub bins: Vec<(f64, f64, f64)>,
+    pub mean_stress_fast: f64,
+    pub mean_stress_paper: f64,
+    /// Mean |σ_fast − σ_paper| over bins, relative to the paper preset's mean σ.
+    pub mean_abs_difference_rel: f64,
+    pub seconds_fast: f64,
+    pub seconds_paper: f64,
+}
+
+/// The same packing run with the `fast` and `paper` presets: how far apart the
+/// stress–strain curves sit (binned in ε to average out the stick–slip noise).
+pub fn compare_presets(n: usize, strain: f64, seed: u64, bin: f64) -> Result<PresetComparison> {
+    use crate::io::table::read_table;
+    use crate::stages::simulate::{SimulateOptions, run};
+    let dir = std::env::temp_dir().join(format!("pp-presets-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut curves = Vec::new();
+    let mut secs = Vec::new();
+    for preset in ["fast", "paper"] {
+        let out = dir.join(preset);
+        let opt = SimulateOptions {
+            n,
+            seed,
+            preset: preset.into(),
+            strain,
+            quiet: true,
+            ..Default::default()
+        };
+        let rep = run(&out, &opt)?;
+        secs.push(rep.elapsed_s);
+        let t = read_table(&out.join("stress_strain.parquet"), &[])?;
+        curves.push((t.f64("strain")?, t.f64("stress_reduced")?));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let nb = (strain / bin).floor() as usize;
+    let mean_in = |c: &(Vec<f64>, Vec<f64>), lo: f64, hi: f64| {
+        let v: Vec<f64> =
+            c.0.iter()
+                .zip(&c.1)
+                .filter(|(e, _)| **e > lo && **e <= hi)
+                .map(|(_, s)| *s)
+                .collect();
+        v.iter().sum::<f64>() / v.len().max(1) as f64
+    };
+    let bins: Vec<(f64, f64, f64)> = (0..nb)
+        .map(|b| {
+            let (lo, hi) = (b as f64 * bin, (b + 1) as f64 * bin);
+            (
+                0.5 * (lo + hi),
+                mean_in(&curves[0], lo, hi),
+                mean_in(&curves[1], lo, hi),
+            )
+        })
+        .collect();
+    let mf = mean_in(&curves[0], 0.0, strain);
+    let mp = mean_in(&curves[1], 0.0, strain);
+    let mad = bins.iter().map(|b| (b.1 - b.2).abs()).sum::<f64>() / nb.max(1) as f64;
+    Ok(PresetComparison {
+        n,
+        strain,
+        bins,
+        mean_stress_fast: mf,
+        mean_stress_paper: mp,
+        mean_abs_difference_rel: mad / mp,
+        seconds_fast: secs[0],
+        seconds_paper: secs[1],
+    })
+}
