@@ -15,6 +15,7 @@ pub mod geom;
 pub mod io;
 pub mod kinematics;
 pub mod neighbors;
+pub mod pipeline;
 pub mod report;
 pub mod rng;
 pub mod schema;

@@ -1,0 +1,228 @@
+//! Running one stage into a directory: its parameters become the stage function's
+//! options, its references become the upstream stages' output files, and what it wrote
+//! is described by output names and key metrics.
+
+use super::cache::StageRecord;
+use super::params::{
+    CompareParams, FitParams, IngestParams, KinematicsParams, ReportParams, typed,
+};
+use super::{Kind, Pipeline, Stage};
+use crate::error::{Error, Result};
+use crate::io::atomic_write_str;
+use crate::stages;
+use serde_json::{Value as Json, json};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A finished stage: its record and where it lies.
+#[derive(Debug, Clone)]
+pub struct Done {
+    pub record: StageRecord,
+    pub dir: PathBuf,
+}
+
+impl Done {
+    pub fn output(&self, name: &str) -> Option<PathBuf> {
+        self.record.outputs.get(name).map(|r| self.dir.join(r))
+    }
+}
+
+pub struct Ctx<'a> {
+    pub pipeline: &'a Pipeline,
+    pub done: &'a BTreeMap<String, Done>,
+    pub quiet: bool,
+    pub run_id: &'a str,
+}
+
+/// What the stage produced: output files (relative), metrics, its report.
+pub struct Produced {
+    pub outputs: BTreeMap<String, String>,
+    pub metrics: Json,
+    pub summary: Json,
+}
+
+fn outputs(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
+    pairs
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+}
+
+impl Ctx<'_> {
+    fn upstream(&self, s: &Stage, key: &str) -> Result<&Done> {
+        let name = s
+            .upstream
+            .get(key)
+            .ok_or_else(|| Error::param(format!("{}.{key}", s.name), "no upstream stage"))?;
+        self.done
+            .get(name)
+            .ok_or_else(|| Error::Other(format!("{name} has not run")))
+    }
+
+    /// The named output of the stage `key` refers to.
+    fn input(&self, s: &Stage, key: &str, output: &str) -> Result<PathBuf> {
+        self.upstream(s, key)?.output(output).ok_or_else(|| {
+            Error::Other(format!(
+                "{}: upstream stage {} has no '{output}' output",
+                s.name, s.upstream[key]
+            ))
+        })
+    }
+
+    fn optional(&self, name: &Option<String>, output: &str) -> Option<PathBuf> {
+        name.as_ref()
+            .and_then(|n| self.done.get(n))
+            .and_then(|d| d.output(output))
+    }
+}
+
+pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
+    let q = ctx.quiet;
+    match s.kind {
+        Kind::Ingest => {
+            let p: IngestParams = typed(&s.name, &s.params)?;
+            let r = stages::ingest::run(
+                &s.files["input"],
+                &out.join("tracks.parquet"),
+                &p.options()?,
+            )?;
+            Ok(Produced {
+                outputs: outputs(&[("tracks", "tracks.parquet")]),
+                metrics: json!({"n": r.summary.particles_per_frame_max, "frames": r.summary.frames}),
+                summary: sum(&r),
+            })
+        }
+        Kind::Simulate => {
+            let mut o: stages::simulate::SimulateOptions = typed(&s.name, &s.params)?;
+            o.packing = s.files.get("packing").cloned();
+            o.quiet = q;
+            o.resume = false;
+            let r = stages::simulate::run(out, &o)?;
+            let rel: BTreeMap<String, String> = r
+                .tables
+                .iter()
+                .map(|(k, p)| {
+                    let p = p.strip_prefix(out).unwrap_or(p);
+                    (k.clone(), p.display().to_string())
+                })
+                .collect();
+            if !rel.contains_key("tracks") {
+                return Err(Error::Other(format!(
+                    "simulate reported no tracks table (tables: {:?})",
+                    rel.keys().collect::<Vec<_>>()
+                )));
+            }
+            Ok(Produced {
+                outputs: rel,
+                metrics: json!({"n": r.n, "frames": r.frames, "steps": r.steps, "mean_flow_stress": r.mean_flow_stress}),
+                summary: sum(&r),
+            })
+        }
+        Kind::Kinematics => {
+            let p: KinematicsParams = typed(&s.name, &s.params)?;
+            let tracks = ctx.input(s, "input", "tracks")?;
+            let r =
+                stages::kinematics::run(&tracks, &out.join("kinematics.parquet"), &p.options(q)?)?;
+            Ok(Produced {
+                outputs: outputs(&[("kinematics", "kinematics.parquet")]),
+                metrics: json!({"frame_pairs": r.frame_pairs, "rows": r.rows}),
+                summary: sum(&r),
+            })
+        }
+        Kind::Fit => {
+            let p: FitParams = typed(&s.name, &s.params)?;
+            let up = ctx.upstream(s, "input")?;
+            let what = if up.record.kind == Kind::Kinematics.name() {
+                "kinematics"
+            } else {
+                "tracks"
+            };
+            let input = ctx.input(s, "input", what)?;
+            let r = stages::fit::run(&input, &out.join("fit.json"), &p.options(q))?;
+            Ok(Produced {
+                outputs: outputs(&[("fit", "fit.json"), ("scatter", "fit.scatter.parquet")]),
+                metrics: json!({
+                    "theta": r.theta, "theta_interval": r.theta_interval, "theta_constrained": r.theta_constrained,
+                    "eta_c": r.eta_c, "eta_c_interval": r.eta_c_interval, "eta_c_constrained": r.eta_c_constrained,
+                    "method": r.method.name(), "n_points": r.n_points, "n_starts": r.n_starts,
+                }),
+                summary: json!({"fit": "fit.json", "warnings": r.warnings, "notes": r.notes}),
+            })
+        }
+        Kind::Compare => {
+            let _: CompareParams = typed(&s.name, &s.params)?;
+            let (a, b) = (ctx.input(s, "a", "fit")?, ctx.input(s, "b", "fit")?);
+            let c = stages::compare::run(&a, &b)?;
+            let text = serde_json::to_string_pretty(&c).expect("json");
+            atomic_write_str(&out.join("compare.json"), &text)?;
+            let agree: serde_json::Map<String, Json> = c
+                .params
+                .iter()
+                .map(|p| (format!("{}_agree", p.name), Json::Bool(p.agree)))
+                .collect();
+            Ok(Produced {
+                outputs: outputs(&[("compare", "compare.json")]),
+                metrics: Json::Object(agree),
+                summary: sum(&c),
+            })
+        }
+        Kind::Report => {
+            let p: ReportParams = typed(&s.name, &s.params)?;
+            let datasets = s
+                .datasets
+                .iter()
+                .map(|d| stages::report::DatasetInputs {
+                    label: d.label.clone(),
+                    tracks: ctx.optional(&d.tracks, "tracks"),
+                    kinematics: ctx.optional(&d.kinematics, "kinematics"),
+                    fit: ctx.optional(&d.fit, "fit"),
+                    stress: ctx.optional(&d.stress, "stress_strain"),
+                })
+                .collect();
+            let opt = stages::report::ReportOptions {
+                title: p.title.unwrap_or_else(|| ctx.pipeline.title.clone()),
+                datasets,
+                map_stages: p.map_stages,
+                provenance: provenance(s, ctx),
+            };
+            let r = stages::report::run(out, &opt)?;
+            Ok(Produced {
+                outputs: outputs(&[("html", "report.html"), ("figures", "figures")]),
+                metrics: json!({"figures": r.figures.len()}),
+                summary: json!({"sections": r.sections}),
+            })
+        }
+    }
+}
+
+/// What the report prints under "Provenance": the stages it depends on with their
+/// parameters, cache keys and input hashes, the pipeline file and the run that made it.
+fn provenance(s: &Stage, ctx: &Ctx) -> Json {
+    let mut todo: Vec<&str> = s.upstream.values().map(String::as_str).collect();
+    let mut stages = serde_json::Map::new();
+    while let Some(n) = todo.pop() {
+        let (Some(st), Some(d)) = (ctx.pipeline.stage(n), ctx.done.get(n)) else {
+            continue;
+        };
+        if stages.contains_key(n) {
+            continue;
+        }
+        todo.extend(st.upstream.values().map(String::as_str));
+        stages.insert(
+            n.to_string(),
+            json!({"kind": d.record.kind, "cache_key": d.record.key, "parameters": st.params, "input_sha256": d.record.files}),
+        );
+    }
+    json!({
+        "pipeline": ctx.pipeline.name,
+        "pipeline_file": ctx.pipeline.file.display().to_string(),
+        "pipeline_sha256": ctx.pipeline.sha256,
+        "computed_in_run": ctx.run_id,
+        "tool": format!("{} {}", stages::TOOL, stages::VERSION),
+        "stages": stages,
+    })
+}
+
+fn sum<T: serde::Serialize>(r: &T) -> Json {
+    serde_json::to_value(r).unwrap_or(Json::Null)
+}

@@ -1,0 +1,231 @@
+//! The parameters of each stage kind as typed structs: a validated stage table is
+//! deserialised into one of these (filling defaults), serialised back as the resolved
+//! parameters recorded in manifests and hashed into cache keys, and turned into the
+//! stage function's options. Defaults come from the stages' own option defaults so the
+//! CLI and pipelines agree; the schema test checks the schema file documents them.
+
+use super::schema::Kind;
+use crate::error::{Error, Result};
+use crate::fit::{Binning, Method};
+use crate::kinematics::Convention;
+use crate::stages::fit::FitOptions;
+use crate::stages::ingest::{Format, IngestOptions};
+use crate::stages::kinematics::{KinematicsOptions, LagSpec};
+use crate::stages::simulate::SimulateOptions;
+use clap::ValueEnum;
+use serde::{Deserialize, Serialize, de::DeserializeOwned};
+use serde_json::Value as Json;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IngestParams {
+    pub input: String,
+    pub format: String,
+    pub px_per_unit: Option<f64>,
+    pub unit: Option<String>,
+    pub frame_time: Option<f64>,
+    pub radii: Option<[f64; 2]>,
+    pub origin_px: Option<[f64; 2]>,
+    pub bar_speed: Option<f64>,
+    pub keep_detached: bool,
+}
+
+impl Default for IngestParams {
+    fn default() -> Self {
+        IngestParams {
+            input: String::new(),
+            format: "auto".into(),
+            px_per_unit: None,
+            unit: None,
+            frame_time: None,
+            radii: None,
+            origin_px: None,
+            bar_speed: None,
+            keep_detached: false,
+        }
+    }
+}
+
+impl IngestParams {
+    pub fn options(&self) -> Result<IngestOptions> {
+        Ok(IngestOptions {
+            format: Some(
+                Format::from_str(&self.format, true).map_err(|e| Error::param("format", e))?,
+            ),
+            px_per_unit: self.px_per_unit,
+            unit: self.unit.clone(),
+            frame_time: self.frame_time,
+            radii: self.radii.map(|r| (r[0], r[1])),
+            origin_px: self.origin_px.map(|r| (r[0], r[1])),
+            bar_speed: self.bar_speed,
+            keep_detached: self.keep_detached,
+        })
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct KinematicsParams {
+    pub input: String,
+    pub lags: Vec<i64>,
+    pub lag_time: Option<f64>,
+    pub rc: Option<f64>,
+    pub start: Option<i64>,
+    pub every: Option<i64>,
+    pub convention: String,
+}
+
+impl Default for KinematicsParams {
+    fn default() -> Self {
+        KinematicsParams {
+            input: String::new(),
+            lags: vec![1],
+            lag_time: None,
+            rc: None,
+            start: None,
+            every: None,
+            convention: "paper".into(),
+        }
+    }
+}
+
+impl KinematicsParams {
+    pub fn options(&self, quiet: bool) -> Result<KinematicsOptions> {
+        Ok(KinematicsOptions {
+            lag: match self.lag_time {
+                Some(s) => LagSpec::Time(s),
+                None => LagSpec::Frames(self.lags.clone()),
+            },
+            rc: self.rc,
+            start: self.start,
+            every: self.every,
+            convention: Convention::from_str(&self.convention, true)
+                .map_err(|e| Error::param("convention", e))?,
+            quiet,
+        })
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FitParams {
+    pub input: String,
+    pub diameter: Option<f64>,
+    pub bar_speed: Option<f64>,
+    pub starts: Option<Vec<f64>>,
+    pub lags: Option<Vec<f64>>,
+    pub rc_over_d: f64,
+    pub method: Method,
+    pub bins_per_decade: f64,
+    pub min_bin_count: usize,
+    pub bootstrap: usize,
+    pub seed: u64,
+}
+
+impl Default for FitParams {
+    fn default() -> Self {
+        let d = FitOptions::default();
+        FitParams {
+            input: String::new(),
+            diameter: d.diameter,
+            bar_speed: d.bar_speed,
+            starts: d.starts,
+            lags: d.lags,
+            rc_over_d: d.rc_over_d,
+            method: d.method,
+            bins_per_decade: d.binning.bins_per_decade,
+            min_bin_count: d.binning.min_count,
+            bootstrap: d.bootstrap,
+            seed: d.seed,
+        }
+    }
+}
+
+impl FitParams {
+    pub fn options(&self, quiet: bool) -> FitOptions {
+        FitOptions {
+            diameter: self.diameter,
+            bar_speed: self.bar_speed,
+            starts: self.starts.clone(),
+            lags: self.lags.clone(),
+            rc_over_d: self.rc_over_d,
+            method: self.method,
+            binning: Binning {
+                bins_per_decade: self.bins_per_decade,
+                min_count: self.min_bin_count,
+            },
+            bootstrap: self.bootstrap,
+            seed: self.seed,
+            scatter: None,
+            quiet,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CompareParams {
+    pub a: String,
+    pub b: String,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReportParams {
+    pub datasets: Vec<String>,
+    pub title: Option<String>,
+    pub map_stages: usize,
+}
+
+impl Default for ReportParams {
+    fn default() -> Self {
+        ReportParams {
+            datasets: Vec::new(),
+            title: None,
+            map_stages: 3,
+        }
+    }
+}
+
+/// How a run behaves, not what it computes: `--quiet`, and resuming (a pipeline stage
+/// always starts in a fresh directory).
+const SIMULATE_RUN_ONLY: [&str; 2] = ["quiet", "resume"];
+
+fn round_trip<T: Serialize + DeserializeOwned>(given: Json) -> std::result::Result<Json, String> {
+    let t: T = serde_json::from_value(given).map_err(|e| e.to_string())?;
+    Ok(serde_json::to_value(t).expect("json"))
+}
+
+/// Fill defaults: the stage table (validated, `kind` removed) → every key's value.
+pub fn resolve(kind: Kind, given: Json) -> std::result::Result<Json, String> {
+    let mut v = match kind {
+        Kind::Ingest => round_trip::<IngestParams>(given),
+        Kind::Simulate => round_trip::<SimulateOptions>(given),
+        Kind::Kinematics => round_trip::<KinematicsParams>(given),
+        Kind::Fit => round_trip::<FitParams>(given),
+        Kind::Compare => round_trip::<CompareParams>(given),
+        Kind::Report => round_trip::<ReportParams>(given),
+    }?;
+    if kind == Kind::Simulate
+        && let Some(o) = v.as_object_mut()
+    {
+        for k in SIMULATE_RUN_ONLY {
+            o.remove(k);
+        }
+    }
+    Ok(v)
+}
+
+/// Every key of a kind with its Rust default (what the schema file must document).
+pub fn rust_defaults(kind: Kind) -> Json {
+    resolve(kind, Json::Object(Default::default())).expect("defaults deserialise")
+}
+
+/// Typed parameters back from resolved JSON (always succeeds for resolved values).
+pub fn typed<T: DeserializeOwned>(stage: &str, params: &Json) -> Result<T> {
+    let mut p = params.clone();
+    if let Some(o) = p.as_object_mut() {
+        o.remove("kind");
+    }
+    serde_json::from_value(p).map_err(|e| Error::param(stage, e.to_string()))
+}

@@ -1,0 +1,116 @@
+//! Helpers shared by the pipeline tests: run the CLI against a runs directory, read
+//! manifests, inspect the cache.
+
+#![allow(dead_code)]
+
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::SystemTime;
+
+pub const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
+pub const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+pub fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("pp-pipeline-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub fn bundled(name: &str) -> String {
+    Path::new(ROOT)
+        .join("pipelines")
+        .join(format!("{name}.toml"))
+        .display()
+        .to_string()
+}
+
+/// Run the CLI with `--runs-dir runs`: (success, stdout, stderr).
+pub fn pp(args: &[&str], runs: &Path) -> (bool, String, String) {
+    let o = Command::new(BIN)
+        .args(args)
+        .arg("--runs-dir")
+        .arg(runs)
+        .output()
+        .unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+pub fn run_ok(args: &[&str], runs: &Path) -> String {
+    let (ok, out, err) = pp(args, runs);
+    assert!(ok, "pillar-pipe {args:?} failed:\n{out}\n{err}");
+    out
+}
+
+/// The newest run's manifest.
+pub fn latest(runs: &Path) -> Value {
+    let mut ids: Vec<String> = std::fs::read_dir(runs)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.path().join("manifest.json").is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    ids.sort();
+    let text = std::fs::read_to_string(runs.join(ids.last().unwrap()).join("manifest.json"));
+    serde_json::from_str(&text.unwrap()).unwrap()
+}
+
+/// Names of the stages a run computed (not taken from the cache).
+pub fn computed(m: &Value) -> Vec<String> {
+    m["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["cached"] == Value::Bool(false))
+        .map(|s| s["name"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// Every file under the cache with its modification time.
+pub fn cache_files(dir: &Path, out: &mut BTreeMap<PathBuf, SystemTime>) {
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            cache_files(&p, out);
+        } else {
+            out.insert(p.clone(), e.metadata().unwrap().modified().unwrap());
+        }
+    }
+}
+
+/// Stage directories under their final name, each of which must be complete.
+pub fn final_dirs(runs: &Path) -> Vec<PathBuf> {
+    let Ok(rd) = std::fs::read_dir(runs.join("cache")) else {
+        return Vec::new();
+    };
+    let dirs: Vec<PathBuf> = rd
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| !p.file_name().unwrap().to_string_lossy().starts_with('.'))
+        .collect();
+    for d in &dirs {
+        assert!(
+            d.join(".complete").is_file() && d.join("stage.json").is_file(),
+            "{} looks like a stage output but is incomplete",
+            d.display()
+        );
+    }
+    dirs
+}
+
+/// A pipeline with the bundled sample's ingest stage, then `body`.
+pub fn with_ingest(body: &str) -> String {
+    format!(
+        "[pipeline]\nroot = '{ROOT}'\n\n[experiment.ingest]\ninput = \"data/sample/tracks.csv\"\n\n{body}"
+    )
+}
+
+pub fn line_of(text: &str, needle: &str) -> usize {
+    1 + text.lines().position(|l| l.starts_with(needle)).unwrap()
+}
