@@ -78,7 +78,6 @@ pub struct Scratch {
     pub cache: PairCache,
 }
 
-
 impl PartialEq for Scratch {
     fn eq(&self, _: &Self) -> bool {
         true

@@ -204,7 +204,9 @@ impl Grid {
     fn new(x: &[f64], y: &[f64], cut: f64, b: Boundary) -> Option<Grid> {
         let n = x.len();
         let (periodic, x0, y0, w, h) = match b {
-            Boundary::Periodic { lx, ly } | Boundary::LeesEdwards { lx, ly, .. } => (true, 0.0, 0.0, lx, ly),
+            Boundary::Periodic { lx, ly } | Boundary::LeesEdwards { lx, ly, .. } => {
+                (true, 0.0, 0.0, lx, ly)
+            }
             Boundary::Open => {
                 let f =
                     |v: &[f64], m: fn(f64, f64) -> f64, init: f64| v.iter().cloned().fold(init, m);
@@ -278,9 +280,15 @@ impl Grid {
         let cx = ((x - self.x0) / self.cx).floor() as i64;
         let cy = ((y - self.y0) / self.cy).floor() as i64;
         if self.periodic {
-            (cx.rem_euclid(self.ncx as i64), cy.rem_euclid(self.ncy as i64))
+            (
+                cx.rem_euclid(self.ncx as i64),
+                cy.rem_euclid(self.ncy as i64),
+            )
         } else {
-            (cx.clamp(0, self.ncx as i64 - 1), cy.clamp(0, self.ncy as i64 - 1))
+            (
+                cx.clamp(0, self.ncx as i64 - 1),
+                cy.clamp(0, self.ncy as i64 - 1),
+            )
         }
     }
 
@@ -315,7 +323,11 @@ impl Grid {
             } else if ny < 0 || ny >= self.ncy as i64 {
                 continue;
             }
-            let span: &[i64] = if self.periodic && self.ncx < 3 { &[0] } else { &[-1, 0, 1] };
+            let span: &[i64] = if self.periodic && self.ncx < 3 {
+                &[0]
+            } else {
+                &[-1, 0, 1]
+            };
             for &dx in span {
                 let mut nx = ccx + dx;
                 if self.periodic {

@@ -68,12 +68,25 @@ pub fn stage_key(
     let v = serde_json::json!({
         "tool": crate::stages::TOOL,
         "tool_version": crate::stages::VERSION,
+        "build": build_id(),
         "kind": kind,
         "params": params,
         "upstream": upstream,
         "files": files,
     });
     sha256_bytes(canonical(&v).as_bytes())
+}
+
+/// SHA-256 of the running executable: a rebuilt tool (new code, same version number)
+/// must not reuse outputs the old code computed. Hashed once per process.
+pub fn build_id() -> &'static str {
+    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ID.get_or_init(|| {
+        std::env::current_exe()
+            .ok()
+            .and_then(|p| crate::io::sha256_file(&p).ok())
+            .unwrap_or_else(|| "unknown".into())
+    })
 }
 
 pub fn dir_name(kind: &str, key: &str) -> String {

@@ -137,6 +137,8 @@ pub struct MapFigure {
     pub quantity: String,
     pub panels: Vec<MapPanel>,
     pub log: bool,
+    /// Panels per row (one row per data set when this is the stages per data set).
+    pub columns: usize,
 }
 
 impl MapFigure {
@@ -160,6 +162,11 @@ impl MapFigure {
             (lo - 0.5, lo + 0.5)
         }
     }
+    /// (rows, columns) of the panel grid.
+    fn grid(&self) -> (usize, usize) {
+        let cols = self.columns.clamp(1, self.panels.len().max(1));
+        (self.panels.len().div_ceil(cols).max(1), cols)
+    }
     fn scale(&self, v: f64) -> f64 {
         if self.log {
             if v > 0.0 { v.log10() } else { f64::NAN }
@@ -171,7 +178,8 @@ impl MapFigure {
 
 impl Figure for MapFigure {
     fn size(&self) -> (u32, u32) {
-        (300 * self.panels.len().max(1) as u32 + 110, 560)
+        let (rows, cols) = self.grid();
+        (300 * cols as u32 + 110, 520 * rows as u32 + 40)
     }
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         root.fill(&WHITE).map_err(s)?;
@@ -179,7 +187,7 @@ impl Figure for MapFigure {
         let root = root.titled(&self.quantity, (FONT_FAMILY, 20)).map_err(s)?;
         let (maps, bar) = root.split_horizontally(w - 110);
         let (lo, hi) = self.limits();
-        let areas = maps.split_evenly((1, self.panels.len().max(1)));
+        let areas = maps.split_evenly(self.grid());
         for (panel, area) in self.panels.iter().zip(&areas) {
             let (x0, x1, y0, y1) =
                 panel

@@ -312,7 +312,7 @@ fn from_tracks(
         "fit sampling",
         opt.quiet,
     );
-    let mut two_neighbours = 0usize;
+    let (mut two_neighbours, mut at_rest) = (0usize, 0usize);
     for (g, &fs) in start_frames.iter().enumerate() {
         for &lf in &lags_frames {
             bar.inc(1);
@@ -331,6 +331,10 @@ fn from_tracks(
                 .iter()
                 .filter(|k| k.valid && k.n_neighbors >= MIN_NEIGHBORS_FOR_D2MIN)
             {
+                if k.strain.eta_s < ETA_S_AT_REST {
+                    at_rest += 1;
+                    continue;
+                }
                 let y = k.d2min / (r * r);
                 s.push(k.strain.eta_s, y, g as u32);
                 rows.start.push(fs);
@@ -344,6 +348,7 @@ fn from_tracks(
     }
     bar.finish_and_clear();
     note_two_neighbours(two_neighbours, warnings);
+    note_at_rest(at_rest, warnings);
     let protocol = Protocol {
         source: "tracks".into(),
         diameter: d,
@@ -427,7 +432,7 @@ fn from_kinematics(
         y: vec![],
     };
     let mut lags: Vec<i64> = Vec::new();
-    let mut two_neighbours = 0usize;
+    let (mut two_neighbours, mut at_rest) = (0usize, 0usize);
     for k in 0..start.len() {
         if !valid[k] {
             continue;
@@ -447,6 +452,10 @@ fn from_kinematics(
                 msg: "not finite in a valid row".into(),
             });
         }
+        if eta[k] < ETA_S_AT_REST {
+            at_rest += 1;
+            continue;
+        }
         let n = groups.len() as u32;
         let g = *groups.entry(start[k]).or_insert(n);
         let y = d2[k] / (r * r);
@@ -464,6 +473,7 @@ fn from_kinematics(
     }
     lags.sort_unstable();
     note_two_neighbours(two_neighbours, warnings);
+    note_at_rest(at_rest, warnings);
     if lags.len() == 1 {
         warnings.push(format!(
             "a single lag ({} frames): η^s spans only what one lag gives",
@@ -486,6 +496,19 @@ fn from_kinematics(
         binning: opt.binning,
     };
     Ok((s, rows, protocol))
+}
+
+/// η^s below this is round-off of a neighbourhood that did not move at all (simulated
+/// grains held by the substrate keep bit-identical positions): on log axes such samples
+/// would sit at 1e-16 and drag the fit, so they are left out and counted.
+pub const ETA_S_AT_REST: f64 = 1e-9;
+
+fn note_at_rest(n: usize, warnings: &mut Vec<String>) {
+    if n > 0 {
+        warnings.push(format!(
+            "{n} samples at rest (η^s < {ETA_S_AT_REST:e}: the neighbourhood did not move) left out"
+        ));
+    }
 }
 
 fn note_two_neighbours(n: usize, warnings: &mut Vec<String>) {

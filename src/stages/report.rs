@@ -115,6 +115,15 @@ fn map_panels(d: &DatasetInputs, stages: usize) -> Result<Vec<PanelData>> {
             .as_ref()
             .and_then(|t| t.large_diameter())
             .map_or(0.5, |dd| 0.5 * dd);
+        // The paper's units (Fig. 5): v in v_c, J2 in v_c/R, D²min in R², so that an
+        // experiment and a faster simulation share one colour scale.
+        let (vs, js, ds) = match tracks
+            .as_ref()
+            .and_then(|t| t.meta.bar_speed.zip(t.large_diameter()))
+        {
+            Some((vc, dd)) if vc > 0.0 => (1.0 / vc, 0.5 * dd / vc, 4.0 / (dd * dd)),
+            _ => (1.0, 1.0, 1.0),
+        };
         let grains = (0..frame.len())
             .filter(|&r| frame[r] == f && valid[r])
             .map(|r| {
@@ -122,7 +131,7 @@ fn map_panels(d: &DatasetInputs, stages: usize) -> Result<Vec<PanelData>> {
                     x[r],
                     y[r],
                     *radius.get(&particle[r]).unwrap_or(&default_r),
-                    [speed[r], j2[r], d2[r]],
+                    [speed[r] * vs, j2[r] * js, d2[r] * ds],
                 )
             })
             .collect();
@@ -281,12 +290,35 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
     for d in &opt.datasets {
         panels.extend(map_panels(d, opt.map_stages)?);
     }
+    let reduced = opt
+        .datasets
+        .iter()
+        .filter(|d| d.kinematics.is_some())
+        .all(|d| {
+            d.tracks
+                .as_ref()
+                .and_then(|p| crate::io::tracks_io::read_meta(p).ok().flatten())
+                .is_some_and(|m| m.bar_speed.is_some())
+        });
     if !panels.is_empty() {
         let mut blocks = Vec::new();
+        let names = if reduced {
+            [
+                "speed |v| / v_c (Eq. 13)",
+                "J2 = η^s/Δt in v_c/R (Eq. 18)",
+                "D²min / R² (Eq. 14)",
+            ]
+        } else {
+            [
+                "speed |v| (Eq. 13)",
+                "J2 = η^s/Δt (Eq. 18)",
+                "D²min (Eq. 14)",
+            ]
+        };
         for (k, (name, file, log)) in [
-            ("speed |v| (Eq. 13)", "map_speed", false),
-            ("J2 = η^s/Δt (Eq. 18)", "map_j2", true),
-            ("D²min (Eq. 14)", "map_d2min", true),
+            (names[0], "map_speed", false),
+            (names[1], "map_j2", true),
+            (names[2], "map_d2min", true),
         ]
         .into_iter()
         .enumerate()
@@ -294,6 +326,7 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
             let fig = MapFigure {
                 quantity: name.to_string(),
                 log,
+                columns: opt.map_stages.max(1),
                 panels: panels
                     .iter()
                     .map(|(title, _, g)| MapPanel {
