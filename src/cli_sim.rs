@@ -11,10 +11,7 @@ pub enum SimulateCmd {
     /// Granular pillar compressed by a bar (li-granular-pillars Sec. II).
     Pillar(PillarArgs),
     /// Frictionless disks sheared with Lees–Edwards boundaries (vagberg-sheared-disks).
-    Shear {
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-    },
+    Shear(ShearArgs),
 }
 
 #[derive(Args)]
@@ -71,6 +68,47 @@ fn parse_kv(s: &str) -> std::result::Result<(String, f64), String> {
 }
 
 #[derive(Args)]
+pub struct ShearArgs {
+    #[arg(long, default_value_t = 1024)]
+    n: usize,
+    /// Packing fraction φ (Eq. 11).
+    #[arg(long, default_value_t = 0.82)]
+    phi: f64,
+    /// Quality factor Q = τ_d/τ_e (k_d = 1/Q).
+    #[arg(long, default_value_t = 1.0)]
+    q: f64,
+    /// Strain rate γ̇ τ_e.
+    #[arg(long, default_value_t = 1e-4)]
+    rate: f64,
+    #[arg(long, value_enum, default_value = "cdrot")]
+    model: pillar_pipe::dem::shear::Dissipation,
+    /// Total strain γ.
+    #[arg(long, default_value_t = 10.0)]
+    strain: f64,
+    /// Δt/τ_e (default 0.05; 0.01 for Q < 0.5).
+    #[arg(long)]
+    dt: Option<f64>,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Steps between trajectory frames (default every 0.05 strain).
+    #[arg(long)]
+    output_every: Option<u64>,
+    /// Steps between samples of the series.
+    #[arg(long, default_value_t = 10)]
+    sample_every: u64,
+    /// Fraction of the run discarded before averaging.
+    #[arg(long, default_value_t = 0.25)]
+    transient: f64,
+    /// Strain-rate ramp up|down (Eqs. 38–41; not implemented yet).
+    #[arg(long)]
+    ramp: Option<String>,
+    #[arg(short, long)]
+    output: PathBuf,
+    #[arg(long)]
+    quiet: bool,
+}
+
+#[derive(Args)]
 pub struct PackArgs {
     #[arg(long, default_value_t = 1000)]
     n: usize,
@@ -85,11 +123,7 @@ pub struct PackArgs {
 pub fn simulate(cmd: SimulateCmd) -> Result<()> {
     let a = match cmd {
         SimulateCmd::Pillar(a) => a,
-        SimulateCmd::Shear { .. } => {
-            bail!(
-                "simulate shear is not implemented yet (issue 7: vagberg-sheared-disks, CD/CDrot with Lees–Edwards)"
-            )
-        }
+        SimulateCmd::Shear(s) => return shear(s),
     };
     let (out, resume) = match (a.output, a.resume) {
         (Some(o), None) => (o, false),
@@ -141,5 +175,35 @@ pub fn pack(a: PackArgs) -> Result<()> {
     let rep = pillar_pipe::stages::pack::run(&a.output, a.n, a.seed, a.quiet)
         .with_context(|| format!("pack into {}", a.output.display()))?;
     println!("{rep}");
+    Ok(())
+}
+
+fn shear(a: ShearArgs) -> Result<()> {
+    use pillar_pipe::stages::shear::{ShearOptions, run};
+    let opt = ShearOptions {
+        n: a.n,
+        phi: a.phi,
+        q: a.q,
+        rate: a.rate,
+        model: a.model,
+        strain: a.strain,
+        dt: a.dt,
+        seed: a.seed,
+        output_every: a.output_every,
+        sample_every: a.sample_every,
+        transient: a.transient,
+        blocks: 10,
+        ramp: a.ramp,
+        quiet: a.quiet,
+    };
+    let rep = run(&a.output, &opt).with_context(|| format!("simulate shear into {}", a.output.display()))?;
+    println!(
+        "shear       {} disks, φ = {}, Q = {}, γ̇ = {:e}, {:?}: {} steps, {} frames, {:.1} s",
+        a.n, a.phi, a.q, a.rate, a.model, rep.steps, rep.frames, rep.elapsed_s
+    );
+    for (k, v) in &rep.summary {
+        println!("  {k:30} {:>12.5e} ± {:.2e}", v.mean, v.err);
+    }
+    println!("wrote       {}/{{series.parquet, tracks.parquet, summary.json, manifest.json}}", a.output.display());
     Ok(())
 }

@@ -33,3 +33,4 @@ pub mod report;
 pub mod sim_setup;
 pub mod sim_tables;
 pub mod simulate;
+pub mod shear;

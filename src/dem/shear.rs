@@ -1,0 +1,303 @@
+//! vagberg-sheared-disks Sec. II: frictionless bidisperse disks (d_b/d_s = 1.4, equal
+//! masses) with harmonic repulsion (Eqs. 1–2), contact dissipation CD (Eq. 3) or CDrot
+//! (Eqs. 5–7), sheared at rate γ̇ through Lees–Edwards boundaries, integrated with the
+//! paper's modified velocity Verlet (Eqs. 21–24, spins too).
+//!
+//! Units: d_s = m = τ_e = 1, so k_e = 1 and k_d = 1/Q (Eqs. 8–9). Positions are kept
+//! unwrapped (a grain that crossed the y boundary n times is where its image would be);
+//! the pair loop maps separations to the minimum image and shifts the image's velocity
+//! by n γ̇ L, which is the Lees–Edwards rule without any remapping of stored state.
+
+use super::grains::{Grains, LARGE, SMALL};
+use super::verlet::{Boundary, PairList};
+use crate::rng::Rng;
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Dissipation {
+    /// f_dis = −k_d (v_i − v_j), Eq. 3.
+    Cd,
+    /// f_dis = −k_d (v_i^{Cj} − v_j^{Ci}) at the contact point, Eqs. 5–7.
+    Cdrot,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShearParams {
+    pub n: usize,
+    /// Packing fraction φ (Eq. 11).
+    pub phi: f64,
+    /// Quality factor Q = τ_d/τ_e (Eq. 9); k_d = 1/Q.
+    pub q: f64,
+    /// Strain rate γ̇ τ_e.
+    pub rate: f64,
+    pub model: Dissipation,
+    /// Exponent α of Eq. 1 (2: harmonic).
+    pub alpha: f64,
+    /// Time step Δt/τ_e (paper: 0.05, 0.01 for Q < 0.5).
+    pub dt: f64,
+    pub seed: u64,
+}
+
+impl ShearParams {
+    pub fn validate(&self) -> Result<(), String> {
+        if self.n < 4 {
+            return Err(format!("n must be ≥ 4, got {}", self.n));
+        }
+        for (k, v, lo, hi) in [
+            ("phi", self.phi, 0.05, 1.5),
+            ("q", self.q, 1e-6, 1e6),
+            ("rate", self.rate, 1e-12, 1.0),
+            ("alpha", self.alpha, 1.5, 4.0),
+            ("dt", self.dt, 1e-6, 0.2),
+        ] {
+            if !(v.is_finite() && v >= lo && v <= hi) {
+                return Err(format!("{k} must be in [{lo}, {hi}], got {v}"));
+            }
+        }
+        Ok(())
+    }
+    /// Box side L from φ (Eq. 11), in d_s.
+    pub fn box_side(&self) -> f64 {
+        let area = std::f64::consts::PI * self.n as f64 / 2.0 * (0.25 + 0.25 * 1.4 * 1.4);
+        (area / self.phi).sqrt()
+    }
+    /// The paper's step: 0.05, or 0.01 for Q < 0.5.
+    pub fn default_dt(q: f64) -> f64 {
+        if q < 0.5 { 0.01 } else { 0.05 }
+    }
+}
+
+/// Per-evaluation sums for the pressure tensor (Eqs. 12–13), components xx, xy, yx, yy.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Virial {
+    pub el: [f64; 4],
+    pub dis: [f64; 4],
+    pub contacts: usize,
+}
+
+/// Contact bookkeeping for τ_dur and ν_coll (Eq. 25).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Collisions {
+    pub begun: u64,
+    pub ended: u64,
+    /// Σ durations of the contacts that ended (τ_e).
+    pub duration_sum: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShearSim {
+    pub p: ShearParams,
+    pub g: Grains,
+    pub l: f64,
+    /// Contact history per pair slot: 0 when not touching, else 1 + the time the
+    /// contact began (so that t = 0 is representable).
+    pub list: PairList,
+    pub time: f64,
+    pub step: u64,
+    /// Force and torque at the current state (the f({r_0, v_0}) of Eq. 21).
+    pub fx: Vec<f64>,
+    pub fy: Vec<f64>,
+    pub tq: Vec<f64>,
+    pub virial: Virial,
+    pub coll: Collisions,
+    /// Integrate spins (turning it off is exact for CD: rotation never feeds back).
+    pub rotate: bool,
+}
+
+impl ShearSim {
+    /// Random positions at φ (overlaps allowed: soft disks), half big half small, and
+    /// the affine flow v_x = γ̇ y.
+    pub fn new(p: ShearParams) -> Self {
+        let l = p.box_side();
+        let mut rng = Rng::new(p.seed);
+        let mut g = Grains::default();
+        for k in 0..p.n {
+            let (s, d) = if k % 2 == 0 { (LARGE, 1.4) } else { (SMALL, 1.0) };
+            let (x, y) = (rng.uniform() * l, rng.uniform() * l);
+            g.push(k as i64, s, 0.5 * d, 1.0, x, y);
+            g.vx[k] = p.rate * y;
+        }
+        g.sort_spatially(1.4);
+        Self::from_grains(p, g, l)
+    }
+
+    /// Given grains in a box of side `l` (tests build exact configurations).
+    pub fn from_grains(p: ShearParams, g: Grains, l: f64) -> Self {
+        let n = g.len();
+        let mut s = ShearSim {
+            list: PairList::new(0.3),
+            p,
+            g,
+            l,
+            time: 0.0,
+            step: 0,
+            fx: vec![0.0; n],
+            fy: vec![0.0; n],
+            tq: vec![0.0; n],
+            virial: Virial::default(),
+            coll: Collisions::default(),
+            rotate: true,
+        };
+        let (x, y, vx, vy, w) = (s.g.x.clone(), s.g.y.clone(), s.g.vx.clone(), s.g.vy.clone(), s.g.omega.clone());
+        s.evaluate(&x, &y, &vx, &vy, &w, true);
+        s
+    }
+
+    pub fn boundary_at(&self, time: f64) -> Boundary {
+        Boundary::LeesEdwards { lx: self.l, ly: self.l, offset: self.p.rate * time * self.l }
+    }
+
+    /// Accumulated strain γ = γ̇ t.
+    pub fn strain(&self) -> f64 {
+        self.p.rate * self.time
+    }
+
+    /// Forces and torques at the given state and the current `self.time` into
+    /// `self.fx/fy/tq`; with `track`, also the virial and the contact bookkeeping
+    /// (only for actual states, not the predictor of Eq. 22).
+    pub fn evaluate(&mut self, x: &[f64], y: &[f64], vx: &[f64], vy: &[f64], w: &[f64], track: bool) {
+        let b = self.boundary_at(self.time);
+        self.list.update(x, y, &self.g.radius, b);
+        let (fx, fy, tq) = (&mut self.fx, &mut self.fy, &mut self.tq);
+        fx.iter_mut().chain(fy.iter_mut()).chain(tq.iter_mut()).for_each(|v| *v = 0.0);
+        let r = &self.g.radius;
+        let (kd, alpha, shear_v) = (1.0 / self.p.q, self.p.alpha, self.p.rate * self.l);
+        let cdrot = self.p.model == Dissipation::Cdrot;
+        let mut vir = Virial::default();
+        let now = self.time;
+        for i in 0..x.len() {
+            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
+                let j = self.list.j[k] as usize;
+                let (dx, dy, img) = b.delta_image(x[i] - x[j], y[i] - y[j]);
+                let dij = r[i] + r[j];
+                let r2 = dx * dx + dy * dy;
+                if r2 >= dij * dij {
+                    if track && self.list.shear[k] != 0.0 {
+                        self.coll.ended += 1;
+                        self.coll.duration_sum += now - (self.list.shear[k] - 1.0);
+                        self.list.shear[k] = 0.0;
+                    }
+                    continue;
+                }
+                if track {
+                    vir.contacts += 1;
+                    if self.list.shear[k] == 0.0 {
+                        self.coll.begun += 1;
+                        self.list.shear[k] = 1.0 + now;
+                    }
+                }
+                let dist = r2.sqrt();
+                let (nx, ny) = (dx / dist, dy / dist);
+                // Eq. 2 with d_ij = (d_i + d_j)/2 = R_i + R_j and k_e = 1.
+                let overlap = 1.0 - dist / dij;
+                let fe = if alpha == 2.0 { overlap / dij } else { overlap.powf(alpha - 1.0) / dij };
+                let (ex, ey) = (fe * nx, fe * ny);
+                // Relative velocity; j's image moves img·γ̇L faster along x.
+                let (mut dvx, mut dvy) = (vx[i] - vx[j] - img * shear_v, vy[i] - vy[j]);
+                // Moment arms s_ji (i to contact) = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
+                let (si, sj) = (r[i] / dij, r[j] / dij);
+                let (six, siy, sjx, sjy) = (-dx * si, -dy * si, dx * sj, dy * sj);
+                if cdrot {
+                    // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
+                    dvx += -w[i] * siy + w[j] * sjy;
+                    dvy += w[i] * six - w[j] * sjx;
+                }
+                let (ddx, ddy) = (-kd * dvx, -kd * dvy);
+                fx[i] += ex + ddx;
+                fy[i] += ey + ddy;
+                fx[j] -= ex + ddx;
+                fy[j] -= ey + ddy;
+                // Eq. 7: torques of the dissipative force about each centre.
+                tq[i] += six * ddy - siy * ddx;
+                tq[j] += sjx * (-ddy) - sjy * (-ddx);
+                if track {
+                    // f ⊗ r_ij (Eqs. 12–13), per unit area later.
+                    vir.el[0] += ex * dx;
+                    vir.el[1] += ex * dy;
+                    vir.el[2] += ey * dx;
+                    vir.el[3] += ey * dy;
+                    vir.dis[0] += ddx * dx;
+                    vir.dis[1] += ddx * dy;
+                    vir.dis[2] += ddy * dx;
+                    vir.dis[3] += ddy * dy;
+                }
+            }
+        }
+        if track {
+            self.virial = vir;
+        }
+    }
+
+    /// One step of Eqs. 21–24.
+    pub fn step(&mut self) {
+        let dt = self.p.dt;
+        let n = self.g.len();
+        let g = &self.g;
+        let (f0x, f0y, t0) = (self.fx.clone(), self.fy.clone(), self.tq.clone());
+        let mut px = vec![0.0; n];
+        let mut py = vec![0.0; n];
+        let mut pvx = vec![0.0; n];
+        let mut pvy = vec![0.0; n];
+        let mut pw = vec![0.0; n];
+        for i in 0..n {
+            pvx[i] = g.vx[i] + f0x[i] * dt / g.mass[i];
+            pvy[i] = g.vy[i] + f0y[i] * dt / g.mass[i];
+            px[i] = g.x[i] + g.vx[i] * dt;
+            py[i] = g.y[i] + g.vy[i] * dt;
+            pw[i] = if self.rotate { g.omega[i] + t0[i] * dt / g.inertia[i] } else { 0.0 };
+        }
+        self.step += 1;
+        self.time = self.step as f64 * dt;
+        self.evaluate(&px, &py, &pvx, &pvy, &pw, false);
+        let g = &mut self.g;
+        for i in 0..n {
+            let (vx0, vy0, w0) = (g.vx[i], g.vy[i], g.omega[i]);
+            g.vx[i] = vx0 + (f0x[i] + self.fx[i]) * dt / (2.0 * g.mass[i]);
+            g.vy[i] = vy0 + (f0y[i] + self.fy[i]) * dt / (2.0 * g.mass[i]);
+            g.x[i] += (vx0 + g.vx[i]) * dt / 2.0;
+            g.y[i] += (vy0 + g.vy[i]) * dt / 2.0;
+            if self.rotate {
+                g.omega[i] = w0 + (t0[i] + self.tq[i]) * dt / (2.0 * g.inertia[i]);
+                g.theta[i] += (w0 + g.omega[i]) * dt / 2.0;
+            }
+        }
+        let (x, y, vx, vy, w) = (g.x.clone(), g.y.clone(), g.vx.clone(), g.vy.clone(), g.omega.clone());
+        self.evaluate(&x, &y, &vx, &vy, &w, true);
+    }
+
+    /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each
+    /// [xx, xy, yx, yy] in m/τ_e². The kinetic part uses fluctuations about v_x = γ̇ y.
+    pub fn pressure_tensor(&self) -> ([f64; 4], [f64; 4], [f64; 4]) {
+        let a = self.l * self.l;
+        let el = self.virial.el.map(|v| v / a);
+        let dis = self.virial.dis.map(|v| v / a);
+        let mut kin = [0.0; 4];
+        let g = &self.g;
+        for i in 0..g.len() {
+            let (dvx, dvy) = (g.vx[i] - self.p.rate * g.y[i], g.vy[i]);
+            kin[0] += g.mass[i] * dvx * dvx;
+            kin[1] += g.mass[i] * dvx * dvy;
+            kin[2] += g.mass[i] * dvy * dvx;
+            kin[3] += g.mass[i] * dvy * dvy;
+        }
+        (el, dis, kin.map(|v| v / a))
+    }
+
+    /// Positions mapped into the primary cell [0, L)², Lees–Edwards aware.
+    pub fn wrapped(&self, i: usize) -> (f64, f64) {
+        let off = self.p.rate * self.time * self.l;
+        let (mut x, mut y) = (self.g.x[i], self.g.y[i]);
+        let n = (y / self.l).floor();
+        y -= n * self.l;
+        x -= n * off;
+        x -= (x / self.l).floor() * self.l;
+        (x, y)
+    }
+
+    /// Total momentum (m d_s/τ_e).
+    pub fn momentum(&self) -> (f64, f64) {
+        self.g.momentum()
+    }
+}
