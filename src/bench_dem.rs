@@ -236,3 +236,47 @@ pub fn compare_presets(n: usize, strain: f64, seed: u64, bin: f64) -> Result<Pre
         seconds_paper: secs[1],
     })
 }
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ShearBench {
+    pub n: usize,
+    pub steps: u64,
+    pub z: f64,
+    pub seconds: f64,
+    /// Per step of Eqs. 21–24 (two force evaluations).
+    pub ns_per_particle_step: f64,
+    pub list_builds: u64,
+}
+
+/// Sheared disks at φ = 0.82, Q = 1, γ̇ = 1e-4, CDrot: `warmup` steps, then `steps` timed.
+pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
+    use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
+    let p = ShearParams {
+        n,
+        phi: 0.82,
+        q: 1.0,
+        rate: 1e-4,
+        model: Dissipation::Cdrot,
+        alpha: 2.0,
+        dt: 0.05,
+        seed: 1,
+    };
+    let mut s = ShearSim::new(p);
+    for _ in 0..warmup {
+        s.step();
+    }
+    let b0 = s.list.builds;
+    let t = Instant::now();
+    for _ in 0..steps {
+        s.step();
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    ShearBench {
+        n,
+        steps,
+        z: 2.0 * s.virial.contacts as f64 / n as f64,
+        seconds,
+        ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
+        list_builds: s.list.builds - b0,
+    }
+}

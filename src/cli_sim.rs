@@ -196,7 +196,8 @@ fn shear(a: ShearArgs) -> Result<()> {
         ramp: a.ramp,
         quiet: a.quiet,
     };
-    let rep = run(&a.output, &opt).with_context(|| format!("simulate shear into {}", a.output.display()))?;
+    let rep = run(&a.output, &opt)
+        .with_context(|| format!("simulate shear into {}", a.output.display()))?;
     println!(
         "shear       {} disks, φ = {}, Q = {}, γ̇ = {:e}, {:?}: {} steps, {} frames, {:.1} s",
         a.n, a.phi, a.q, a.rate, a.model, rep.steps, rep.frames, rep.elapsed_s
@@ -204,6 +205,9 @@ fn shear(a: ShearArgs) -> Result<()> {
     for (k, v) in &rep.summary {
         println!("  {k:30} {:>12.5e} ± {:.2e}", v.mean, v.err);
     }
-    println!("wrote       {}/{{series.parquet, tracks.parquet, summary.json, manifest.json}}", a.output.display());
+    println!(
+        "wrote       {}/{{series.parquet, tracks.parquet, summary.json, manifest.json}}",
+        a.output.display()
+    );
     Ok(())
 }

@@ -240,6 +240,17 @@ enum BenchCmd {
     },
     #[command(hide = true)]
     IngestChild { mode: String, csv: PathBuf },
+    /// Sheared disks (φ = 0.82, Q = 1, CDrot) particle-steps per second.
+    Shear {
+        #[arg(long, value_delimiter = ',', default_value = "1024,65536")]
+        n: Vec<usize>,
+        #[arg(long, default_value_t = 2000)]
+        steps: u64,
+        #[arg(long, default_value_t = 1000)]
+        warmup: u64,
+        #[arg(long)]
+        json: bool,
+    },
     /// Stress–strain of the `fast` preset against the `paper` preset on one packing.
     Presets {
         #[arg(long, default_value_t = 200)]
@@ -627,6 +638,24 @@ fn runs(what: RunsCmd, dir: &std::path::Path) -> Result<()> {
 fn bench(what: BenchCmd) -> Result<()> {
     use pillar_pipe::bench;
     match what {
+        BenchCmd::Shear {
+            n,
+            steps,
+            warmup,
+            json,
+        } => {
+            for n in n {
+                let b = pillar_pipe::bench_dem::bench_shear(n, steps, warmup);
+                if json {
+                    println!("{}", serde_json::to_string(&b)?);
+                } else {
+                    println!(
+                        "shear n={:>6} Z={:.2} {} steps {:.2} s  {:.1} ns/particle-step (Eqs. 21–24: two force evaluations per step; {} list builds)",
+                        b.n, b.z, b.steps, b.seconds, b.ns_per_particle_step, b.list_builds
+                    );
+                }
+            }
+        }
         BenchCmd::Presets {
             n,
             strain,

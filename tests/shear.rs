@@ -10,7 +10,16 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn params(n: usize, phi: f64, model: Dissipation, rate: f64) -> ShearParams {
-    ShearParams { n, phi, q: 1.0, rate, model, alpha: 2.0, dt: 0.05, seed: 3 }
+    ShearParams {
+        n,
+        phi,
+        q: 1.0,
+        rate,
+        model,
+        alpha: 2.0,
+        dt: 0.05,
+        seed: 3,
+    }
 }
 
 fn tmpdir(name: &str) -> PathBuf {
@@ -26,7 +35,11 @@ fn pair(image: bool, model: Dissipation) -> ShearSim {
     let off = rate * t * l;
     let mut g = Grains::default();
     g.push(0, SMALL, 0.5, 1.0, 2.0, 9.8);
-    let (xj, yj, vxj) = if image { (8.5 - l + off, 10.3, 0.03 + rate * l) } else { (8.5, 0.3, 0.03) };
+    let (xj, yj, vxj) = if image {
+        (8.5 - l + off, 10.3, 0.03 + rate * l)
+    } else {
+        (8.5, 0.3, 0.03)
+    };
     g.push(1, SMALL, 0.5, 1.0, xj, yj);
     g.vx[0] = 0.98;
     g.vy[0] = 0.1;
@@ -38,8 +51,7 @@ fn pair(image: bool, model: Dissipation) -> ShearSim {
     p.n = 2;
     let mut s = ShearSim::from_grains(p, g, l);
     s.time = t;
-    let (x, y, vx, vy, w) = (s.g.x.clone(), s.g.y.clone(), s.g.vx.clone(), s.g.vy.clone(), s.g.omega.clone());
-    s.evaluate(&x, &y, &vx, &vy, &w, true);
+    s.refresh();
     s
 }
 
@@ -68,8 +80,14 @@ fn momentum_is_conserved_and_cd_rotation_does_not_feed_back() {
         b.step();
     }
     let p1 = a.momentum();
-    assert!((p1.0 - p0.0).abs() < 1e-9 && (p1.1 - p0.1).abs() < 1e-9, "{p0:?} → {p1:?}");
-    assert_eq!(a.g.x, b.g.x, "CD: same trajectories with rotation on or off");
+    assert!(
+        (p1.0 - p0.0).abs() < 1e-9 && (p1.1 - p0.1).abs() < 1e-9,
+        "{p0:?} → {p1:?}"
+    );
+    assert_eq!(
+        a.g.x, b.g.x,
+        "CD: same trajectories with rotation on or off"
+    );
     assert_eq!(a.g.vy, b.g.vy);
     assert!(a.g.omega.iter().any(|w| *w != 0.0) && b.g.omega.iter().all(|w| *w == 0.0));
     // CDrot couples them.
@@ -99,13 +117,33 @@ fn contact_number_matches_two_tau_nu_and_disks_roll_at_minus_half_the_rate() {
     let (z, ztn) = (s["z"].mean, s["two_tau_dur_nu_coll"].mean);
     assert!((ztn / z - 1.0).abs() < 0.05, "Z = {z}, 2 τ ν = {ztn}");
     let spin = s["theta_dot_over_gamma_dot"];
-    assert!((spin.mean + 0.5).abs() < 0.05, "⟨θ̇/γ̇⟩ = {} ± {}", spin.mean, spin.err);
+    assert!(
+        (spin.mean + 0.5).abs() < 0.05,
+        "⟨θ̇/γ̇⟩ = {} ± {}",
+        spin.mean,
+        spin.err
+    );
     for k in ["p", "sigma", "mu", "b_p", "eta_p", "tau_dur", "nu_coll"] {
         assert!(s[k].mean > 0.0 && s[k].err >= 0.0, "{k}");
     }
-    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    for k in ["z", "tau_dur", "nu_coll", "two_tau_dur_nu_coll", "p", "sigma", "mu", "b_p", "eta_p", "theta_dot_over_gamma_dot"] {
-        assert!(j[k]["mean"].is_number() && j[k]["err"].is_number(), "summary.json {k}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for k in [
+        "z",
+        "tau_dur",
+        "nu_coll",
+        "two_tau_dur_nu_coll",
+        "p",
+        "sigma",
+        "mu",
+        "b_p",
+        "eta_p",
+        "theta_dot_over_gamma_dot",
+    ] {
+        assert!(
+            j[k]["mean"].is_number() && j[k]["err"].is_number(),
+            "summary.json {k}"
+        );
     }
     assert!(out.join("manifest.json").exists());
 }
@@ -130,7 +168,10 @@ fn dilute_cd_flow_keeps_the_linear_profile() {
     }
     let nn = n as f64;
     let slope = (nn * syv - sy * sv) / (nn * syy - sy * sy);
-    assert!((slope / rate - 1.0).abs() < 0.1, "dv_x/dy = {slope}, γ̇ = {rate}");
+    assert!(
+        (slope / rate - 1.0).abs() < 0.1,
+        "dv_x/dy = {slope}, γ̇ = {rate}"
+    );
 }
 
 #[test]
@@ -138,7 +179,10 @@ fn cli_acceptance_outputs_and_kinematics_on_sheared_tracks() {
     let out = tmpdir("cli");
     let bin = env!("CARGO_BIN_EXE_pillar-pipe");
     let o = Command::new(bin)
-        .args(["simulate", "shear", "--n", "256", "--phi", "0.82", "--q", "1", "--rate", "1e-3", "--model", "cdrot"])
+        .args([
+            "simulate", "shear", "--n", "256", "--phi", "0.82", "--q", "1", "--rate", "1e-3",
+            "--model", "cdrot",
+        ])
         .args(["--strain", "0.5", "--quiet", "-o", out.to_str().unwrap()])
         .output()
         .unwrap();
@@ -149,22 +193,51 @@ fn cli_acceptance_outputs_and_kinematics_on_sheared_tracks() {
     assert_eq!(t.df.height() % 256, 0);
     let k = out.join("k.parquet");
     let o = Command::new(bin)
-        .args(["kinematics", out.join("tracks.parquet").to_str().unwrap(), "--lag", "1", "--rc", "1.5"])
+        .args([
+            "kinematics",
+            out.join("tracks.parquet").to_str().unwrap(),
+            "--lag",
+            "1",
+            "--rc",
+            "1.5",
+        ])
         .args(["-o", k.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
     // The affine part of the sheared neighbourhoods is the imposed shear: mean J12 ≈ γ̇ Δt.
     let kt = read_table(&k, &[]).unwrap();
     let j12 = kt.f64("j12").unwrap();
     let valid = kt.bool("valid").unwrap();
-    let m: Vec<f64> = j12.iter().zip(&valid).filter(|(_, v)| **v).map(|(j, _)| *j).collect();
+    let m: Vec<f64> = j12
+        .iter()
+        .zip(&valid)
+        .filter(|(_, v)| **v)
+        .map(|(j, _)| *j)
+        .collect();
     let mean = m.iter().sum::<f64>() / m.len() as f64;
     let frame_strain = 0.05;
-    assert!((mean / frame_strain - 1.0).abs() < 0.3, "mean J12 {mean} vs γ per frame {frame_strain}");
+    assert!(
+        (mean / frame_strain - 1.0).abs() < 0.3,
+        "mean J12 {mean} vs γ per frame {frame_strain}"
+    );
     // Ramps are not built yet and say so.
     let o = Command::new(bin)
-        .args(["simulate", "shear", "--n", "64", "--ramp", "up", "-o", tmpdir("ramp").to_str().unwrap()])
+        .args([
+            "simulate",
+            "shear",
+            "--n",
+            "64",
+            "--ramp",
+            "up",
+            "-o",
+            tmpdir("ramp").to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("not implemented"));

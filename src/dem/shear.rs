@@ -9,7 +9,7 @@
 //! by n γ̇ L, which is the Lees–Edwards rule without any remapping of stored state.
 
 use super::grains::{Grains, LARGE, SMALL};
-use super::verlet::{Boundary, PairList};
+use super::verlet::{Boundary, PairList, rint};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -104,6 +104,29 @@ pub struct ShearSim {
     pub coll: Collisions,
     /// Integrate spins (turning it off is exact for CD: rotation never feeds back).
     pub rotate: bool,
+    /// The predicted state of Eq. 22 and the forces f_0 of Eq. 21 (reused buffers).
+    pub pred: Predicted,
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Predicted {
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub vx: Vec<f64>,
+    pub vy: Vec<f64>,
+    pub w: Vec<f64>,
+    pub f0x: Vec<f64>,
+    pub f0y: Vec<f64>,
+    pub t0: Vec<f64>,
+}
+
+/// A state to evaluate forces at.
+struct State<'a> {
+    x: &'a [f64],
+    y: &'a [f64],
+    vx: &'a [f64],
+    vy: &'a [f64],
+    w: &'a [f64],
 }
 
 impl ShearSim {
@@ -114,7 +137,11 @@ impl ShearSim {
         let mut rng = Rng::new(p.seed);
         let mut g = Grains::default();
         for k in 0..p.n {
-            let (s, d) = if k % 2 == 0 { (LARGE, 1.4) } else { (SMALL, 1.0) };
+            let (s, d) = if k % 2 == 0 {
+                (LARGE, 1.4)
+            } else {
+                (SMALL, 1.0)
+            };
             let (x, y) = (rng.uniform() * l, rng.uniform() * l);
             g.push(k as i64, s, 0.5 * d, 1.0, x, y);
             g.vx[k] = p.rate * y;
@@ -139,14 +166,23 @@ impl ShearSim {
             virial: Virial::default(),
             coll: Collisions::default(),
             rotate: true,
+            pred: Predicted::default(),
         };
-        let (x, y, vx, vy, w) = (s.g.x.clone(), s.g.y.clone(), s.g.vx.clone(), s.g.vy.clone(), s.g.omega.clone());
-        s.evaluate(&x, &y, &vx, &vy, &w, true);
+        s.refresh();
         s
     }
 
+    /// Forces, virial and contact bookkeeping at the current state.
+    pub fn refresh(&mut self) {
+        self.evaluate(false);
+    }
+
     pub fn boundary_at(&self, time: f64) -> Boundary {
-        Boundary::LeesEdwards { lx: self.l, ly: self.l, offset: self.p.rate * time * self.l }
+        Boundary::LeesEdwards {
+            lx: self.l,
+            ly: self.l,
+            offset: self.p.rate * time * self.l,
+        }
     }
 
     /// Accumulated strain γ = γ̇ t.
@@ -157,47 +193,94 @@ impl ShearSim {
     /// Forces and torques at the given state and the current `self.time` into
     /// `self.fx/fy/tq`; with `track`, also the virial and the contact bookkeeping
     /// (only for actual states, not the predictor of Eq. 22).
-    pub fn evaluate(&mut self, x: &[f64], y: &[f64], vx: &[f64], vy: &[f64], w: &[f64], track: bool) {
+    fn evaluate(&mut self, predicted: bool) {
+        let track = !predicted;
         let b = self.boundary_at(self.time);
-        self.list.update(x, y, &self.g.radius, b);
-        let (fx, fy, tq) = (&mut self.fx, &mut self.fy, &mut self.tq);
-        fx.iter_mut().chain(fy.iter_mut()).chain(tq.iter_mut()).for_each(|v| *v = 0.0);
-        let r = &self.g.radius;
-        let (kd, alpha, shear_v) = (1.0 / self.p.q, self.p.alpha, self.p.rate * self.l);
-        let cdrot = self.p.model == Dissipation::Cdrot;
+        let ShearSim {
+            g,
+            pred,
+            list,
+            fx,
+            fy,
+            tq,
+            coll,
+            p,
+            virial,
+            time,
+            ..
+        } = self;
+        let st = if predicted {
+            State {
+                x: &pred.x,
+                y: &pred.y,
+                vx: &pred.vx,
+                vy: &pred.vy,
+                w: &pred.w,
+            }
+        } else {
+            State {
+                x: &g.x,
+                y: &g.y,
+                vx: &g.vx,
+                vy: &g.vy,
+                w: &g.omega,
+            }
+        };
+        let (x, y, vx, vy, w) = (st.x, st.y, st.vx, st.vy, st.w);
+        list.update(x, y, &g.radius, b);
+        fx.iter_mut()
+            .chain(fy.iter_mut())
+            .chain(tq.iter_mut())
+            .for_each(|v| *v = 0.0);
+        let r = &g.radius;
+        let (kd, alpha, shear_v) = (1.0 / p.q, p.alpha, p.rate * self.l);
+        let cdrot = p.model == Dissipation::Cdrot;
         let mut vir = Virial::default();
-        let now = self.time;
+        let now = *time;
+        let (ll, inv_l, offset) = (self.l, 1.0 / self.l, b.offset());
         for i in 0..x.len() {
-            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
-                let j = self.list.j[k] as usize;
-                let (dx, dy, img) = b.delta_image(x[i] - x[j], y[i] - y[j]);
+            for k in list.start[i] as usize..list.start[i + 1] as usize {
+                let j = list.j[k] as usize;
+                // Minimum image, Lees–Edwards (as Boundary::delta_image, with the
+                // divisions by L hoisted out of the loop).
+                let (dx, dy) = (x[i] - x[j], y[i] - y[j]);
+                let img = rint(dy * inv_l);
+                let dy = dy - img * ll;
+                let dx = dx - img * offset;
+                let dx = dx - ll * rint(dx * inv_l);
                 let dij = r[i] + r[j];
                 let r2 = dx * dx + dy * dy;
                 if r2 >= dij * dij {
-                    if track && self.list.shear[k] != 0.0 {
-                        self.coll.ended += 1;
-                        self.coll.duration_sum += now - (self.list.shear[k] - 1.0);
-                        self.list.shear[k] = 0.0;
+                    if track && list.shear[k] != 0.0 {
+                        coll.ended += 1;
+                        coll.duration_sum += now - (list.shear[k] - 1.0);
+                        list.shear[k] = 0.0;
                     }
                     continue;
                 }
                 if track {
                     vir.contacts += 1;
-                    if self.list.shear[k] == 0.0 {
-                        self.coll.begun += 1;
-                        self.list.shear[k] = 1.0 + now;
+                    if list.shear[k] == 0.0 {
+                        coll.begun += 1;
+                        list.shear[k] = 1.0 + now;
                     }
                 }
                 let dist = r2.sqrt();
-                let (nx, ny) = (dx / dist, dy / dist);
+                let inv_dist = 1.0 / dist;
+                let inv_dij = 1.0 / dij;
+                let (nx, ny) = (dx * inv_dist, dy * inv_dist);
                 // Eq. 2 with d_ij = (d_i + d_j)/2 = R_i + R_j and k_e = 1.
-                let overlap = 1.0 - dist / dij;
-                let fe = if alpha == 2.0 { overlap / dij } else { overlap.powf(alpha - 1.0) / dij };
+                let overlap = 1.0 - dist * inv_dij;
+                let fe = if alpha == 2.0 {
+                    overlap * inv_dij
+                } else {
+                    overlap.powf(alpha - 1.0) * inv_dij
+                };
                 let (ex, ey) = (fe * nx, fe * ny);
                 // Relative velocity; j's image moves img·γ̇L faster along x.
                 let (mut dvx, mut dvy) = (vx[i] - vx[j] - img * shear_v, vy[i] - vy[j]);
                 // Moment arms s_ji (i to contact) = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
-                let (si, sj) = (r[i] / dij, r[j] / dij);
+                let (si, sj) = (r[i] * inv_dij, r[j] * inv_dij);
                 let (six, siy, sjx, sjy) = (-dx * si, -dy * si, dx * sj, dy * sj);
                 if cdrot {
                     // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
@@ -226,7 +309,7 @@ impl ShearSim {
             }
         }
         if track {
-            self.virial = vir;
+            *virial = vir;
         }
     }
 
@@ -234,37 +317,43 @@ impl ShearSim {
     pub fn step(&mut self) {
         let dt = self.p.dt;
         let n = self.g.len();
-        let g = &self.g;
-        let (f0x, f0y, t0) = (self.fx.clone(), self.fy.clone(), self.tq.clone());
-        let mut px = vec![0.0; n];
-        let mut py = vec![0.0; n];
-        let mut pvx = vec![0.0; n];
-        let mut pvy = vec![0.0; n];
-        let mut pw = vec![0.0; n];
-        for i in 0..n {
-            pvx[i] = g.vx[i] + f0x[i] * dt / g.mass[i];
-            pvy[i] = g.vy[i] + f0y[i] * dt / g.mass[i];
-            px[i] = g.x[i] + g.vx[i] * dt;
-            py[i] = g.y[i] + g.vy[i] * dt;
-            pw[i] = if self.rotate { g.omega[i] + t0[i] * dt / g.inertia[i] } else { 0.0 };
+        let rotate = self.rotate;
+        {
+            let (g, pr) = (&self.g, &mut self.pred);
+            for v in [&mut pr.x, &mut pr.y, &mut pr.vx, &mut pr.vy, &mut pr.w] {
+                v.resize(n, 0.0);
+            }
+            pr.f0x.clone_from(&self.fx);
+            pr.f0y.clone_from(&self.fy);
+            pr.t0.clone_from(&self.tq);
+            for i in 0..n {
+                pr.vx[i] = g.vx[i] + pr.f0x[i] * dt / g.mass[i];
+                pr.vy[i] = g.vy[i] + pr.f0y[i] * dt / g.mass[i];
+                pr.x[i] = g.x[i] + g.vx[i] * dt;
+                pr.y[i] = g.y[i] + g.vy[i] * dt;
+                pr.w[i] = if rotate {
+                    g.omega[i] + pr.t0[i] * dt / g.inertia[i]
+                } else {
+                    0.0
+                };
+            }
         }
         self.step += 1;
         self.time = self.step as f64 * dt;
-        self.evaluate(&px, &py, &pvx, &pvy, &pw, false);
-        let g = &mut self.g;
+        self.evaluate(true);
+        let (g, pr) = (&mut self.g, &self.pred);
         for i in 0..n {
             let (vx0, vy0, w0) = (g.vx[i], g.vy[i], g.omega[i]);
-            g.vx[i] = vx0 + (f0x[i] + self.fx[i]) * dt / (2.0 * g.mass[i]);
-            g.vy[i] = vy0 + (f0y[i] + self.fy[i]) * dt / (2.0 * g.mass[i]);
+            g.vx[i] = vx0 + (pr.f0x[i] + self.fx[i]) * dt / (2.0 * g.mass[i]);
+            g.vy[i] = vy0 + (pr.f0y[i] + self.fy[i]) * dt / (2.0 * g.mass[i]);
             g.x[i] += (vx0 + g.vx[i]) * dt / 2.0;
             g.y[i] += (vy0 + g.vy[i]) * dt / 2.0;
-            if self.rotate {
-                g.omega[i] = w0 + (t0[i] + self.tq[i]) * dt / (2.0 * g.inertia[i]);
+            if rotate {
+                g.omega[i] = w0 + (pr.t0[i] + self.tq[i]) * dt / (2.0 * g.inertia[i]);
                 g.theta[i] += (w0 + g.omega[i]) * dt / 2.0;
             }
         }
-        let (x, y, vx, vy, w) = (g.x.clone(), g.y.clone(), g.vx.clone(), g.vy.clone(), g.omega.clone());
-        self.evaluate(&x, &y, &vx, &vy, &w, true);
+        self.evaluate(false);
     }
 
     /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each

@@ -18,15 +18,21 @@ pub enum Boundary {
     LeesEdwards { lx: f64, ly: f64, offset: f64 },
 }
 
+/// Nearest integer of `v` for |v| < 2^51 without a libm call (x86-64 without SSE4.1
+/// has no rounding instruction; min-image separations call this twice per pair).
+#[inline(always)]
+pub fn rint(v: f64) -> f64 {
+    const M: f64 = 6_755_399_441_055_744.0; // 1.5 × 2^52
+    (v + M) - M
+}
+
 impl Boundary {
     /// Separation r_i − r_j given as raw `(dx, dy)`, mapped to its minimum image.
     #[inline(always)]
     pub fn delta(&self, dx: f64, dy: f64) -> (f64, f64) {
         match *self {
             Boundary::Open => (dx, dy),
-            Boundary::Periodic { lx, ly } => {
-                (dx - lx * (dx / lx).round(), dy - ly * (dy / ly).round())
-            }
+            Boundary::Periodic { lx, ly } => (dx - lx * rint(dx / lx), dy - ly * rint(dy / ly)),
             Boundary::LeesEdwards { .. } => {
                 let (dx, dy, _) = self.delta_image(dx, dy);
                 (dx, dy)
@@ -40,10 +46,10 @@ impl Boundary {
     pub fn delta_image(&self, dx: f64, dy: f64) -> (f64, f64, f64) {
         match *self {
             Boundary::LeesEdwards { lx, ly, offset } => {
-                let n = (dy / ly).round();
+                let n = rint(dy / ly);
                 let dy = dy - n * ly;
                 let dx = dx - n * offset;
-                (dx - lx * (dx / lx).round(), dy, n)
+                (dx - lx * rint(dx / lx), dy, n)
             }
             _ => {
                 let (a, b) = self.delta(dx, dy);

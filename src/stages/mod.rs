@@ -30,7 +30,7 @@ pub mod fit;
 pub mod pack;
 pub mod quickstart;
 pub mod report;
+pub mod shear;
 pub mod sim_setup;
 pub mod sim_tables;
 pub mod simulate;
-pub mod shear;

@@ -81,12 +81,28 @@ fn block_stats(blocks: &[f64]) -> MeanErr {
     let n = blocks.len() as f64;
     let mean = blocks.iter().sum::<f64>() / n.max(1.0);
     let var = blocks.iter().map(|b| (b - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-    MeanErr { mean, err: (var / n.max(1.0)).sqrt() }
+    MeanErr {
+        mean,
+        err: (var / n.max(1.0)).sqrt(),
+    }
 }
 
 const SERIES: [&str; 16] = [
-    "time", "strain", "p", "sigma", "p_el", "sigma_el", "p_dis", "sigma_dis", "p_kin", "sigma_kin", "z",
-    "theta_dot_over_gamma_dot", "theta_dot_over_gamma_dot_var", "collisions_begun", "contact_time_ended",
+    "time",
+    "strain",
+    "p",
+    "sigma",
+    "p_el",
+    "sigma_el",
+    "p_dis",
+    "sigma_dis",
+    "p_kin",
+    "sigma_kin",
+    "z",
+    "theta_dot_over_gamma_dot",
+    "theta_dot_over_gamma_dot_var",
+    "collisions_begun",
+    "contact_time_ended",
     "collisions_ended",
 ];
 
@@ -108,22 +124,38 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         seed: opt.seed,
     };
     p.validate().map_err(|e| Error::param("shear", e))?;
-    if !(opt.strain > 0.0 && opt.transient >= 0.0 && opt.transient < 0.9 && opt.blocks >= 2 && opt.sample_every >= 1) {
-        return Err(Error::param("shear", "need strain > 0, 0 ≤ transient < 0.9, blocks ≥ 2, sample_every ≥ 1"));
+    if !(opt.strain > 0.0
+        && opt.transient >= 0.0
+        && opt.transient < 0.9
+        && opt.blocks >= 2
+        && opt.sample_every >= 1)
+    {
+        return Err(Error::param(
+            "shear",
+            "need strain > 0, 0 ≤ transient < 0.9, blocks ≥ 2, sample_every ≥ 1",
+        ));
     }
     if out.join("manifest.json").exists() {
-        return Err(Error::param("output", format!("{} already holds a finished run", out.display())));
+        return Err(Error::param(
+            "output",
+            format!("{} already holds a finished run", out.display()),
+        ));
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let mut sim = ShearSim::new(p.clone());
     let total = (opt.strain / (p.rate * p.dt)).ceil() as u64;
-    let out_every = opt.output_every.unwrap_or(((0.05 / (p.rate * p.dt)).round() as u64).max(1));
+    let out_every = opt
+        .output_every
+        .unwrap_or(((0.05 / (p.rate * p.dt)).round() as u64).max(1));
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
-    let mut tracks = Tracks { meta: TracksMeta::default(), ..empty_tracks() };
+    let mut tracks = Tracks {
+        meta: TracksMeta::default(),
+        ..empty_tracks()
+    };
     let bar = super::progress(total, "shear", opt.quiet);
     let mut frame = 0i64;
     loop {
-        if sim.step % opt.sample_every == 0 {
+        if sim.step.is_multiple_of(opt.sample_every) {
             let (el, dis, kin) = sim.pressure_tensor();
             let pr = |t: [f64; 4]| 0.5 * (t[0] + t[3]);
             let sg = |t: [f64; 4]| -t[1];
@@ -154,7 +186,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 c.push(v);
             }
         }
-        if sim.step % out_every == 0 || sim.step == total {
+        if sim.step.is_multiple_of(out_every) || sim.step == total {
             push_frame(&mut tracks, &sim, frame);
             frame += 1;
             bar.set_position(sim.step);
@@ -168,7 +200,11 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let series = out.join("series.parquet");
     let mut df = DataFrame::new(
         cols[0].len(),
-        SERIES.iter().zip(&cols).map(|(n, c)| Column::new((*n).into(), c)).collect(),
+        SERIES
+            .iter()
+            .zip(&cols)
+            .map(|(n, c)| Column::new((*n).into(), c))
+            .collect(),
     )
     .map_err(|e| Error::polars("building the series", e))?;
     write_table(&mut df, &series)?;
@@ -202,8 +238,17 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             flat[k] = v.clone();
         }
     }
-    atomic_write_str(&out.join("summary.json"), &serde_json::to_string_pretty(&flat).expect("json"))?;
-    let rep = ShearReport { out: out.to_path_buf(), steps: sim.step, frames: frame as usize, summary, elapsed_s: t0.elapsed().as_secs_f64() };
+    atomic_write_str(
+        &out.join("summary.json"),
+        &serde_json::to_string_pretty(&flat).expect("json"),
+    )?;
+    let rep = ShearReport {
+        out: out.to_path_buf(),
+        steps: sim.step,
+        frames: frame as usize,
+        summary,
+        elapsed_s: t0.elapsed().as_secs_f64(),
+    };
     let manifest = serde_json::json!({
         "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear",
         "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path)},
@@ -217,7 +262,10 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             "initial state: random positions at phi with the affine flow v_x = gamma_dot y",
         ],
     });
-    atomic_write_str(&out.join("manifest.json"), &serde_json::to_string_pretty(&manifest).expect("json"))?;
+    atomic_write_str(
+        &out.join("manifest.json"),
+        &serde_json::to_string_pretty(&manifest).expect("json"),
+    )?;
     Ok(rep)
 }
 
@@ -256,41 +304,100 @@ fn push_frame(t: &mut Tracks, sim: &ShearSim, frame: i64) {
 }
 
 /// Steady-state means with block errors (Eqs. 16, 19, 20, 25).
-fn summarize(cols: &[Vec<f64>], p: &ShearParams, n: usize, opt: &ShearOptions) -> Result<BTreeMap<String, MeanErr>> {
-    let col = |name: &str| &cols[SERIES.iter().position(|s| *s == name).expect("series column")];
+fn summarize(
+    cols: &[Vec<f64>],
+    p: &ShearParams,
+    n: usize,
+    opt: &ShearOptions,
+) -> Result<BTreeMap<String, MeanErr>> {
+    let col = |name: &str| {
+        &cols[SERIES
+            .iter()
+            .position(|s| *s == name)
+            .expect("series column")]
+    };
     let strain = col("strain");
-    let first = strain.iter().position(|&g| g >= opt.transient * opt.strain).unwrap_or(0);
+    let first = strain
+        .iter()
+        .position(|&g| g >= opt.transient * opt.strain)
+        .unwrap_or(0);
     let m = strain.len() - first;
     if m < 2 * opt.blocks {
-        return Err(Error::param("strain", format!("only {m} samples after the transient for {} blocks; run longer or sample more often", opt.blocks)));
+        return Err(Error::param(
+            "strain",
+            format!(
+                "only {m} samples after the transient for {} blocks; run longer or sample more often",
+                opt.blocks
+            ),
+        ));
     }
     let bl = m / opt.blocks;
-    let ranges: Vec<std::ops::Range<usize>> = (0..opt.blocks).map(|b| first + b * bl..first + (b + 1) * bl).collect();
-    let mean_in = |c: &[f64], r: &std::ops::Range<usize>| c[r.clone()].iter().sum::<f64>() / r.len() as f64;
-    let per_block = |f: &dyn Fn(&std::ops::Range<usize>) -> f64| -> MeanErr { block_stats(&ranges.iter().map(f).collect::<Vec<_>>()) };
+    let ranges: Vec<std::ops::Range<usize>> = (0..opt.blocks)
+        .map(|b| first + b * bl..first + (b + 1) * bl)
+        .collect();
+    let mean_in =
+        |c: &[f64], r: &std::ops::Range<usize>| c[r.clone()].iter().sum::<f64>() / r.len() as f64;
+    let per_block = |f: &dyn Fn(&std::ops::Range<usize>) -> f64| -> MeanErr {
+        block_stats(&ranges.iter().map(f).collect::<Vec<_>>())
+    };
     let (kd, rate) = (1.0 / p.q, p.rate);
     let mut s = BTreeMap::new();
-    for (key, c) in [("p", "p"), ("sigma", "sigma"), ("p_el", "p_el"), ("sigma_el", "sigma_el"), ("z", "z"),
-        ("theta_dot_over_gamma_dot", "theta_dot_over_gamma_dot"), ("theta_dot_over_gamma_dot_var", "theta_dot_over_gamma_dot_var")] {
+    for (key, c) in [
+        ("p", "p"),
+        ("sigma", "sigma"),
+        ("p_el", "p_el"),
+        ("sigma_el", "sigma_el"),
+        ("z", "z"),
+        ("theta_dot_over_gamma_dot", "theta_dot_over_gamma_dot"),
+        (
+            "theta_dot_over_gamma_dot_var",
+            "theta_dot_over_gamma_dot_var",
+        ),
+    ] {
         s.insert(key.to_string(), per_block(&|r| mean_in(col(c), r)));
     }
-    s.insert("mu".into(), per_block(&|r| mean_in(col("sigma"), r) / mean_in(col("p"), r)));
-    s.insert("mu_el".into(), per_block(&|r| mean_in(col("sigma_el"), r) / mean_in(col("p_el"), r)));
-    for (k, c) in [("b_p", "p"), ("b_sigma", "sigma"), ("b_p_el", "p_el"), ("b_sigma_el", "sigma_el")] {
+    s.insert(
+        "mu".into(),
+        per_block(&|r| mean_in(col("sigma"), r) / mean_in(col("p"), r)),
+    );
+    s.insert(
+        "mu_el".into(),
+        per_block(&|r| mean_in(col("sigma_el"), r) / mean_in(col("p_el"), r)),
+    );
+    for (k, c) in [
+        ("b_p", "p"),
+        ("b_sigma", "sigma"),
+        ("b_p_el", "p_el"),
+        ("b_sigma_el", "sigma_el"),
+    ] {
         s.insert(k.into(), per_block(&|r| mean_in(col(c), r) / (rate * rate)));
     }
-    for (k, c) in [("eta_p", "p"), ("eta_sigma", "sigma"), ("eta_p_el", "p_el"), ("eta_sigma_el", "sigma_el")] {
+    for (k, c) in [
+        ("eta_p", "p"),
+        ("eta_sigma", "sigma"),
+        ("eta_p_el", "p_el"),
+        ("eta_sigma_el", "sigma_el"),
+    ] {
         s.insert(k.into(), per_block(&|r| mean_in(col(c), r) / (kd * rate)));
     }
-    let (begun, tsum, time, ended) =
-        (col("collisions_begun"), col("contact_time_ended"), col("time"), col("collisions_ended"));
+    let (begun, tsum, time, ended) = (
+        col("collisions_begun"),
+        col("contact_time_ended"),
+        col("time"),
+        col("collisions_ended"),
+    );
     // Contacts per particle begun per τ_e, and mean duration, from block differences.
-    let nu = |r: &std::ops::Range<usize>| (begun[r.end - 1] - begun[r.start]) / (n as f64 * (time[r.end - 1] - time[r.start]));
+    let nu = |r: &std::ops::Range<usize>| {
+        (begun[r.end - 1] - begun[r.start]) / (n as f64 * (time[r.end - 1] - time[r.start]))
+    };
     // Collision statistics need the whole window as one piece: a block shorter than a
     // contact's life would only see the short ones. Blocks give the error bar.
     let whole = first..strain.len();
     let with_whole = |f: &dyn Fn(&std::ops::Range<usize>) -> f64| -> MeanErr {
-        MeanErr { mean: f(&whole), err: per_block(f).err }
+        MeanErr {
+            mean: f(&whole),
+            err: per_block(f).err,
+        }
     };
     s.insert("nu_coll".into(), with_whole(&nu));
     // τ_dur: mean duration of the contacts that ended in the block.
@@ -298,6 +405,9 @@ fn summarize(cols: &[Vec<f64>], p: &ShearParams, n: usize, opt: &ShearOptions) -
         (tsum[r.end - 1] - tsum[r.start]) / (ended[r.end - 1] - ended[r.start]).max(1.0)
     };
     s.insert("tau_dur".into(), with_whole(&tau));
-    s.insert("two_tau_dur_nu_coll".into(), with_whole(&|r| 2.0 * tau(r) * nu(r)));
+    s.insert(
+        "two_tau_dur_nu_coll".into(),
+        with_whole(&|r| 2.0 * tau(r) * nu(r)),
+    );
     Ok(s)
 }
