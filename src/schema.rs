@@ -64,6 +64,10 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         include_str!("../data_schema/stress_strain.schema.json"),
     ),
     ("forces", include_str!("../data_schema/forces.schema.json")),
+    (
+        "shear_series",
+        include_str!("../data_schema/shear_series.schema.json"),
+    ),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,
