@@ -707,7 +707,7 @@ fn bench(what: BenchCmd) -> Result<()> {
                     println!("{}", serde_json::to_string(&b)?);
                 } else {
                     println!(
-                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step; without the resting-pair skip {:.1} ({:.2}x, {:.0}% of pairs reused); pair-list distance pass {:.1} ns/particle; {} list builds",
+                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step; without the frozen-grain skip {:.1} ({:.2}x, {:.0}% of grain-steps frozen); pair-list distance pass {:.1} ns/particle; {} list builds",
                         b.n,
                         b.z,
                         b.steps,

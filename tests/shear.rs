@@ -189,7 +189,11 @@ fn cli_acceptance_outputs_and_kinematics_on_sheared_tracks() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let series = read_table(&out.join("series.parquet"), &[]).unwrap();
     assert!(series.df.height() > 100);
-    assert_eq!(series.columns(), pillar_pipe::schema::load("shear_series").names(), "data_schema/shear_series.schema.json");
+    assert_eq!(
+        series.columns(),
+        pillar_pipe::schema::load("shear_series").names(),
+        "data_schema/shear_series.schema.json"
+    );
     let t = read_table(&out.join("tracks.parquet"), &[]).unwrap();
     assert_eq!(t.df.height() % 256, 0);
     let k = out.join("k.parquet");

@@ -244,7 +244,10 @@ impl PillarSim {
             bar_shear_force,
             interval,
             record: None,
-            scratch: Default::default(),
+            scratch: super::pillar::Scratch {
+                skip_frozen: true,
+                ..Default::default()
+            },
         };
         Ok((sim, extra))
     }

@@ -97,46 +97,26 @@ pub fn pair_forces<N: NormalLaw, T: TangentialLaw>(
     }
 }
 
-/// Each pair's last contribution, so pairs of two resting grains need no work.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct PairCache {
-    /// Force on the first grain (N) and torque on both (N m), per list slot.
-    pub px: Vec<f64>,
-    pub py: Vec<f64>,
-    pub t: Vec<f64>,
-    /// Whether the slots hold values for the current list (false right after a build).
-    pub valid: bool,
-    /// Pairs reused / computed since the counters were last reset.
-    pub reused: u64,
-    pub computed: u64,
-}
-
-/// As [`pair_forces`], but a pair whose two grains both rest (v = 0, a = 0, ω = 0 at
-/// the start of the step, so neither moved) reuses its cached contribution. Such a
-/// pair's force is bit-identical when recomputed — same positions, zero slip, the
-/// Coulomb truncation is idempotent — and contributions are added in the same order
-/// as the full loop, so results are exactly those of [`pair_forces`].
+/// As [`pair_forces`] for grains of which some are `frozen`: at rest (v = 0, a = 0,
+/// ω = 0) with every list partner at rest too, so nothing acting on them changes this
+/// step. A pair of two frozen grains is skipped and a frozen grain's sums are kept from
+/// the last step (its `fx`, `fy`, `tq` must not be zeroed by the caller); every other
+/// pair is computed as in the full loop — a pair of two resting grains gives the very
+/// same numbers (same positions, zero slip, the Coulomb truncation is idempotent) — and
+/// added in the same order, so results are bit-identical to [`pair_forces`].
 #[allow(clippy::too_many_arguments)]
-pub fn pair_forces_resting<N: NormalLaw, T: TangentialLaw>(
+pub fn pair_forces_frozen<N: NormalLaw, T: TangentialLaw>(
     g: &Grains,
     list: &mut PairList,
     b: Boundary,
     normal: &N,
     tangential: &T,
     dt: f64,
-    resting: &[bool],
-    cache: &mut PairCache,
+    frozen: &[bool],
     fx: &mut [f64],
     fy: &mut [f64],
     tq: &mut [f64],
-) {
-    let nslots = list.j.len();
-    if !cache.valid || cache.px.len() != nslots {
-        cache.px = vec![0.0; nslots];
-        cache.py = vec![0.0; nslots];
-        cache.t = vec![0.0; nslots];
-    }
-    let use_cache = cache.valid;
+) -> u64 {
     let (x, y, r, vx, vy, w) = (
         &g.x[..],
         &g.y[..],
@@ -145,55 +125,49 @@ pub fn pair_forces_resting<N: NormalLaw, T: TangentialLaw>(
         &g.vy[..],
         &g.omega[..],
     );
-    let (mut reused, mut computed) = (0u64, 0u64);
+    let mut skipped = 0u64;
     for i in 0..x.len() {
+        let fi = frozen[i];
         let (xi, yi, ri, vxi, vyi, wi) = (x[i], y[i], r[i], vx[i], vy[i], w[i]);
         let (mut fxi, mut fyi, mut tqi) = (0.0, 0.0, 0.0);
-        let rest_i = use_cache && resting[i];
         for k in list.start[i] as usize..list.start[i + 1] as usize {
             let j = list.j[k] as usize;
-            let (px, py, t) = if rest_i && resting[j] {
-                reused += 1;
-                (cache.px[k], cache.py[k], cache.t[k])
-            } else {
-                computed += 1;
-                let (dx, dy) = b.delta(xi - x[j], yi - y[j]);
-                let rs = ri + r[j];
-                let r2 = dx * dx + dy * dy;
-                let v = if r2 >= rs * rs {
-                    if T::HAS_HISTORY {
-                        list.shear[k] = 0.0;
-                    }
-                    (0.0, 0.0, 0.0)
-                } else {
-                    let dist = r2.sqrt();
-                    let (nx, ny) = (dx / dist, dy / dist);
-                    let (dvx, dvy) = (vxi - vx[j], vyi - vy[j]);
-                    let f_n = normal.force(rs - dist, dvx * nx + dvy * ny);
-                    let vt = dvy * nx - dvx * ny - 0.5 * dist * (wi + w[j]);
-                    let f_t = tangential.force(&mut list.shear[k], vt, dt, f_n);
-                    (f_n * nx - f_t * ny, f_n * ny + f_t * nx, -0.5 * dist * f_t)
-                };
-                cache.px[k] = v.0;
-                cache.py[k] = v.1;
-                cache.t[k] = v.2;
-                v
-            };
-            if px == 0.0 && py == 0.0 && t == 0.0 {
-                continue; // not in contact: the full loop adds nothing either
+            let fj = frozen[j];
+            if fi && fj {
+                skipped += 1;
+                continue;
             }
+            let (dx, dy) = b.delta(xi - x[j], yi - y[j]);
+            let rs = ri + r[j];
+            let r2 = dx * dx + dy * dy;
+            if r2 >= rs * rs {
+                if T::HAS_HISTORY {
+                    list.shear[k] = 0.0;
+                }
+                continue;
+            }
+            let dist = r2.sqrt();
+            let (nx, ny) = (dx / dist, dy / dist);
+            let (dvx, dvy) = (vxi - vx[j], vyi - vy[j]);
+            let f_n = normal.force(rs - dist, dvx * nx + dvy * ny);
+            let vt = dvy * nx - dvx * ny - 0.5 * dist * (wi + w[j]);
+            let f_t = tangential.force(&mut list.shear[k], vt, dt, f_n);
+            let (px, py) = (f_n * nx - f_t * ny, f_n * ny + f_t * nx);
+            let t = -0.5 * dist * f_t;
             fxi += px;
             fyi += py;
-            fx[j] -= px;
-            fy[j] -= py;
             tqi += t;
-            tq[j] += t;
+            if !fj {
+                fx[j] -= px;
+                fy[j] -= py;
+                tq[j] += t;
+            }
         }
-        fx[i] += fxi;
-        fy[i] += fyi;
-        tq[i] += tqi;
+        if !fi {
+            fx[i] += fxi;
+            fy[i] += fyi;
+            tq[i] += tqi;
+        }
     }
-    cache.valid = true;
-    cache.reused += reused;
-    cache.computed += computed;
+    skipped
 }

@@ -14,7 +14,7 @@
 //! The substrate's static test uses grain–grain and grain–bar forces only.
 
 use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, TangentialLaw};
-use super::forces::{ContactRecord, PairCache, pair_forces, pair_forces_resting};
+use super::forces::{ContactRecord, pair_forces, pair_forces_frozen};
 use super::grains::{Grains, LARGE};
 use super::params::PillarParams;
 use super::verlet::{Boundary, PairList};
@@ -65,17 +65,18 @@ pub struct PillarSim {
     pub scratch: Scratch,
 }
 
-/// Which grains rest this step and each pair's last force, so that pairs of resting
-/// grains are not recomputed (exactly the same results; see `pair_forces_resting`).
+/// Which grains are frozen this step (at rest, every partner at rest, clear of both
+/// bars): their forces cannot change, so they need no work (exactly the same results;
+/// see `pair_forces_frozen`).
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
-    /// Reuse resting pairs' forces. Exact, but off by default: on the loaded N = 1000
-    /// pillar 69 % of pair evaluations are reused yet the step is no faster (0.95×,
-    /// `pillar-pipe bench dem`), because per-grain work (integration, bars, the list
-    /// check) dominates; a grain-level skip is what would pay.
-    pub skip_resting: bool,
+    /// Skip frozen grains (default on; off for comparison runs).
+    pub skip_frozen: bool,
     pub resting: Vec<bool>,
-    pub cache: PairCache,
+    pub frozen: Vec<bool>,
+    /// Grain-steps and pair evaluations skipped since the start (diagnostics).
+    pub frozen_grain_steps: u64,
+    pub skipped_pairs: u64,
 }
 
 impl PartialEq for Scratch {
@@ -131,7 +132,10 @@ impl PillarSim {
             bar_shear_force: 0.0,
             interval: Interval::default(),
             record: None,
-            scratch: Scratch::default(),
+            scratch: Scratch {
+                skip_frozen: true,
+                ..Scratch::default()
+            },
         };
         s.list
             .build(&s.grains.x, &s.grains.y, &s.grains.radius, Boundary::Open);
@@ -194,9 +198,8 @@ impl PillarSim {
             g.theta[i] += dt * g.omega[i];
         }
         self.step += 1;
-        if self.list.update(&g.x, &g.y, &g.radius, Boundary::Open) {
-            self.scratch.cache.valid = false;
-        }
+        self.list.update(&g.x, &g.y, &g.radius, Boundary::Open);
+        self.mark_frozen();
         self.contact_forces();
         self.accelerate(true);
     }
@@ -205,38 +208,79 @@ impl PillarSim {
     /// (contact history does advance by δt × the current slip, so use on a copy or at
     /// rest).
     pub fn refresh_forces(&mut self) {
-        self.scratch.cache.valid = false;
+        self.scratch.frozen.iter_mut().for_each(|f| *f = false);
         self.contact_forces();
         self.accelerate(false);
     }
 
     /// Contact forces and torques on every grain: grain–grain, then the bars.
+    /// Grains frozen this step: resting, all list partners resting, touching neither
+    /// bar (the top bar moves; a bottom-bar contact would have to be re-summed).
+    fn mark_frozen(&mut self) {
+        let (top, bottom) = (self.top_y(), self.bottom_y);
+        let sc = &mut self.scratch;
+        let n = self.grains.len();
+        sc.frozen.resize(n, false);
+        let on = sc.skip_frozen && self.record.is_none() && sc.resting.len() == n;
+        if !on {
+            sc.frozen.iter_mut().for_each(|f| *f = false);
+            return;
+        }
+        let g = &self.grains;
+        // A margin of one step of bar travel keeps a grain about to be touched awake.
+        let margin = 2.0 * self.params.bar_speed * self.params.dt;
+        for i in 0..n {
+            sc.frozen[i] = sc.resting[i]
+                && top - g.y[i] > g.radius[i] + margin
+                && g.y[i] - bottom > g.radius[i];
+        }
+        for i in 0..n {
+            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
+                let j = self.list.j[k] as usize;
+                if !sc.resting[j] {
+                    sc.frozen[i] = false;
+                }
+                if !sc.resting[i] {
+                    sc.frozen[j] = false;
+                }
+            }
+        }
+        sc.frozen_grain_steps += sc.frozen.iter().filter(|&&f| f).count() as u64;
+    }
+
+    /// Contact forces and torques on every grain: grain–grain, then the bars. Frozen
+    /// grains keep last step's sums.
     fn contact_forces(&mut self) {
         let n = self.grains.len();
-        for v in [&mut self.fx, &mut self.fy, &mut self.tq] {
-            v.iter_mut().for_each(|f| *f = 0.0);
+        let (normal, tangential) = (self.normal(), self.tangential());
+        let sc = &mut self.scratch;
+        if sc.frozen.len() != n {
+            sc.frozen = vec![false; n];
+        }
+        for i in 0..n {
+            if !sc.frozen[i] {
+                self.fx[i] = 0.0;
+                self.fy[i] = 0.0;
+                self.tq[i] = 0.0;
+            }
         }
         if let Some(rec) = self.record.as_mut() {
             *rec = ContactRecord::zeroed(n);
         }
-        let (normal, tangential) = (self.normal(), self.tangential());
-        let sc = &mut self.scratch;
-        if sc.skip_resting && self.record.is_none() && sc.resting.len() == n {
-            pair_forces_resting(
+        if sc.frozen.iter().any(|&f| f) {
+            sc.skipped_pairs += pair_forces_frozen(
                 &self.grains,
                 &mut self.list,
                 Boundary::Open,
                 &normal,
                 &tangential,
                 self.params.dt,
-                &sc.resting,
-                &mut sc.cache,
+                &sc.frozen,
                 &mut self.fx,
                 &mut self.fy,
                 &mut self.tq,
             );
         } else {
-            sc.cache.valid = false;
             pair_forces(
                 &self.grains,
                 &mut self.list,
@@ -268,8 +312,12 @@ impl PillarSim {
         let (top, bottom) = (self.top_y(), self.bottom_y);
         let (dt, v_bar) = (p.dt, p.bar_speed);
         let g = &self.grains;
+        let frozen = &self.scratch.frozen;
         let (mut top_force, mut bottom_force, mut shear_force) = (0.0, 0.0, 0.0);
         for i in 0..g.len() {
+            if frozen[i] {
+                continue; // clear of both bars by definition
+            }
             let r = g.radius[i];
             // n points from the bar into the grain; t̂ = ẑ × n.
             for (face, ny, bar_vy, shear, total) in [
@@ -314,7 +362,12 @@ impl PillarSim {
         let xi_v = sub.xi_v(dt);
         let g = &mut self.grains;
         let (mut p_t, mut p_r) = (0.0, 0.0);
+        let frozen = &self.scratch.frozen;
         for i in 0..g.len() {
+            if kick && frozen.get(i).copied().unwrap_or(false) {
+                // Same forces as last step: it stays at rest, its substrate force too.
+                continue;
+            }
             let m = g.mass[i];
             let (fx, fy) = (self.fx[i], self.fy[i]);
             let (sx, sy) = sub.force(m, g.vx[i], g.vy[i], fx, fy);
