@@ -299,6 +299,7 @@ impl PillarSim {
 
     /// Grain–bar contacts: the bar is a grain of infinite radius with 2 k_n and 2 k_t
     /// (Sec. II.B.2), friction μ_bar, unaffected by the grains.
+    #[allow(clippy::needless_range_loop)]
     fn bar_forces(&mut self) {
         let p = &self.params;
         let normal = Hooke {
