@@ -178,6 +178,12 @@ fn quickstart_pipeline_runs_both_branches() {
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
     assert!(html.contains("fig-stress-strain") && html.contains("simulation"));
     assert!(dir.join("figures/stress_strain.svg").is_file());
+    // The simulate stage's forces reach the report (Fig. 6), and both rows of maps are at
+    // matching strains.
+    for f in ["forces_fn", "forces_ft", "forces_sub", "kappa"] {
+        assert!(dir.join(format!("figures/{f}.svg")).is_file(), "{f}");
+    }
+    assert!(html.contains("experiment: ε ≈") && html.contains("simulation: ε = "));
 
     let out = run_ok(&["run", &qs, "--set", "fit.bootstrap=20"], &runs);
     assert!(out.contains("0 computed, 8 cached"), "{out}");

@@ -164,3 +164,118 @@ fn report_opens_in_headless_chromium_when_available() {
     std::fs::copy(&shot, &keep).unwrap();
     eprintln!("screenshot kept at {}", keep.display());
 }
+
+/// The text of every `<text>` element of an SVG.
+fn svg_texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let body = &t[t.find('>')? + 1..];
+            Some(body[..body.find("</text>")?].trim().to_string())
+        })
+        .collect()
+}
+
+/// A 60-grain fast simulation to ε = 0.02 (8 frames, forces at frames 0 and 5), its
+/// kinematics, and a report of it through the library.
+#[test]
+fn simulation_report_has_force_maps_kappa_and_numeric_colour_bars() {
+    use pillar_pipe::kinematics::Convention;
+    use pillar_pipe::stages::kinematics::{KinematicsOptions, LagSpec};
+    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions};
+
+    let out = tmpdir("sim");
+    let sim = out.join("sim");
+    let o = Command::new(BIN)
+        .args(["simulate", "pillar", "--n", "60", "--preset", "fast"])
+        .args(["--strain", "0.02", "--quiet", "-o"])
+        .arg(&sim)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let tracks = sim.join("tracks.parquet");
+    let kin = out.join("kinematics.parquet");
+    pillar_pipe::stages::kinematics::run(
+        &tracks,
+        &kin,
+        &KinematicsOptions {
+            lag: LagSpec::Frames(vec![1]),
+            rc: None,
+            start: None,
+            every: None,
+            convention: Convention::Paper,
+            quiet: true,
+        },
+    )
+    .unwrap();
+    let stages = 2;
+    let rep = out.join("report");
+    pillar_pipe::stages::report::run(
+        &rep,
+        &ReportOptions {
+            title: "tiny simulation".into(),
+            datasets: vec![DatasetInputs {
+                label: "simulation".into(),
+                tracks: Some(tracks),
+                kinematics: Some(kin),
+                fit: None,
+                stress: Some(sim.join("stress_strain.parquet")),
+                forces: Some(sim.join("forces.parquet")),
+            }],
+            map_stages: stages,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    for id in [
+        "id=\"forces\"",
+        "id=\"fig-forces_fn\"",
+        "id=\"fig-forces_ft\"",
+        "id=\"fig-forces_sub\"",
+        "id=\"fig-kappa\"",
+        "m g μ / D",
+    ] {
+        assert!(html.contains(id), "{id} missing from the report");
+    }
+    let fig = |stem: &str, ext: &str| rep.join("figures").join(format!("{stem}.{ext}"));
+    for stem in ["forces_fn", "forces_ft", "forces_sub"] {
+        let (w, h, ink) = ink_fraction(&fig(stem, "png"));
+        assert!(w >= 600 && h >= 400, "{stem}: {w}x{h}");
+        assert!(ink > 0.05, "{stem}: only {ink} of the pixels are drawn");
+        assert!(colours(&fig(stem, "png")) > 20, "{stem}: grains coloured");
+        // Every grain is in every snapshot of a simulation: one disk per grain per panel.
+        let svg = std::fs::read_to_string(fig(stem, "svg")).unwrap();
+        assert_eq!(svg.matches("<circle").count(), 60 * stages, "{stem}");
+        let texts = svg_texts(&svg);
+        assert!(
+            texts.iter().filter(|t| t.contains("ε = ")).count() == stages,
+            "{stem}: panels labelled with their strain: {texts:?}"
+        );
+    }
+    let (_, _, ink) = ink_fraction(&fig("kappa", "png"));
+    assert!(ink > 0.02, "kappa figure blank");
+    let kappa = std::fs::read_to_string(fig("kappa", "svg")).unwrap();
+    assert!(kappa.contains("<polyline"), "κ curve drawn");
+    // Colour bars: five ticks that read as increasing numbers (no "1e-2.7"), on linear
+    // and log scales alike.
+    for stem in [
+        "map_speed",
+        "map_j2",
+        "map_d2min",
+        "forces_fn",
+        "forces_sub",
+    ] {
+        let svg = std::fs::read_to_string(fig(stem, "svg")).unwrap();
+        let ticks: Vec<f64> = svg_texts(&svg)
+            .iter()
+            .filter(|t| !t.contains(':') && !t.contains('('))
+            .map(|t| {
+                t.parse::<f64>()
+                    .unwrap_or_else(|_| panic!("{stem}: tick {t:?} is not a number"))
+            })
+            .collect();
+        assert_eq!(ticks.len(), 5, "{stem}: {ticks:?}");
+        assert!(ticks.windows(2).all(|w| w[0] < w[1]), "{stem}: {ticks:?}");
+    }
+}

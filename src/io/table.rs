@@ -176,6 +176,23 @@ impl Table {
         Ok(ca.into_no_null_iter().collect())
     }
 
+    /// Column as f64 with nulls read as NaN, for columns whose schema allows nulls
+    /// (κ of the stress–strain table where P_in = 0).
+    pub fn f64_or_nan(&self, name: &str) -> Result<Vec<f64>> {
+        let c = self
+            .df
+            .column(name)
+            .map_err(|e| Error::polars(&self.file, e))?;
+        let c = c.cast(&DataType::Float64).map_err(|_| Error::Value {
+            file: self.file.clone(),
+            loc: "whole column".into(),
+            column: name.into(),
+            msg: format!("has type {}, expected numbers", c.dtype()),
+        })?;
+        let ca = c.f64().map_err(|e| Error::polars(&self.file, e))?;
+        Ok(ca.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+    }
+
     /// Column as i64; floats must be whole numbers.
     pub fn i64(&self, name: &str) -> Result<Vec<i64>> {
         let c = self

@@ -177,6 +177,8 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                     kinematics: ctx.optional(&d.kinematics, "kinematics"),
                     fit: ctx.optional(&d.fit, "fit"),
                     stress: ctx.optional(&d.stress, "stress_strain"),
+                    // The same simulate stage writes the per-grain forces (Fig. 6).
+                    forces: ctx.optional(&d.stress, "forces"),
                 })
                 .collect();
             let opt = stages::report::ReportOptions {

@@ -16,7 +16,7 @@ pub struct Dataset {
     pub tracks: Option<String>,
     pub kinematics: Option<String>,
     pub fit: Option<String>,
-    /// The simulate stage whose stress-strain table to plot.
+    /// The simulate stage whose stress-strain and forces tables to plot.
     pub stress: Option<String>,
 }
 

@@ -4,6 +4,7 @@
 
 pub mod figures;
 pub mod html;
+pub mod map;
 
 use crate::error::{Error, Result};
 use plotters::coord::Shift;

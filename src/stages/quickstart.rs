@@ -82,6 +82,7 @@ pub fn run(
                 kinematics: Some(kin.clone()),
                 fit: Some(out.join("fit.json")),
                 stress: None,
+                forces: None,
             }],
             map_stages: 3,
             provenance: serde_json::json!({"input": input.display().to_string(), "seed": seed, "bootstrap": bootstrap}),

@@ -1,20 +1,18 @@
 //! `report`: experiment and simulation side by side — the D²min–η^s crossover with both
-//! fits (Fig. 8), per-particle maps of speed, J2 and D²min (Fig. 5), stress–strain when
-//! bar forces exist (Fig. 4), the fit table and provenance — as `report.html` (figures
+//! fits (Fig. 8), per-particle maps of speed, J2 and D²min at matching strains (Fig. 5),
+//! the simulation's force maps (Fig. 6), stress–strain and κ when the simulator's table
+//! exists (Figs. 4 and 10d), the fit table and provenance — as `report.html` (figures
 //! inlined) plus every figure as PNG and SVG under `figures/`.
 
-use super::fit::{FitReport, num, read_fit};
+use super::report_data::{Loaded, Panel};
+use super::report_sections::{map_blocks, strain_blocks};
+use super::report_stages::{nearest_frames, pick_frames, strain_range, strain_targets};
 use crate::error::{Error, Result};
-use crate::io::csvdiag::Expect;
-use crate::io::table::read_table;
-use crate::io::{atomic_write_str, read_tracks};
-use crate::report::figures::{
-    CrossoverFigure, CrossoverSeries, MapFigure, MapPanel, StressStrainFigure, StressStrainSeries,
-};
+use crate::io::atomic_write_str;
+use crate::report::SavedFigure;
 use crate::report::html::{Block, Report, Section, render};
-use crate::report::{SavedFigure, save};
 use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// One side of the report (experiment, simulation, …).
@@ -24,8 +22,13 @@ pub struct DatasetInputs {
     pub tracks: Option<PathBuf>,
     pub kinematics: Option<PathBuf>,
     pub fit: Option<PathBuf>,
-    /// A table with `strain` and `stress` columns (the simulator's stress–strain output).
+    /// A table with `frame`, `strain` and `stress` columns, optionally `stress_reduced`
+    /// and `kappa_exact` (the simulator's stress–strain output).
     pub stress: Option<PathBuf>,
+    /// Per-grain forces (the simulator's forces table, data_schema/forces.schema.json);
+    /// drawn at the grains' positions in `tracks`.
+    #[serde(default)]
+    pub forces: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -45,145 +48,35 @@ pub struct ReportOutput {
     pub sections: Vec<String>,
 }
 
-/// Most points drawn per data set in the scatter (every k-th, deterministic).
-const MAX_SCATTER: usize = 6000;
-
-fn scatter_points(fit: &FitReport) -> Result<Vec<(f64, f64)>> {
-    let t = read_table(
-        Path::new(&fit.scatter),
-        &[("eta_s", Expect::Float), ("d2min_over_r2", Expect::Float)],
-    )?;
-    let (e, y) = (t.f64("eta_s")?, t.f64("d2min_over_r2")?);
-    let stride = e.len().div_ceil(MAX_SCATTER).max(1);
-    Ok(e.iter()
-        .zip(&y)
-        .step_by(stride)
-        .map(|(&a, &b)| (a, b))
-        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
-        .collect())
-}
-
-/// One map panel: its title, start frame, and per grain (x, y, radius, [speed, J2, D²min]).
-type PanelData = (String, i64, Vec<(f64, f64, f64, [f64; 3])>);
-
-/// Per-particle maps for one data set: `stages` start frames spread over the run.
-fn map_panels(d: &DatasetInputs, stages: usize) -> Result<Vec<PanelData>> {
-    let Some(kp) = &d.kinematics else {
-        return Ok(Vec::new());
+/// Map and force frames per data set: nearest to strains shared by all data sets
+/// where the strain is known, evenly spread otherwise; force frames nearest to the
+/// map frames.
+fn stages(loaded: &[Loaded], stages: usize) -> Vec<(Vec<i64>, Vec<i64>)> {
+    let candidates = |l: &Loaded| {
+        if l.kin_frames.is_empty() {
+            l.force_frames.clone()
+        } else {
+            l.kin_frames.clone()
+        }
     };
-    let t = read_table(
-        kp,
-        &[
-            ("frame", Expect::Int),
-            ("particle", Expect::Int),
-            ("x", Expect::Float),
-            ("y", Expect::Float),
-            ("speed", Expect::Float),
-            ("j2", Expect::Float),
-            ("d2min", Expect::Float),
-        ],
-    )?;
-    let (frame, particle) = (t.i64("frame")?, t.i64("particle")?);
-    let (x, y, valid) = (t.f64("x")?, t.f64("y")?, t.bool("valid")?);
-    let (speed, j2, d2) = (t.f64("speed")?, t.f64("j2")?, t.f64("d2min")?);
-    let mut frames: Vec<i64> = frame.clone();
-    frames.sort_unstable();
-    frames.dedup();
-    let pick: Vec<i64> = if frames.len() <= stages {
-        frames.clone()
-    } else {
-        (0..stages)
-            .map(|k| frames[k * (frames.len() - 1) / (stages - 1).max(1)])
-            .collect()
-    };
-    let tracks = match &d.tracks {
-        Some(p) => Some(read_tracks(p)?.0),
-        None => None,
-    };
-    let mut out = Vec::new();
-    for f in pick {
-        let radius: HashMap<i64, f64> = tracks
-            .as_ref()
-            .map(|t| {
-                (0..t.len())
-                    .filter(|&r| t.frame[r] == f)
-                    .map(|r| (t.particle[r], t.radius[r]))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let default_r = tracks
-            .as_ref()
-            .and_then(|t| t.large_diameter())
-            .map_or(0.5, |dd| 0.5 * dd);
-        // The paper's units (Fig. 5): v in v_c, J2 in v_c/R, D²min in R², so that an
-        // experiment and a faster simulation share one colour scale.
-        let (vs, js, ds) = match tracks
-            .as_ref()
-            .and_then(|t| t.meta.bar_speed.zip(t.large_diameter()))
-        {
-            Some((vc, dd)) if vc > 0.0 => (1.0 / vc, 0.5 * dd / vc, 4.0 / (dd * dd)),
-            _ => (1.0, 1.0, 1.0),
-        };
-        let grains = (0..frame.len())
-            .filter(|&r| frame[r] == f && valid[r])
-            .map(|r| {
-                (
-                    x[r],
-                    y[r],
-                    *radius.get(&particle[r]).unwrap_or(&default_r),
-                    [speed[r] * vs, j2[r] * js, d2[r] * ds],
-                )
-            })
-            .collect();
-        let time = tracks
-            .as_ref()
-            .and_then(|t| {
-                t.meta
-                    .frame_time
-                    .map(|ft| format!(", t = {:.0} {}", f as f64 * ft, t.meta.time_unit))
-            })
-            .unwrap_or_default();
-        out.push((format!("{}: frame {f}{time}", d.label), f, grains));
-    }
-    Ok(out)
-}
-
-fn stress_series(d: &DatasetInputs) -> Result<Option<StressStrainSeries>> {
-    let Some(p) = &d.stress else { return Ok(None) };
-    let t = read_table(p, &[("strain", Expect::Float), ("stress", Expect::Float)])?;
-    t.require(&["strain", "stress"])?;
-    let (e, s) = (t.f64("strain")?, t.f64("stress")?);
-    Ok(Some(StressStrainSeries {
-        label: d.label.clone(),
-        points: e.into_iter().zip(s).collect(),
-    }))
-}
-
-fn fit_rows(fits: &[(String, FitReport)]) -> Vec<Vec<String>> {
-    fits.iter()
-        .map(|(label, f)| {
-            let flag = |ok: bool| if ok { "" } else { " (not constrained)" };
-            vec![
-                label.clone(),
-                f.method.name().to_string(),
-                format!(
-                    "{} [{}, {}]{}",
-                    num(f.theta),
-                    num(f.theta_interval[0]),
-                    num(f.theta_interval[1]),
-                    flag(f.theta_constrained)
-                ),
-                format!(
-                    "{} [{}, {}]{}",
-                    num(f.eta_c),
-                    num(f.eta_c_interval[0]),
-                    num(f.eta_c_interval[1]),
-                    flag(f.eta_c_constrained)
-                ),
-                f.n_points.to_string(),
-                f.n_starts.to_string(),
-                format!("{:?}", f.protocol.lags_frames),
-            ]
+    let ranges: Vec<_> = loaded
+        .iter()
+        .map(|l| strain_range(l.strain.as_ref(), &candidates(l)))
+        .collect();
+    let targets = strain_targets(&ranges, stages);
+    loaded
+        .iter()
+        .zip(&targets)
+        .map(|(l, t)| {
+            let pick =
+                |frames: &[i64]| pick_frames(frames, l.strain.as_ref(), t.as_deref(), stages);
+            let maps = pick(&l.kin_frames);
+            let forces = if maps.is_empty() {
+                pick(&l.force_frames)
+            } else {
+                nearest_frames(&l.force_frames, &maps)
+            };
+            (maps, forces)
         })
         .collect()
 }
@@ -199,188 +92,87 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
     std::fs::create_dir_all(&figdir).map_err(|e| Error::io(&figdir, e))?;
     let mut figures = Vec::new();
     let mut sections = Vec::new();
-    let rel = |f: &SavedFigure| {
-        format!(
-            "figures/{}",
-            f.png
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default()
-        )
-    };
-
-    // Fits and the crossover figure.
-    let mut fits: Vec<(String, FitReport)> = Vec::new();
-    for d in &opt.datasets {
-        if let Some(p) = &d.fit {
-            fits.push((d.label.clone(), read_fit(p)?));
-        }
-    }
-    if !fits.is_empty() {
-        let mut series = Vec::new();
-        for (label, f) in &fits {
-            let binned = f
-                .estimators
-                .get(f.method.name())
-                .and_then(|v| v.get("curve"))
-                .and_then(|c| serde_json::from_value::<Vec<crate::fit::BinPoint>>(c.clone()).ok())
-                .unwrap_or_default()
-                .iter()
-                .map(|b| (b.eta_s, b.d2min_over_r2))
-                .collect();
-            series.push(CrossoverSeries {
-                label: label.clone(),
-                points: scatter_points(f)?,
-                binned,
-                theta: f.theta,
-                eta_c: f.eta_c,
-            });
-        }
-        let fig = save(&CrossoverFigure { series }, &figdir.join("crossover"))?;
-        let mut blocks = vec![
-            Block::Figure {
-                id: "fig-crossover".into(),
-                caption: "D²min/R² against η^s: every sample (faint), the binned curve of the fit's estimator, and Eq. 19 with the fitted Θ, η_c (Li et al. Fig. 8).".into(),
-                svg: fig.svg_text.clone(),
-                png: rel(&fig),
-            },
-            Block::Table {
-                header: ["data", "estimator", "Θ [95% CI]", "η_c [95% CI]", "points", "starts", "lags (frames)"].map(String::from).to_vec(),
-                rows: fit_rows(&fits),
-            },
-        ];
-        if fits.len() == 2 {
-            let (a, b) = (&fits[0].1, &fits[1].1);
-            let text = match super::compare::incompatibility(a, b) {
-                Some(why) => format!("Not compared: the fits were made differently ({why})."),
-                None => {
-                    let ov = |x: [f64; 2], y: [f64; 2]| x[0] <= y[1] && y[0] <= x[1];
-                    format!(
-                        "Same estimator, R_c and lags: Θ {} and η_c {} within their 95% intervals.",
-                        if ov(a.theta_interval, b.theta_interval) {
-                            "agree"
-                        } else {
-                            "differ"
-                        },
-                        if ov(a.eta_c_interval, b.eta_c_interval) {
-                            "agree"
-                        } else {
-                            "differ"
-                        }
-                    )
-                }
-            };
-            blocks.push(Block::Paragraph(text));
-        }
-        for (label, f) in &fits {
-            for n in &f.notes {
-                blocks.push(Block::Paragraph(format!("{label}: {n}")));
-            }
-        }
-        sections.push(Section {
-            id: "crossover".into(),
-            title: "Deformation-driven diffusion".into(),
-            blocks,
-        });
-        figures.push(fig);
+    if let Some(s) = super::report_fit::crossover_section(&opt.datasets, &figdir, &mut figures)? {
+        sections.push(s);
     }
 
-    // Maps: one figure per quantity, every data set's stages side by side on one scale.
-    let mut panels = Vec::new();
-    for d in &opt.datasets {
-        panels.extend(map_panels(d, opt.map_stages)?);
-    }
-    let reduced = opt
+    let loaded = opt
         .datasets
         .iter()
-        .filter(|d| d.kinematics.is_some())
-        .all(|d| {
-            d.tracks
-                .as_ref()
-                .and_then(|p| crate::io::tracks_io::read_meta(p).ok().flatten())
-                .is_some_and(|m| m.bar_speed.is_some())
-        });
+        .map(Loaded::read)
+        .collect::<Result<Vec<_>>>()?;
+    let picked = stages(&loaded, opt.map_stages);
+    let columns = opt.map_stages.max(1);
+
+    // Maps: one figure per quantity, every data set's stages side by side on one scale.
+    let panels: Vec<Panel> = loaded
+        .iter()
+        .zip(&picked)
+        .flat_map(|(l, (f, _))| l.map_panels(f))
+        .collect();
     if !panels.is_empty() {
-        let mut blocks = Vec::new();
-        let names = if reduced {
+        let reduced = loaded
+            .iter()
+            .filter(|l| !l.kin_frames.is_empty())
+            .all(Loaded::has_bar_speed);
+        let q = if reduced {
             [
-                "speed |v| / v_c (Eq. 13)",
-                "J2 = η^s/Δt in v_c/R (Eq. 18)",
-                "D²min / R² (Eq. 14)",
+                ("speed |v| / v_c (Eq. 13)", "map_speed", false),
+                ("J2 = η^s/Δt in v_c/R (Eq. 18)", "map_j2", true),
+                ("D²min / R² (Eq. 14)", "map_d2min", true),
             ]
         } else {
             [
-                "speed |v| (Eq. 13)",
-                "J2 = η^s/Δt (Eq. 18)",
-                "D²min (Eq. 14)",
+                ("speed |v| (Eq. 13)", "map_speed", false),
+                ("J2 = η^s/Δt (Eq. 18)", "map_j2", true),
+                ("D²min (Eq. 14)", "map_d2min", true),
             ]
         };
-        for (k, (name, file, log)) in [
-            (names[0], "map_speed", false),
-            (names[1], "map_j2", true),
-            (names[2], "map_d2min", true),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let fig = MapFigure {
-                quantity: name.to_string(),
-                log,
-                columns: opt.map_stages.max(1),
-                panels: panels
-                    .iter()
-                    .map(|(title, _, g)| MapPanel {
-                        title: title.clone(),
-                        grains: g.iter().map(|&(x, y, r, v)| (x, y, r, v[k])).collect(),
-                    })
-                    .collect(),
-            };
-            let saved = save(&fig, &figdir.join(file))?;
-            blocks.push(Block::Figure {
-                id: format!("fig-{file}"),
-                caption: format!("{name} per grain, drawn at its true radius, on one colour scale for all panels (Li et al. Fig. 5)."),
-                svg: saved.svg_text.clone(),
-                png: rel(&saved),
-            });
-            figures.push(saved);
-        }
+        let caption = "on one colour scale for all panels, at matching strains where known; grains at rest (grey) are left off log scales (Li et al. Fig. 5).";
         sections.push(Section {
             id: "maps".into(),
             title: "Per-particle maps".into(),
-            blocks,
+            blocks: map_blocks(&panels, q, columns, caption, &figdir, &mut figures)?,
         });
     }
 
-    // Stress–strain.
-    let mut ss = Vec::new();
-    for d in &opt.datasets {
-        if let Some(s) = stress_series(d)? {
-            ss.push(s);
-        }
-    }
-    let mut blocks = Vec::new();
-    if ss.is_empty() {
-        blocks.push(Block::Paragraph("No bar-force data in these inputs (trackpy experiments carry none unless a force table is given).".into()));
-    } else {
-        let saved = save(
-            &StressStrainFigure {
-                series: ss,
-                stress_unit: "N/m".into(),
-            },
-            &figdir.join("stress_strain"),
-        )?;
-        blocks.push(Block::Figure {
-            id: "fig-stress-strain".into(),
-            caption: "σ = F_bar / W against ε = ΔH/H0 (Li et al. Fig. 4).".into(),
-            svg: saved.svg_text.clone(),
-            png: rel(&saved),
+    // Forces (simulations only): same stages as the maps.
+    let panels: Vec<Panel> = loaded
+        .iter()
+        .zip(&picked)
+        .flat_map(|(l, (_, f))| l.force_panels(f))
+        .collect();
+    if !panels.is_empty() {
+        let q = [
+            (
+                "grain–grain normal force F_n in m g μ (Eq. 4)",
+                "forces_fn",
+                false,
+            ),
+            (
+                "grain–grain tangential force F_t in m g μ (Eq. 7)",
+                "forces_ft",
+                false,
+            ),
+            (
+                "substrate friction |f| in m_i g μ (Sec. II.B.3)",
+                "forces_sub",
+                false,
+            ),
+        ];
+        let caption = "summed over its contacts for F_n and F_t, on one colour scale for all panels, at the snapshots nearest to the maps' stages (Li et al. Fig. 6).";
+        sections.push(Section {
+            id: "forces".into(),
+            title: "Forces (simulation)".into(),
+            blocks: map_blocks(&panels, q, columns, caption, &figdir, &mut figures)?,
         });
-        figures.push(saved);
     }
+
+    // Stress–strain and κ.
     sections.push(Section {
         id: "stress".into(),
         title: "Stress–strain".into(),
-        blocks,
+        blocks: strain_blocks(&opt.datasets, &figdir, &mut figures)?,
     });
 
     // Provenance.
@@ -391,6 +183,7 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
             ("kinematics", &d.kinematics),
             ("fit", &d.fit),
             ("stress", &d.stress),
+            ("forces", &d.forces),
         ] {
             if let Some(p) = p {
                 rows.push(vec![

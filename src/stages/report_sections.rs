@@ -1,0 +1,126 @@
+//! Blocks of the report's sections: map figures (Li et al. Figs. 5 and 6) and curves
+//! against strain (Figs. 4 and 10d).
+
+use super::report::DatasetInputs;
+use super::report_data::{Panel, strain_curve};
+use crate::error::Result;
+use crate::report::figures::{MapFigure, MapPanel, StrainCurveFigure, StrainSeries};
+use crate::report::html::Block;
+use crate::report::{SavedFigure, save};
+use std::path::Path;
+
+/// A figure's PNG relative to the report.
+pub fn rel(f: &SavedFigure) -> String {
+    format!(
+        "figures/{}",
+        f.png
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    )
+}
+
+/// One figure per quantity (name, file stem, log scale), every panel on one colour scale.
+pub fn map_blocks(
+    panels: &[Panel],
+    quantities: [(&str, &str, bool); 3],
+    columns: usize,
+    caption: &str,
+    figdir: &Path,
+    figures: &mut Vec<SavedFigure>,
+) -> Result<Vec<Block>> {
+    let mut blocks = Vec::new();
+    for (k, (name, file, log)) in quantities.into_iter().enumerate() {
+        let fig = MapFigure {
+            quantity: name.to_string(),
+            log,
+            columns,
+            panels: panels
+                .iter()
+                .map(|p| MapPanel {
+                    title: p.title.clone(),
+                    grains: p
+                        .grains
+                        .iter()
+                        .map(|&(x, y, r, v)| (x, y, r, v[k]))
+                        .collect(),
+                })
+                .collect(),
+        };
+        let saved = save(&fig, &figdir.join(file))?;
+        blocks.push(Block::Figure {
+            id: format!("fig-{file}"),
+            caption: format!("{name} per grain, drawn at its true radius, {caption}"),
+            svg: saved.svg_text.clone(),
+            png: rel(&saved),
+        });
+        figures.push(saved);
+    }
+    Ok(blocks)
+}
+
+/// Stress (Fig. 4) and κ (Fig. 10d) against strain, from the data sets' stress tables.
+pub fn strain_blocks(
+    datasets: &[DatasetInputs],
+    figdir: &Path,
+    figures: &mut Vec<SavedFigure>,
+) -> Result<Vec<Block>> {
+    let tables: Vec<(&str, &Path)> = datasets
+        .iter()
+        .filter_map(|d| d.stress.as_deref().map(|p| (d.label.as_str(), p)))
+        .collect();
+    if tables.is_empty() {
+        return Ok(vec![Block::Paragraph("No bar-force data in these inputs (trackpy experiments carry none unless a force table is given).".into())]);
+    }
+    let curves = |col: &str| -> Result<Option<Vec<StrainSeries>>> {
+        let mut out = Vec::new();
+        for (label, p) in &tables {
+            match strain_curve(p, col)? {
+                Some(points) => out.push(StrainSeries {
+                    label: label.to_string(),
+                    points,
+                }),
+                None => return Ok(None),
+            }
+        }
+        Ok(Some(out))
+    };
+    // The paper's unit m g μ / D where every table has it, so sizes compare (Fig. 4).
+    let (series, unit, eq) = match curves("stress_reduced")? {
+        Some(s) => (s, "m g μ / D", "σ = F_bar / W in units of m g μ / D"),
+        None => (
+            curves("stress")?.unwrap_or_default(),
+            "N/m",
+            "σ = F_bar / W",
+        ),
+    };
+    let mut blocks = Vec::new();
+    let mut figure = |fig: StrainCurveFigure, file: &str, caption: String| -> Result<()> {
+        let saved = save(&fig, &figdir.join(file))?;
+        blocks.push(Block::Figure {
+            id: format!("fig-{}", file.replace('_', "-")),
+            caption,
+            svg: saved.svg_text.clone(),
+            png: rel(&saved),
+        });
+        figures.push(saved);
+        Ok(())
+    };
+    figure(
+        StrainCurveFigure {
+            title: "Stress–strain (Fig. 4)".into(),
+            y_desc: format!("σ ({unit})"),
+            series,
+        },
+        "stress_strain",
+        format!("{eq} against ε = ΔH/H0 (Li et al. Fig. 4)."),
+    )?;
+    if let Some(series) = curves("kappa_exact")? {
+        figure(
+            StrainCurveFigure { title: "Substrate dissipation κ (Fig. 10d)".into(), y_desc: "κ = P_g-s / P_in".into(), series },
+            "kappa",
+            "κ = P_g-s / P_in against ε: the fraction of the bar's input power (Eq. 20) dissipated by grain–substrate friction, from the simulator's exact Σ|f_i·v_i| (Li et al. Fig. 10d).".into(),
+        )?;
+    }
+    Ok(blocks)
+}
