@@ -1,0 +1,267 @@
+//! CLI wiring for `pillar-pipe bench …`: each hot path against a reference measured in
+//! the same run.
+
+use anyhow::Result;
+use clap::Subcommand;
+use pillar_pipe::kinematics::Convention;
+use std::path::PathBuf;
+
+#[derive(Subcommand)]
+pub enum BenchCmd {
+    /// One frame pair of the kinematics kernel, 1 and 2 threads.
+    Kinematics {
+        #[arg(long, value_delimiter = ',', default_value = "64000,1000000")]
+        n: Vec<usize>,
+        #[arg(long, default_value_t = 3)]
+        reps: usize,
+        /// Time the first two frames of these tracks instead (e.g. the frames OVITO ran on).
+        #[arg(long)]
+        input: Option<PathBuf>,
+        /// R_c for --input (length unit).
+        #[arg(long, default_value_t = 1.25)]
+        rc: f64,
+        #[arg(long, value_enum, default_value = "paper")]
+        convention: Convention,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Ingest of a generated trackpy CSV vs polars' plain CSV read (time, peak memory).
+    Ingest {
+        #[arg(long, default_value_t = 10_000_000)]
+        rows: usize,
+        /// Where to put the generated CSV (default: the system temp dir).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+        /// Keep the generated CSV.
+        #[arg(long)]
+        keep: bool,
+    },
+    #[command(hide = true)]
+    IngestChild { mode: String, csv: PathBuf },
+    /// Sheared disks (φ = 0.82, Q = 1, CDrot) particle-steps per second.
+    Shear {
+        #[arg(long, value_delimiter = ',', default_value = "1024,65536")]
+        n: Vec<usize>,
+        #[arg(long, default_value_t = 2000)]
+        steps: u64,
+        #[arg(long, default_value_t = 1000)]
+        warmup: u64,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Stress–strain of the `fast` preset against the `paper` preset on one packing.
+    Presets {
+        #[arg(long, default_value_t = 200)]
+        n: usize,
+        #[arg(long, default_value_t = 0.1)]
+        strain: f64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Strain bin for the comparison.
+        #[arg(long, default_value_t = 0.01)]
+        bin: f64,
+    },
+    /// Pillar DEM particle-steps per second (N = 1000 k²), loaded to a small strain.
+    Dem {
+        /// Tiling factors k: N = 1000 k² grains.
+        #[arg(long, value_delimiter = ',', default_value = "1,4")]
+        k: Vec<usize>,
+        #[arg(long, default_value_t = 20_000)]
+        steps: u64,
+        #[arg(long, default_value = "paper")]
+        preset: String,
+        /// Strain to load the pillar to before timing.
+        #[arg(long, default_value_t = 0.02)]
+        preload: f64,
+        /// Write the loaded state here (for bench/lammps_pillar.py).
+        #[arg(long)]
+        export: Option<PathBuf>,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+pub fn bench(what: BenchCmd) -> Result<()> {
+    use pillar_pipe::bench;
+    match what {
+        BenchCmd::Shear {
+            n,
+            steps,
+            warmup,
+            json,
+        } => {
+            for n in n {
+                let b = pillar_pipe::bench_dem::bench_shear(n, steps, warmup);
+                if json {
+                    println!("{}", serde_json::to_string(&b)?);
+                } else {
+                    println!(
+                        "shear n={:>6} Z={:.2} {} steps {:.2} s  {:.1} ns/particle-step (Eqs. 21–24: two force evaluations per step; {} list builds)",
+                        b.n, b.z, b.steps, b.seconds, b.ns_per_particle_step, b.list_builds
+                    );
+                }
+            }
+        }
+        BenchCmd::Presets {
+            n,
+            strain,
+            seed,
+            bin,
+        } => {
+            let c = pillar_pipe::bench_dem::compare_presets(n, strain, seed, bin)?;
+            println!("strain   sigma_fast  sigma_paper   (m g mu / D, binned means)");
+            for (e, f, p) in &c.bins {
+                println!("{e:6.3}   {f:9.3}   {p:9.3}");
+            }
+            println!(
+                "mean sigma: fast {:.3}, paper {:.3}; mean |difference| {:.1}% of paper's mean; run time fast {:.1} s, paper {:.1} s",
+                c.mean_stress_fast,
+                c.mean_stress_paper,
+                100.0 * c.mean_abs_difference_rel,
+                c.seconds_fast,
+                c.seconds_paper
+            );
+        }
+        BenchCmd::Dem {
+            k,
+            steps,
+            preset,
+            preload,
+            export,
+            json,
+        } => {
+            for k in k {
+                let dir = export
+                    .as_ref()
+                    .map(|d| d.join(format!("n{}", 1000 * k * k)));
+                let b = pillar_pipe::bench_dem::bench_pillar(
+                    k,
+                    steps,
+                    &preset,
+                    preload,
+                    dir.as_deref(),
+                )?;
+                if json {
+                    println!("{}", serde_json::to_string(&b)?);
+                } else {
+                    println!(
+                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step; without the frozen-grain skip {:.1} ({:.2}x, {:.0}% of grain-steps frozen); pair-list distance pass {:.1} ns/particle; {} list builds",
+                        b.n,
+                        b.z,
+                        b.steps,
+                        b.seconds,
+                        b.ns_per_particle_step,
+                        b.ns_per_particle_step_no_skip,
+                        b.ns_per_particle_step_no_skip / b.ns_per_particle_step,
+                        100.0 * b.reused_fraction,
+                        b.floor_ns_per_particle,
+                        b.list_builds
+                    );
+                }
+            }
+        }
+        BenchCmd::Kinematics {
+            n,
+            reps,
+            input,
+            rc,
+            convention,
+            json,
+        } => {
+            let mut all = Vec::new();
+            let given = match &input {
+                Some(p) => Some(pillar_pipe::io::read_tracks(p)?.0),
+                None => None,
+            };
+            let sizes = if given.is_some() { vec![0] } else { n };
+            for &n in &sizes {
+                for threads in [1, 2] {
+                    let b = match &given {
+                        Some(t) => {
+                            bench::bench_kinematics_tracks(t, rc, convention, threads, reps)?
+                        }
+                        None => bench::bench_kinematics(n, threads, reps)?,
+                    };
+                    if !json {
+                        println!(
+                            "kinematics n={:>8} threads={} {:>8.4} s/pair {:>12.0} particles/s   (same-run reference: cell list + neighbour count {:.4} s, ratio {:.2})",
+                            b.n,
+                            b.threads,
+                            b.seconds,
+                            b.particles_per_s,
+                            b.neighbour_pass_seconds,
+                            b.seconds / b.neighbour_pass_seconds
+                        );
+                    }
+                    all.push(b);
+                }
+                let (t1, t2) = (all[all.len() - 2].seconds, all[all.len() - 1].seconds);
+                if !json {
+                    println!("  speed-up 2 threads / 1 thread: {:.2}x", t1 / t2);
+                }
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&all)?);
+            }
+        }
+        BenchCmd::Ingest { rows, dir, keep } => {
+            let dir = dir.unwrap_or_else(std::env::temp_dir);
+            let csv = dir.join(format!("pillar-pipe-bench-{rows}.csv"));
+            eprintln!(
+                "generating {} rows of trackpy CSV at {} ...",
+                rows,
+                csv.display()
+            );
+            bench::write_trackpy_csv(&csv, rows, 1)?;
+            let size = std::fs::metadata(&csv)?.len();
+            let exe = std::env::current_exe()?;
+            let mut res = Vec::new();
+            for mode in ["polars", "ingest"] {
+                let out = std::process::Command::new(&exe)
+                    .args([
+                        "bench",
+                        "ingest-child",
+                        mode,
+                        csv.to_str().unwrap_or_default(),
+                    ])
+                    .output()?;
+                if !out.status.success() {
+                    anyhow::bail!(
+                        "{mode} child failed: {}",
+                        String::from_utf8_lossy(&out.stderr)
+                    );
+                }
+                let c: bench::IngestChild = serde_json::from_slice(&out.stdout)?;
+                res.push(c);
+            }
+            if !keep {
+                let _ = std::fs::remove_file(&csv);
+            }
+            let table = rows as f64 * 52.0;
+            println!(
+                "ingest bench: {rows} rows, CSV {:.0} MB, canonical table {:.0} MB in memory",
+                size as f64 / 1e6,
+                table / 1e6
+            );
+            for c in &res {
+                println!(
+                    "  {:7} {:7.2} s  {:>10.0} rows/s  peak RSS {:7.0} MB ({:.2}x the table)",
+                    c.mode,
+                    c.seconds,
+                    c.rows as f64 / c.seconds,
+                    c.peak_rss_bytes as f64 / 1e6,
+                    c.peak_rss_bytes as f64 / table
+                );
+            }
+            println!(
+                "  ingest / polars read time: {:.2}x",
+                res[1].seconds / res[0].seconds
+            );
+        }
+        BenchCmd::IngestChild { mode, csv } => {
+            let c = bench::ingest_child(&mode, &csv)?;
+            println!("{}", serde_json::to_string(&c)?);
+        }
+    }
+    Ok(())
+}
