@@ -102,8 +102,18 @@ pub struct ShearArgs {
     /// Strain-rate ramp up|down (Eqs. 38–41; not implemented yet).
     #[arg(long)]
     ramp: Option<String>,
+    /// Steps between checkpoints (0: none).
+    #[arg(long, default_value_t = 0)]
+    checkpoint_every: u64,
+    /// Continue the unfinished run in DIR from its last checkpoint.
+    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    resume: Option<PathBuf>,
+    /// Output directory.
     #[arg(short, long)]
-    output: PathBuf,
+    output: Option<PathBuf>,
+    /// Testing: fail right after the first checkpoint at or past this step.
+    #[arg(long, hide = true)]
+    halt_after: Option<u64>,
     #[arg(long)]
     quiet: bool,
 }
@@ -180,6 +190,11 @@ pub fn pack(a: PackArgs) -> Result<()> {
 
 fn shear(a: ShearArgs) -> Result<()> {
     use pillar_pipe::stages::shear::{ShearOptions, run};
+    let (out, resume) = match (a.output, a.resume) {
+        (Some(o), None) => (o, false),
+        (None, Some(r)) => (r, true),
+        _ => bail!("give the output directory: -o DIR (new run) or --resume DIR"),
+    };
     let opt = ShearOptions {
         n: a.n,
         phi: a.phi,
@@ -194,10 +209,12 @@ fn shear(a: ShearArgs) -> Result<()> {
         transient: a.transient,
         blocks: 10,
         ramp: a.ramp,
+        checkpoint_every: a.checkpoint_every,
+        resume,
         quiet: a.quiet,
+        halt_after: a.halt_after,
     };
-    let rep = run(&a.output, &opt)
-        .with_context(|| format!("simulate shear into {}", a.output.display()))?;
+    let rep = run(&out, &opt).with_context(|| format!("simulate shear into {}", out.display()))?;
     println!(
         "shear       {} disks, φ = {}, Q = {}, γ̇ = {:e}, {:?}: {} steps, {} frames, {:.1} s",
         a.n, a.phi, a.q, a.rate, a.model, rep.steps, rep.frames, rep.elapsed_s
@@ -207,7 +224,7 @@ fn shear(a: ShearArgs) -> Result<()> {
     }
     println!(
         "wrote       {}/{{series.parquet, tracks.parquet, summary.json, manifest.json}}",
-        a.output.display()
+        out.display()
     );
     Ok(())
 }

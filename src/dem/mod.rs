@@ -18,6 +18,7 @@ pub mod pack;
 pub mod params;
 pub mod pillar;
 pub mod shear;
+pub mod shear_checkpoint;
 pub mod verlet;
 
 #[cfg(test)]

@@ -3,10 +3,12 @@
 //! canonical tracks schema with the Lees–Edwards box per frame, and `summary.json` of
 //! steady-state means with block-average errors. `manifest.json` is written last.
 
+use super::sim_tables::{drop_parts_from, merge_parts, part_path};
+use crate::dem::checkpoint::{Dec, Enc};
 use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
-use crate::io::{atomic_write_str, sidecar_path};
+use crate::io::{atomic_write, atomic_write_str, sidecar_path};
 use crate::tracks::{FrameBox, Provenance, Tracks, TracksMeta};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -37,7 +39,14 @@ pub struct ShearOptions {
     pub blocks: usize,
     /// Strain-rate ramp (Eqs. 38–41): not implemented yet.
     pub ramp: Option<String>,
+    /// Steps between checkpoints (0: none).
+    pub checkpoint_every: u64,
+    /// Continue the unfinished run in the output directory.
+    pub resume: bool,
     pub quiet: bool,
+    /// Testing aid: fail right after the first checkpoint at or past this step.
+    #[serde(skip)]
+    pub halt_after: Option<u64>,
 }
 
 impl Default for ShearOptions {
@@ -56,7 +65,10 @@ impl Default for ShearOptions {
             transient: 0.25,
             blocks: 10,
             ramp: None,
+            checkpoint_every: 0,
+            resume: false,
             quiet: false,
+            halt_after: None,
         }
     }
 }
@@ -135,27 +147,76 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             "need strain > 0, 0 ≤ transient < 0.9, blocks ≥ 2, sample_every ≥ 1",
         ));
     }
-    if out.join("manifest.json").exists() {
-        return Err(Error::param(
-            "output",
-            format!("{} already holds a finished run", out.display()),
-        ));
-    }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let mut sim = ShearSim::new(p.clone());
+    let (ckpt, parts_dir) = (out.join("checkpoint.bin"), out.join(".parts"));
+    let physics = {
+        let mut v = serde_json::to_value(opt).expect("json");
+        for k in ["resume", "quiet", "checkpoint_every"] {
+            v.as_object_mut().expect("object").remove(k);
+        }
+        v.to_string()
+    };
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
+    let mut tracks = empty_tracks();
+    let (mut frame, mut parts) = (0i64, 0u64);
+    let mut sim = if opt.resume {
+        let bytes = std::fs::read(&ckpt).map_err(|e| {
+            Error::input(
+                ckpt.display(),
+                format!("cannot resume: no checkpoint here ({e})"),
+            )
+        })?;
+        let (sim, extra) = ShearSim::load(&bytes).map_err(|e| Error::input(ckpt.display(), e))?;
+        let mut d = Dec::new(&extra);
+        let bad = |e: String| Error::input(ckpt.display(), e);
+        let then = String::from_utf8(d.bytes().map_err(bad)?).map_err(|e| bad(e.to_string()))?;
+        if then != physics {
+            return Err(Error::param(
+                "resume",
+                format!(
+                    "the options differ from the interrupted run's:\n  then: {then}\n  now:  {physics}"
+                ),
+            ));
+        }
+        frame = d.u64().map_err(bad)? as i64;
+        parts = d.u64().map_err(bad)?;
+        for c in cols.iter_mut() {
+            *c = d.f64s().map_err(bad)?;
+        }
+        let (bf, bx) = (d.i64s().map_err(bad)?, d.f64s().map_err(bad)?);
+        for (f, xy) in bf.into_iter().zip(bx) {
+            tracks.meta.boxes.push(frame_box(f, sim.l, xy));
+        }
+        drop_parts_from(&parts_dir, parts)?;
+        sim
+    } else {
+        if out.join("manifest.json").exists() {
+            return Err(Error::param(
+                "output",
+                format!("{} already holds a finished run", out.display()),
+            ));
+        }
+        if ckpt.exists() {
+            return Err(Error::param(
+                "output",
+                format!(
+                    "{} holds an unfinished run; pass --resume to continue it, or choose another directory",
+                    out.display()
+                ),
+            ));
+        }
+        let _ = std::fs::remove_dir_all(&parts_dir);
+        ShearSim::new(p.clone())
+    };
     let total = (opt.strain / (p.rate * p.dt)).ceil() as u64;
     let out_every = opt
         .output_every
         .unwrap_or(((0.05 / (p.rate * p.dt)).round() as u64).max(1));
-    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
-    let mut tracks = Tracks {
-        meta: TracksMeta::default(),
-        ..empty_tracks()
-    };
     let bar = super::progress(total, "shear", opt.quiet);
-    let mut frame = 0i64;
+    // A resumed run's current step was recorded and checkpointed before the stop.
+    let mut fresh = !opt.resume;
     loop {
-        if sim.step.is_multiple_of(opt.sample_every) {
+        if fresh && sim.step.is_multiple_of(opt.sample_every) {
             let (el, dis, kin) = sim.pressure_tensor();
             let pr = |t: [f64; 4]| 0.5 * (t[0] + t[3]);
             let sg = |t: [f64; 4]| -t[1];
@@ -186,11 +247,48 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 c.push(v);
             }
         }
-        if sim.step.is_multiple_of(out_every) || sim.step == total {
+        if fresh && (sim.step.is_multiple_of(out_every) || sim.step == total) {
             push_frame(&mut tracks, &sim, frame);
             frame += 1;
             bar.set_position(sim.step);
         }
+        if fresh
+            && opt.checkpoint_every > 0
+            && sim.step > 0
+            && sim.step.is_multiple_of(opt.checkpoint_every)
+            && sim.step < total
+        {
+            flush_tracks(&mut tracks, &parts_dir, parts)?;
+            parts += 1;
+            let mut e = Enc::default();
+            e.bytes(physics.as_bytes());
+            e.u64(frame as u64);
+            e.u64(parts);
+            for c in &cols {
+                e.f64s(c);
+            }
+            e.i64s(
+                &tracks
+                    .meta
+                    .boxes
+                    .iter()
+                    .map(|b| b.frame)
+                    .collect::<Vec<_>>(),
+            );
+            e.f64s(&tracks.meta.boxes.iter().map(|b| b.xy).collect::<Vec<_>>());
+            let bytes = sim.save(&e.0);
+            atomic_write(&ckpt, |f| {
+                use std::io::Write;
+                f.write_all(&bytes).map_err(|e| Error::io(&ckpt, e))
+            })?;
+            if opt.halt_after.is_some_and(|h| sim.step >= h) {
+                return Err(Error::Other(format!(
+                    "halted after the checkpoint at step {} (testing)",
+                    sim.step
+                )));
+            }
+        }
+        fresh = true;
         if sim.step >= total {
             break;
         }
@@ -225,7 +323,13 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         ..TracksMeta::default()
     };
     let tracks_path = out.join("tracks.parquet");
-    crate::io::write_tracks(&tracks, &tracks_path)?;
+    flush_tracks(&mut tracks, &parts_dir, parts)?;
+    parts += 1;
+    merge_parts(&parts_dir, "tracks", parts, &tracks_path)?;
+    atomic_write_str(
+        &sidecar_path(&tracks_path),
+        &serde_json::to_string_pretty(&tracks.meta).expect("json"),
+    )?;
     let summary = summarize(&cols, &p, sim.g.len(), opt)?;
     let summary_json = serde_json::json!({
         "params": p, "options": opt, "steps": sim.step, "strain": sim.strain(),
@@ -262,11 +366,34 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             "initial state: random positions at phi with the affine flow v_x = gamma_dot y",
         ],
     });
+    let _ = std::fs::remove_file(&ckpt);
+    let _ = std::fs::remove_dir_all(&parts_dir);
     atomic_write_str(
         &out.join("manifest.json"),
         &serde_json::to_string_pretty(&manifest).expect("json"),
     )?;
     Ok(rep)
+}
+
+fn frame_box(frame: i64, l: f64, xy: f64) -> FrameBox {
+    let mut b = FrameBox::from_simbox(frame, &crate::geom::SimBox::periodic(l, l));
+    b.xy = xy;
+    b
+}
+
+/// Write the buffered frames as part `k` (none if empty) and clear the rows (the meta
+/// with every frame's box stays: it becomes the final sidecar).
+fn flush_tracks(t: &mut Tracks, dir: &Path, k: u64) -> Result<()> {
+    if t.frame.is_empty() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let mut df = crate::io::tracks_io::tracks_dataframe(t)?;
+    write_table(&mut df, &part_path(dir, "tracks", k))?;
+    let meta = std::mem::take(&mut t.meta);
+    *t = empty_tracks();
+    t.meta = meta;
+    Ok(())
 }
 
 fn empty_tracks() -> Tracks {
@@ -298,9 +425,9 @@ fn push_frame(t: &mut Tracks, sim: &ShearSim, frame: i64) {
         t.species.as_mut().expect("species").push(g.species[i]);
         t.theta.as_mut().expect("theta").push(g.theta[i]);
     }
-    let mut b = FrameBox::from_simbox(frame, &crate::geom::SimBox::periodic(sim.l, sim.l));
-    b.xy = sim.p.rate * sim.time * sim.l;
-    t.meta.boxes.push(b);
+    t.meta
+        .boxes
+        .push(frame_box(frame, sim.l, sim.p.rate * sim.time * sim.l));
 }
 
 /// Steady-state means with block errors (Eqs. 16, 19, 20, 25).

@@ -1,0 +1,139 @@
+//! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
+
+use super::checkpoint::{Dec, Enc};
+use super::grains::Grains;
+use super::shear::{Collisions, Predicted, ShearParams, ShearSim, Virial};
+use super::verlet::PairList;
+
+const MAGIC: &[u8; 8] = b"PPSHEAR1";
+
+impl ShearSim {
+    /// The dynamical state bit for bit, plus the caller's `extra` bytes.
+    pub fn save(&self, extra: &[u8]) -> Vec<u8> {
+        let mut e = Enc::default();
+        e.0.extend_from_slice(MAGIC);
+        e.bytes(
+            serde_json::to_string(&self.p)
+                .expect("params serialise")
+                .as_bytes(),
+        );
+        let g = &self.g;
+        e.i64s(&g.id);
+        e.i32s(&g.species);
+        for v in [
+            &g.radius, &g.mass, &g.inertia, &g.x, &g.y, &g.vx, &g.vy, &g.ax, &g.ay, &g.theta,
+            &g.omega,
+        ] {
+            e.f64s(v);
+        }
+        let l = &self.list;
+        e.u32s(&l.start);
+        e.u32s(&l.j);
+        for v in [&l.shear, &l.x_ref, &l.y_ref] {
+            e.f64s(v);
+        }
+        e.f64(l.skin);
+        e.u64(l.builds);
+        e.f64(l.offset_ref);
+        e.f64(self.l);
+        e.f64(self.time);
+        e.u64(self.step);
+        for v in [&self.fx, &self.fy, &self.tq] {
+            e.f64s(v);
+        }
+        e.f64s(&self.virial.el);
+        e.f64s(&self.virial.dis);
+        e.u64(self.virial.contacts as u64);
+        e.u64(self.coll.begun);
+        e.u64(self.coll.ended);
+        e.f64(self.coll.duration_sum);
+        e.u64(self.rotate as u64);
+        e.bytes(extra);
+        e.0
+    }
+
+    pub fn load(b: &[u8]) -> Result<(ShearSim, Vec<u8>), String> {
+        if b.len() < 8 || &b[..8] != MAGIC {
+            return Err("not a sheared-disk checkpoint (bad magic)".into());
+        }
+        let mut d = Dec::new(&b[8..]);
+        let p: ShearParams =
+            serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
+        let mut g = Grains {
+            id: d.i64s()?,
+            species: d.i32s()?,
+            ..Default::default()
+        };
+        for v in [
+            &mut g.radius,
+            &mut g.mass,
+            &mut g.inertia,
+            &mut g.x,
+            &mut g.y,
+            &mut g.vx,
+            &mut g.vy,
+            &mut g.ax,
+            &mut g.ay,
+            &mut g.theta,
+            &mut g.omega,
+        ] {
+            *v = d.f64s()?;
+        }
+        let list = PairList {
+            start: d.u32s()?,
+            j: d.u32s()?,
+            shear: d.f64s()?,
+            x_ref: d.f64s()?,
+            y_ref: d.f64s()?,
+            skin: d.f64()?,
+            builds: d.u64()?,
+            offset_ref: d.f64()?,
+        };
+        let (l, time, step) = (d.f64()?, d.f64()?, d.u64()?);
+        let (fx, fy, tq) = (d.f64s()?, d.f64s()?, d.f64s()?);
+        let arr4 = |v: Vec<f64>| -> Result<[f64; 4], String> {
+            v.try_into()
+                .map_err(|_| "virial needs 4 components".to_string())
+        };
+        let virial = Virial {
+            el: arr4(d.f64s()?)?,
+            dis: arr4(d.f64s()?)?,
+            contacts: d.u64()? as usize,
+        };
+        let coll = Collisions {
+            begun: d.u64()?,
+            ended: d.u64()?,
+            duration_sum: d.f64()?,
+        };
+        let rotate = d.u64()? != 0;
+        let extra = d.bytes()?;
+        if !d.done() {
+            return Err("trailing bytes after the checkpoint".into());
+        }
+        let n = g.len();
+        if [g.id.len(), g.vx.len(), g.omega.len(), fx.len(), tq.len()]
+            .iter()
+            .any(|&k| k != n)
+            || list.start.len() != n + 1
+            || list.shear.len() != list.j.len()
+        {
+            return Err("inconsistent array lengths".into());
+        }
+        let sim = ShearSim {
+            p,
+            g,
+            l,
+            list,
+            time,
+            step,
+            fx,
+            fy,
+            tq,
+            virial,
+            coll,
+            rotate,
+            pred: Predicted::default(),
+        };
+        Ok((sim, extra))
+    }
+}
