@@ -228,3 +228,63 @@ fn shear(a: ShearArgs) -> Result<()> {
     );
     Ok(())
 }
+
+#[derive(Args)]
+pub struct SweepArgs {
+    #[arg(long, value_delimiter = ',', required = true)]
+    phi: Vec<f64>,
+    #[arg(long, value_delimiter = ',', required = true)]
+    q: Vec<f64>,
+    #[arg(long, value_delimiter = ',', required = true)]
+    rate: Vec<f64>,
+    #[arg(long, default_value_t = 1024)]
+    n: usize,
+    #[arg(long, value_enum, default_value = "cdrot")]
+    model: pillar_pipe::dem::shear::Dissipation,
+    #[arg(long, default_value_t = 10.0)]
+    strain: f64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Checkpoint each run every this many steps (0: none); a rerun resumes them.
+    #[arg(long, default_value_t = 0)]
+    checkpoint_every: u64,
+    /// Runs at a time (each is single-threaded; default: the cores).
+    #[arg(long)]
+    jobs: Option<usize>,
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+pub fn sweep(a: SweepArgs) -> Result<()> {
+    use pillar_pipe::stages::shear::ShearOptions;
+    use pillar_pipe::stages::sweep::{SweepOptions, run_sweep};
+    let jobs = a
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let base = ShearOptions {
+        n: a.n,
+        model: a.model,
+        strain: a.strain,
+        seed: a.seed,
+        checkpoint_every: a.checkpoint_every,
+        quiet: true,
+        ..Default::default()
+    };
+    let opt = SweepOptions {
+        phi: a.phi,
+        q: a.q,
+        rate: a.rate,
+        base,
+        jobs,
+    };
+    let rep =
+        run_sweep(&a.output, &opt).with_context(|| format!("sweep into {}", a.output.display()))?;
+    println!(
+        "sweep       {} runs ({} already finished, read back), {} at a time\nwrote       {}",
+        rep.runs,
+        rep.reused,
+        jobs,
+        rep.table.display()
+    );
+    Ok(())
+}

@@ -160,11 +160,8 @@ enum Cmd {
         #[command(subcommand)]
         what: cli_sim::SimulateCmd,
     },
-    /// Grid of sheared-disk runs (φ × Q × γ̇) with one summary table (not built yet).
-    Sweep {
-        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
-        args: Vec<String>,
-    },
+    /// Grid of sheared-disk runs (φ × Q × γ̇), `--jobs` at a time, with one summary table.
+    Sweep(cli_sim::SweepArgs),
     /// Generate a jammed bidisperse packing (li-granular-pillars Sec. II.A).
     Pack(cli_sim::PackArgs),
     /// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
@@ -454,9 +451,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Bench { what } => cli_bench::bench(what)?,
         Cmd::Simulate { what } => cli_sim::simulate(what)?,
         Cmd::Pack(a) => cli_sim::pack(a)?,
-        Cmd::Sweep { .. } => anyhow::bail!(
-            "sweep is not implemented yet (issue 7): run `simulate shear` once per (φ, Q, γ̇) for now; each run's summary.json has the means and errors"
-        ),
+        Cmd::Sweep(a) => cli_sim::sweep(a)?,
         Cmd::Synth {
             output,
             n,

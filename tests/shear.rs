@@ -311,3 +311,60 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
     assert_eq!(m["boxes"].as_array().unwrap().len(), frames);
     assert_eq!(m["length_unit"], "d_s");
 }
+
+#[test]
+fn sweep_runs_the_grid_once_and_tabulates_it() {
+    let bin = env!("CARGO_BIN_EXE_pillar-pipe");
+    let out = tmpdir("sweep");
+    let args = [
+        "sweep",
+        "--phi",
+        "0.76,0.8",
+        "--q",
+        "1",
+        "--rate",
+        "1e-2,2e-2",
+        "--n",
+        "64",
+        "--strain",
+        "0.5",
+        "--jobs",
+        "2",
+    ];
+    let o = Command::new(bin)
+        .args(args)
+        .args(["-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = read_table(&out.join("sweep.parquet"), &[]).unwrap();
+    assert_eq!(t.df.height(), 4);
+    let cols = t.columns();
+    for c in [
+        "phi", "q", "rate", "p", "p_err", "sigma", "mu", "z", "tau_dur", "nu_coll",
+    ] {
+        assert!(cols.iter().any(|x| x == c), "{c} in {cols:?}");
+    }
+    let (phi, rate) = (t.f64("phi").unwrap(), t.f64("rate").unwrap());
+    assert_eq!(phi, vec![0.76, 0.76, 0.8, 0.8]);
+    assert_eq!(rate, vec![1e-2, 2e-2, 1e-2, 2e-2]);
+    // Denser is stiffer: more pressure at the same rate.
+    let p = t.f64("p").unwrap();
+    assert!(p[2] > p[0] && p[3] > p[1], "{p:?}");
+    let before = std::fs::read(out.join("sweep.parquet")).unwrap();
+    let o = Command::new(bin)
+        .args(args)
+        .args(["-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && text.contains("4 already finished"),
+        "{text}"
+    );
+    assert_eq!(
+        std::fs::read(out.join("sweep.parquet")).unwrap(),
+        before,
+        "same table when read back"
+    );
+}

@@ -38,3 +38,4 @@ pub mod shear;
 pub mod sim_setup;
 pub mod sim_tables;
 pub mod simulate;
+pub mod sweep;
