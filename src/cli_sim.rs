@@ -99,9 +99,18 @@ pub struct ShearArgs {
     /// Fraction of the run discarded before averaging.
     #[arg(long, default_value_t = 0.25)]
     transient: f64,
-    /// Strain-rate ramp up|down (Eqs. 38–41; not implemented yet).
+    /// Strain-rate ramp up|down (Eqs. 38–41): γ̇ × 10^{±κ̃} every τ_e, from --rate to
+    /// --rate-end; writes ramp.parquet (means over --window τ_e).
     #[arg(long)]
     ramp: Option<String>,
+    /// κ̃ = κ τ_e / ln 10 (Eq. 39).
+    #[arg(long, default_value_t = 1e-5)]
+    kappa: f64,
+    #[arg(long)]
+    rate_end: Option<f64>,
+    /// Ramp averaging window (τ_e).
+    #[arg(long, default_value_t = 1000.0)]
+    window: f64,
     /// Steps between checkpoints (0: none).
     #[arg(long, default_value_t = 0)]
     checkpoint_every: u64,
@@ -209,6 +218,9 @@ fn shear(a: ShearArgs) -> Result<()> {
         transient: a.transient,
         blocks: 10,
         ramp: a.ramp,
+        kappa: a.kappa,
+        rate_end: a.rate_end,
+        window: a.window,
         checkpoint_every: a.checkpoint_every,
         resume,
         quiet: a.quiet,

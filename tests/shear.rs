@@ -51,6 +51,7 @@ fn pair(image: bool, model: Dissipation) -> ShearSim {
     p.n = 2;
     let mut s = ShearSim::from_grains(p, g, l);
     s.time = t;
+    s.gamma = rate * t;
     s.refresh();
     s
 }
@@ -241,11 +242,12 @@ fn cli_acceptance_outputs_and_kinematics_on_sheared_tracks() {
             "--ramp",
             "up",
             "-o",
-            tmpdir("ramp").to_str().unwrap(),
+            tmpdir("ramp0").to_str().unwrap(),
         ])
         .output()
         .unwrap();
-    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("not implemented"));
+    // A ramp needs its end rate.
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--rate-end"));
 }
 
 #[test]
@@ -367,4 +369,48 @@ fn sweep_runs_the_grid_once_and_tabulates_it() {
         before,
         "same table when read back"
     );
+}
+
+#[test]
+fn a_ramp_changes_the_rate_every_tau_e_and_rescales_velocities() {
+    let out = tmpdir("ramp");
+    let opt = ShearOptions {
+        n: 256,
+        phi: 0.8,
+        rate: 1e-2,
+        ramp: Some("up".into()),
+        kappa: 0.05,
+        rate_end: Some(1e-1),
+        window: 5.0,
+        sample_every: 5,
+        quiet: true,
+        ..Default::default()
+    };
+    run(&out, &opt).unwrap();
+    let s = read_table(&out.join("series.parquet"), &[]).unwrap();
+    let (rate, time) = (s.f64("rate").unwrap(), s.f64("time").unwrap());
+    // γ̇(t) = γ̇0 10^{κ̃ floor(t/τ_e)} (Eqs. 38–39), ending at the requested rate.
+    for (r, t) in rate.iter().zip(&time) {
+        let want = 1e-2 * 10f64.powf(0.05 * t.floor());
+        assert!((r / want - 1.0).abs() < 1e-9, "t = {t}: {r} vs {want}");
+    }
+    assert!((rate.last().unwrap() / 1e-1 - 1.0).abs() < 1e-9);
+    let w = read_table(&out.join("ramp.parquet"), &[]).unwrap();
+    assert_eq!(w.df.height(), 4, "20 τ_e in windows of 5 τ_e");
+    let (wr, ws) = (w.f64("rate").unwrap(), w.f64("sigma").unwrap());
+    assert!(wr.windows(2).all(|p| p[1] > p[0]));
+    assert!(
+        ws.windows(2).all(|p| p[1] > p[0]),
+        "faster shear, more stress: {ws:?}"
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(j["rate_changes"], 20);
+    // Eq. 40: rescaling keeps the profile at the new rate.
+    let mut sim = ShearSim::new(params(256, 0.8, Dissipation::Cdrot, 1e-3));
+    let vx0 = sim.g.vx.clone();
+    sim.set_rate(2e-3);
+    for (a, b) in sim.g.vx.iter().zip(&vx0) {
+        assert!((a - 2.0 * b).abs() <= 1e-15 * b.abs().max(1e-300));
+    }
 }

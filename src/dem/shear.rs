@@ -96,6 +96,8 @@ pub struct ShearSim {
     pub list: PairList,
     pub time: f64,
     pub step: u64,
+    /// Accumulated shear strain γ = ∫ γ̇ dt (the Lees–Edwards offset is γ L).
+    pub gamma: f64,
     /// Force and torque at the current state (the f({r_0, v_0}) of Eq. 21).
     pub fx: Vec<f64>,
     pub fy: Vec<f64>,
@@ -160,6 +162,7 @@ impl ShearSim {
             l,
             time: 0.0,
             step: 0,
+            gamma: 0.0,
             fx: vec![0.0; n],
             fy: vec![0.0; n],
             tq: vec![0.0; n],
@@ -177,17 +180,18 @@ impl ShearSim {
         self.evaluate(false);
     }
 
-    pub fn boundary_at(&self, time: f64) -> Boundary {
+    /// The Lees–Edwards boundary at the current accumulated strain.
+    pub fn boundary(&self) -> Boundary {
         Boundary::LeesEdwards {
             lx: self.l,
             ly: self.l,
-            offset: self.p.rate * time * self.l,
+            offset: self.gamma * self.l,
         }
     }
 
     /// Accumulated strain γ = γ̇ t.
     pub fn strain(&self) -> f64 {
-        self.p.rate * self.time
+        self.gamma
     }
 
     /// Forces and torques at the given state and the current `self.time` into
@@ -195,7 +199,7 @@ impl ShearSim {
     /// (only for actual states, not the predictor of Eq. 22).
     fn evaluate(&mut self, predicted: bool) {
         let track = !predicted;
-        let b = self.boundary_at(self.time);
+        let b = self.boundary();
         let ShearSim {
             g,
             pred,
@@ -340,6 +344,7 @@ impl ShearSim {
         }
         self.step += 1;
         self.time = self.step as f64 * dt;
+        self.gamma += self.p.rate * dt;
         self.evaluate(true);
         let (g, pr) = (&mut self.g, &self.pred);
         for i in 0..n {
@@ -374,9 +379,21 @@ impl ShearSim {
         (el, dis, kin.map(|v| v / a))
     }
 
+    /// Change the strain rate to `rate`, rescaling every velocity and spin by the ratio
+    /// so the new rate holds throughout the bulk at once (vagberg-sheared-disks
+    /// Eqs. 40–41), then re-evaluate the forces (the dissipative ones depend on v).
+    pub fn set_rate(&mut self, rate: f64) {
+        let k = rate / self.p.rate;
+        for v in [&mut self.g.vx, &mut self.g.vy, &mut self.g.omega] {
+            v.iter_mut().for_each(|x| *x *= k);
+        }
+        self.p.rate = rate;
+        self.refresh();
+    }
+
     /// Positions mapped into the primary cell [0, L)², Lees–Edwards aware.
     pub fn wrapped(&self, i: usize) -> (f64, f64) {
-        let off = self.p.rate * self.time * self.l;
+        let off = self.gamma * self.l;
         let (mut x, mut y) = (self.g.x[i], self.g.y[i]);
         let n = (y / self.l).floor();
         y -= n * self.l;

@@ -48,6 +48,7 @@ impl ShearSim {
         e.u64(self.coll.ended);
         e.f64(self.coll.duration_sum);
         e.u64(self.rotate as u64);
+        e.f64(self.gamma);
         e.bytes(extra);
         e.0
     }
@@ -106,6 +107,7 @@ impl ShearSim {
             duration_sum: d.f64()?,
         };
         let rotate = d.u64()? != 0;
+        let gamma = d.f64()?;
         let extra = d.bytes()?;
         if !d.done() {
             return Err("trailing bytes after the checkpoint".into());
@@ -126,6 +128,7 @@ impl ShearSim {
             list,
             time,
             step,
+            gamma,
             fx,
             fy,
             tq,

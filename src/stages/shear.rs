@@ -37,8 +37,15 @@ pub struct ShearOptions {
     pub transient: f64,
     /// Blocks for the error bars.
     pub blocks: usize,
-    /// Strain-rate ramp (Eqs. 38–41): not implemented yet.
+    /// Strain-rate ramp `up` or `down` (Eqs. 38–41): γ̇ changes by 10^{±κ̃} every τ_e,
+    /// velocities and spins rescaled, from `rate` to `rate_end`.
     pub ramp: Option<String>,
+    /// κ̃ = κ τ_e / ln 10 (Eq. 39).
+    pub kappa: f64,
+    /// Final strain rate of a ramp.
+    pub rate_end: Option<f64>,
+    /// Averaging window of the ramp table (τ_e; the paper uses 10³).
+    pub window: f64,
     /// Steps between checkpoints (0: none).
     pub checkpoint_every: u64,
     /// Continue the unfinished run in the output directory.
@@ -65,6 +72,9 @@ impl Default for ShearOptions {
             transient: 0.25,
             blocks: 10,
             ramp: None,
+            kappa: 1e-5,
+            rate_end: None,
+            window: 1000.0,
             checkpoint_every: 0,
             resume: false,
             quiet: false,
@@ -99,7 +109,7 @@ fn block_stats(blocks: &[f64]) -> MeanErr {
     }
 }
 
-const SERIES: [&str; 16] = [
+const SERIES: [&str; 17] = [
     "time",
     "strain",
     "p",
@@ -116,15 +126,11 @@ const SERIES: [&str; 16] = [
     "collisions_begun",
     "contact_time_ended",
     "collisions_ended",
+    "rate",
 ];
 
 pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let t0 = std::time::Instant::now();
-    if let Some(r) = &opt.ramp {
-        return Err(Error::NotImplemented(format!(
-            "strain-rate ramps (--ramp {r}, vagberg-sheared-disks Eqs. 38–41) are not implemented yet"
-        )));
-    }
     let p = ShearParams {
         n: opt.n,
         phi: opt.phi,
@@ -208,10 +214,15 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         let _ = std::fs::remove_dir_all(&parts_dir);
         ShearSim::new(p.clone())
     };
-    let total = (opt.strain / (p.rate * p.dt)).ceil() as u64;
-    let out_every = opt
-        .output_every
-        .unwrap_or(((0.05 / (p.rate * p.dt)).round() as u64).max(1));
+    let ramp = ramp_plan(opt, &p)?;
+    let total = match &ramp {
+        Some(r) => r.intervals * r.steps_per_tau,
+        None => (opt.strain / (p.rate * p.dt)).ceil() as u64,
+    };
+    let out_every = opt.output_every.unwrap_or(match &ramp {
+        Some(_) => ((opt.window / p.dt).round() as u64).max(1),
+        None => ((0.05 / (p.rate * p.dt)).round() as u64).max(1),
+    });
     let bar = super::progress(total, "shear", opt.quiet);
     // A resumed run's current step was recorded and checkpointed before the stop.
     let mut fresh = !opt.resume;
@@ -222,7 +233,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             let sg = |t: [f64; 4]| -t[1];
             let tot: [f64; 4] = std::array::from_fn(|k| el[k] + dis[k] + kin[k]);
             let n = sim.g.len() as f64;
-            let spins: Vec<f64> = sim.g.omega.iter().map(|w| w / p.rate).collect();
+            let spins: Vec<f64> = sim.g.omega.iter().map(|w| w / sim.p.rate).collect();
             let sm = spins.iter().sum::<f64>() / n;
             let sv = spins.iter().map(|s| (s - sm).powi(2)).sum::<f64>() / n;
             let row = [
@@ -242,6 +253,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 sim.coll.begun as f64,
                 sim.coll.duration_sum,
                 sim.coll.ended as f64,
+                sim.p.rate,
             ];
             for (c, v) in cols.iter_mut().zip(row) {
                 c.push(v);
@@ -293,6 +305,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             break;
         }
         sim.step();
+        if let Some(r) = &ramp
+            && sim.step.is_multiple_of(r.steps_per_tau)
+        {
+            // Eq. 38 in steps of τ_e; the initial rate times an integer power, so a
+            // resumed ramp lands on the same rates.
+            let k = (sim.step / r.steps_per_tau) as f64;
+            sim.set_rate(p.rate * r.factor.powf(k));
+        }
     }
     bar.finish_and_clear();
     let series = out.join("series.parquet");
@@ -330,6 +350,9 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         &sidecar_path(&tracks_path),
         &serde_json::to_string_pretty(&tracks.meta).expect("json"),
     )?;
+    if let Some(r) = &ramp {
+        return finish_ramp(out, opt, &p, r, &cols, &sim, frame, series, tracks_path, t0);
+    }
     let summary = summarize(&cols, &p, sim.g.len(), opt)?;
     let summary_json = serde_json::json!({
         "params": p, "options": opt, "steps": sim.step, "strain": sim.strain(),
@@ -373,6 +396,138 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         &serde_json::to_string_pretty(&manifest).expect("json"),
     )?;
     Ok(rep)
+}
+
+/// A ramp's schedule: `intervals` changes of γ̇ by `factor`, one every τ_e.
+struct Ramp {
+    factor: f64,
+    intervals: u64,
+    steps_per_tau: u64,
+}
+
+fn ramp_plan(opt: &ShearOptions, p: &ShearParams) -> Result<Option<Ramp>> {
+    let Some(dir) = &opt.ramp else {
+        return Ok(None);
+    };
+    let up = match dir.as_str() {
+        "up" => true,
+        "down" => false,
+        d => {
+            return Err(Error::param(
+                "ramp",
+                format!("expected up or down, got '{d}'"),
+            ));
+        }
+    };
+    let end = opt
+        .rate_end
+        .ok_or_else(|| Error::param("rate_end", "a ramp needs --rate-end"))?;
+    if !(opt.kappa > 0.0 && opt.kappa < 1.0) {
+        return Err(Error::param(
+            "kappa",
+            format!("κ̃ must be in (0, 1), got {}", opt.kappa),
+        ));
+    }
+    if up != (end > p.rate) || !(end > 0.0 && end <= 1.0) {
+        return Err(Error::param(
+            "rate_end",
+            format!("ramping {dir} from γ̇ = {:e} cannot end at {end:e}", p.rate),
+        ));
+    }
+    let steps_per_tau = (1.0 / p.dt).round() as u64;
+    if ((steps_per_tau as f64) * p.dt - 1.0).abs() > 1e-9 {
+        return Err(Error::param(
+            "dt",
+            "a ramp changes γ̇ every τ_e: dt must divide 1",
+        ));
+    }
+    let intervals = ((end / p.rate).log10().abs() / opt.kappa).round() as u64;
+    let factor = 10f64.powf(if up { opt.kappa } else { -opt.kappa });
+    Ok(Some(Ramp {
+        factor,
+        intervals,
+        steps_per_tau,
+    }))
+}
+
+/// A ramp's outputs: `ramp.parquet` (means over windows of `window` τ_e, as in Fig. 31)
+/// and summary.json describing the ramp, then the manifest.
+#[allow(clippy::too_many_arguments)]
+fn finish_ramp(
+    out: &Path,
+    opt: &ShearOptions,
+    p: &ShearParams,
+    r: &Ramp,
+    cols: &[Vec<f64>],
+    sim: &ShearSim,
+    frames: i64,
+    series: PathBuf,
+    tracks: PathBuf,
+    t0: std::time::Instant,
+) -> Result<ShearReport> {
+    let col = |name: &str| {
+        &cols[SERIES
+            .iter()
+            .position(|s| *s == name)
+            .expect("series column")]
+    };
+    let time = col("time");
+    let keys = ["rate", "p", "sigma", "p_el", "sigma_el", "z"];
+    let mut win: Vec<Vec<f64>> = vec![Vec::new(); keys.len() + 1];
+    let mut start = 0;
+    while start < time.len() {
+        let end = (start..time.len())
+            .find(|&k| time[k] >= time[start] + opt.window)
+            .unwrap_or(time.len());
+        if end == time.len() && start > 0 && time[end - 1] - time[start] < 0.5 * opt.window {
+            break; // a trailing scrap shorter than half a window would only add noise
+        }
+        win[0].push(0.5 * (time[start] + time[end - 1]));
+        for (w, k) in win[1..].iter_mut().zip(keys) {
+            let c = &col(k)[start..end];
+            w.push(c.iter().sum::<f64>() / c.len() as f64);
+        }
+        start = end;
+    }
+    let names = std::iter::once("time").chain(keys);
+    let mut df = DataFrame::new(
+        win[0].len(),
+        names
+            .zip(&win)
+            .map(|(n, c)| Column::new(n.into(), c))
+            .collect(),
+    )
+    .map_err(|e| Error::polars("building the ramp table", e))?;
+    let table = out.join("ramp.parquet");
+    write_table(&mut df, &table)?;
+    let elapsed = t0.elapsed().as_secs_f64();
+    let summary = serde_json::json!({
+        "ramp": opt.ramp, "kappa_tilde": opt.kappa, "rate_start": p.rate, "rate_end": sim.p.rate,
+        "rate_changes": r.intervals, "window_tau_e": opt.window, "windows": win[0].len(),
+        "strain": sim.strain(), "steps": sim.step, "params": p,
+    });
+    atomic_write_str(
+        &out.join("summary.json"),
+        &serde_json::to_string_pretty(&summary).expect("json"),
+    )?;
+    let manifest = serde_json::json!({
+        "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear --ramp",
+        "options": opt, "params": p, "tables": {"series": series, "ramp": table, "tracks": tracks},
+        "elapsed_s": elapsed,
+    });
+    atomic_write_str(
+        &out.join("manifest.json"),
+        &serde_json::to_string_pretty(&manifest).expect("json"),
+    )?;
+    let _ = std::fs::remove_file(out.join("checkpoint.bin"));
+    let _ = std::fs::remove_dir_all(out.join(".parts"));
+    Ok(ShearReport {
+        out: out.to_path_buf(),
+        steps: sim.step,
+        frames: frames as usize,
+        summary: BTreeMap::new(),
+        elapsed_s: elapsed,
+    })
 }
 
 fn frame_box(frame: i64, l: f64, xy: f64) -> FrameBox {
@@ -427,7 +582,7 @@ fn push_frame(t: &mut Tracks, sim: &ShearSim, frame: i64) {
     }
     t.meta
         .boxes
-        .push(frame_box(frame, sim.l, sim.p.rate * sim.time * sim.l));
+        .push(frame_box(frame, sim.l, sim.gamma * sim.l));
 }
 
 /// Steady-state means with block errors (Eqs. 16, 19, 20, 25).
