@@ -1,0 +1,143 @@
+//! Strain-rate ramps of the sheared disks (vagberg-sheared-disks Eqs. 38–41): the
+//! schedule and the windowed ramp table.
+
+use super::shear::{SERIES, ShearOptions, ShearReport};
+use crate::dem::shear::{ShearParams, ShearSim};
+use crate::error::{Error, Result};
+use crate::io::atomic_write_str;
+use crate::io::table::write_table;
+use polars::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A ramp's schedule: `intervals` changes of γ̇ by `factor`, one every τ_e.
+pub(crate) struct Ramp {
+    pub factor: f64,
+    pub intervals: u64,
+    pub steps_per_tau: u64,
+}
+
+pub(crate) fn ramp_plan(opt: &ShearOptions, p: &ShearParams) -> Result<Option<Ramp>> {
+    let Some(dir) = &opt.ramp else {
+        return Ok(None);
+    };
+    let up = match dir.as_str() {
+        "up" => true,
+        "down" => false,
+        d => {
+            return Err(Error::param(
+                "ramp",
+                format!("expected up or down, got '{d}'"),
+            ));
+        }
+    };
+    let end = opt
+        .rate_end
+        .ok_or_else(|| Error::param("rate_end", "a ramp needs --rate-end"))?;
+    if !(opt.kappa > 0.0 && opt.kappa < 1.0) {
+        return Err(Error::param(
+            "kappa",
+            format!("κ̃ must be in (0, 1), got {}", opt.kappa),
+        ));
+    }
+    if up != (end > p.rate) || !(end > 0.0 && end <= 1.0) {
+        return Err(Error::param(
+            "rate_end",
+            format!("ramping {dir} from γ̇ = {:e} cannot end at {end:e}", p.rate),
+        ));
+    }
+    let steps_per_tau = (1.0 / p.dt).round() as u64;
+    if ((steps_per_tau as f64) * p.dt - 1.0).abs() > 1e-9 {
+        return Err(Error::param(
+            "dt",
+            "a ramp changes γ̇ every τ_e: dt must divide 1",
+        ));
+    }
+    let intervals = ((end / p.rate).log10().abs() / opt.kappa).round() as u64;
+    let factor = 10f64.powf(if up { opt.kappa } else { -opt.kappa });
+    Ok(Some(Ramp {
+        factor,
+        intervals,
+        steps_per_tau,
+    }))
+}
+
+/// A ramp's outputs: `ramp.parquet` (means over windows of `window` τ_e, as in Fig. 31)
+/// and summary.json describing the ramp, then the manifest.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn finish_ramp(
+    out: &Path,
+    opt: &ShearOptions,
+    p: &ShearParams,
+    r: &Ramp,
+    cols: &[Vec<f64>],
+    sim: &ShearSim,
+    frames: i64,
+    series: PathBuf,
+    tracks: PathBuf,
+    t0: std::time::Instant,
+) -> Result<ShearReport> {
+    let col = |name: &str| {
+        &cols[SERIES
+            .iter()
+            .position(|s| *s == name)
+            .expect("series column")]
+    };
+    let time = col("time");
+    let keys = ["rate", "p", "sigma", "p_el", "sigma_el", "z"];
+    let mut win: Vec<Vec<f64>> = vec![Vec::new(); keys.len() + 1];
+    let mut start = 0;
+    while start < time.len() {
+        let end = (start..time.len())
+            .find(|&k| time[k] >= time[start] + opt.window)
+            .unwrap_or(time.len());
+        if end == time.len() && start > 0 && time[end - 1] - time[start] < 0.5 * opt.window {
+            break; // a trailing scrap shorter than half a window would only add noise
+        }
+        win[0].push(0.5 * (time[start] + time[end - 1]));
+        for (w, k) in win[1..].iter_mut().zip(keys) {
+            let c = &col(k)[start..end];
+            w.push(c.iter().sum::<f64>() / c.len() as f64);
+        }
+        start = end;
+    }
+    let names = std::iter::once("time").chain(keys);
+    let mut df = DataFrame::new(
+        win[0].len(),
+        names
+            .zip(&win)
+            .map(|(n, c)| Column::new(n.into(), c))
+            .collect(),
+    )
+    .map_err(|e| Error::polars("building the ramp table", e))?;
+    let table = out.join("ramp.parquet");
+    write_table(&mut df, &table)?;
+    let elapsed = t0.elapsed().as_secs_f64();
+    let summary = serde_json::json!({
+        "ramp": opt.ramp, "kappa_tilde": opt.kappa, "rate_start": p.rate, "rate_end": sim.p.rate,
+        "rate_changes": r.intervals, "window_tau_e": opt.window, "windows": win[0].len(),
+        "strain": sim.strain(), "steps": sim.step, "params": p,
+    });
+    atomic_write_str(
+        &out.join("summary.json"),
+        &serde_json::to_string_pretty(&summary).expect("json"),
+    )?;
+    let manifest = serde_json::json!({
+        "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear --ramp",
+        "options": opt, "params": p, "tables": {"series": series, "ramp": table, "tracks": tracks},
+        "elapsed_s": elapsed,
+    });
+    atomic_write_str(
+        &out.join("manifest.json"),
+        &serde_json::to_string_pretty(&manifest).expect("json"),
+    )?;
+    let _ = std::fs::remove_file(out.join("checkpoint.bin"));
+    let _ = std::fs::remove_dir_all(out.join(".parts"));
+    Ok(ShearReport {
+        out: out.to_path_buf(),
+        steps: sim.step,
+        frames: frames as usize,
+        summary: BTreeMap::new(),
+        elapsed_s: elapsed,
+    })
+}
