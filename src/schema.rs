@@ -68,6 +68,18 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         "shear_series",
         include_str!("../data_schema/shear_series.schema.json"),
     ),
+    (
+        "collision_angles",
+        include_str!("../data_schema/collision_angles.schema.json"),
+    ),
+    (
+        "shear_profile",
+        include_str!("../data_schema/shear_profile.schema.json"),
+    ),
+    (
+        "shear_ramp",
+        include_str!("../data_schema/shear_ramp.schema.json"),
+    ),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,

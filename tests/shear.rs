@@ -396,6 +396,7 @@ fn a_ramp_changes_the_rate_every_tau_e_and_rescales_velocities() {
     }
     assert!((rate.last().unwrap() / 1e-1 - 1.0).abs() < 1e-9);
     let w = read_table(&out.join("ramp.parquet"), &[]).unwrap();
+    assert_eq!(w.columns(), pillar_pipe::schema::load("shear_ramp").names());
     assert_eq!(w.df.height(), 4, "20 τ_e in windows of 5 τ_e");
     let (wr, ws) = (w.f64("rate").unwrap(), w.f64("sigma").unwrap());
     assert!(wr.windows(2).all(|p| p[1] > p[0]));
@@ -413,4 +414,70 @@ fn a_ramp_changes_the_rate_every_tau_e_and_rescales_velocities() {
     for (a, b) in sim.g.vx.iter().zip(&vx0) {
         assert!((a - 2.0 * b).abs() <= 1e-15 * b.abs().max(1e-300));
     }
+}
+
+#[test]
+fn collision_angles_and_profile_in_steady_shear() {
+    let out = tmpdir("angles");
+    let opt = ShearOptions {
+        n: 512,
+        phi: 0.8,
+        rate: 1e-2,
+        strain: 3.0,
+        quiet: true,
+        ..Default::default()
+    };
+    run(&out, &opt).unwrap();
+    let a = read_table(&out.join("collision_angles.parquet"), &[]).unwrap();
+    assert_eq!(a.df.height(), 50, "3.6° bins over [0°, 180°)");
+    assert_eq!(
+        a.columns(),
+        pillar_pipe::schema::load("collision_angles").names()
+    );
+    let pr = read_table(&out.join("profile.parquet"), &[]).unwrap();
+    assert_eq!(
+        pr.columns(),
+        pillar_pipe::schema::load("shear_profile").names()
+    );
+    let (lo, mk, br) = (
+        a.f64("angle_lo_deg").unwrap(),
+        a.f64("making_pdf").unwrap(),
+        a.f64("breaking_pdf").unwrap(),
+    );
+    let norm: f64 = mk.iter().sum::<f64>() * 3.6;
+    assert!((norm - 1.0).abs() < 1e-9);
+    // Shear along x with v_x = γ̇ y brings grains together along the compressive axis
+    // (ϑ ≈ 135°) and pulls them apart along the extensional one (ϑ ≈ 45°).
+    let mass = |pdf: &[f64], from: f64, to: f64| -> f64 {
+        lo.iter()
+            .zip(pdf)
+            .filter(|(l, _)| **l >= from && **l < to)
+            .map(|(_, p)| p * 3.6)
+            .sum()
+    };
+    assert!(
+        mass(&mk, 90.0, 180.0) > mass(&mk, 0.0, 90.0),
+        "contacts form in the compressive quadrant"
+    );
+    assert!(
+        mass(&br, 0.0, 90.0) > mass(&br, 90.0, 180.0),
+        "contacts break in the extensional quadrant"
+    );
+    // The steady profile is the imposed one.
+    let p = read_table(&out.join("profile.parquet"), &[]).unwrap();
+    let (y, vx, aff) = (
+        p.f64("y").unwrap(),
+        p.f64("vx").unwrap(),
+        p.f64("vx_affine").unwrap(),
+    );
+    let n = y.len() as f64;
+    let (my, mv) = (y.iter().sum::<f64>() / n, vx.iter().sum::<f64>() / n);
+    let slope = y
+        .iter()
+        .zip(&vx)
+        .map(|(a, b)| (a - my) * (b - mv))
+        .sum::<f64>()
+        / y.iter().map(|a| (a - my).powi(2)).sum::<f64>();
+    assert!((slope / 1e-2 - 1.0).abs() < 0.2, "dv_x/dy = {slope}");
+    assert!((aff[0] - 1e-2 * y[0]).abs() < 1e-15);
 }

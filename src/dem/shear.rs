@@ -84,6 +84,20 @@ pub struct Collisions {
     pub ended: u64,
     /// Σ durations of the contacts that ended (τ_e).
     pub duration_sum: f64,
+    /// Histograms of the collision angle ϑ (direction of r_ij from the flow direction x̂,
+    /// folded into [0°, 180°)) at contact making and breaking, in bins of 3.6°.
+    pub angle_making: Vec<u64>,
+    pub angle_breaking: Vec<u64>,
+}
+
+/// Bins of the collision-angle histograms: 3.6° over [0°, 180°).
+pub const ANGLE_BINS: usize = 50;
+
+/// Histogram bin of the direction (dx, dy), folded to [0°, 180°).
+#[inline]
+pub fn angle_bin(dx: f64, dy: f64) -> usize {
+    let a = dy.atan2(dx).to_degrees().rem_euclid(180.0);
+    ((a / (180.0 / ANGLE_BINS as f64)) as usize).min(ANGLE_BINS - 1)
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -167,7 +181,11 @@ impl ShearSim {
             fy: vec![0.0; n],
             tq: vec![0.0; n],
             virial: Virial::default(),
-            coll: Collisions::default(),
+            coll: Collisions {
+                angle_making: vec![0; ANGLE_BINS],
+                angle_breaking: vec![0; ANGLE_BINS],
+                ..Default::default()
+            },
             rotate: true,
             pred: Predicted::default(),
         };
@@ -257,6 +275,7 @@ impl ShearSim {
                 if r2 >= dij * dij {
                     if track && list.shear[k] != 0.0 {
                         coll.ended += 1;
+                        coll.angle_breaking[angle_bin(dx, dy)] += 1;
                         coll.duration_sum += now - (list.shear[k] - 1.0);
                         list.shear[k] = 0.0;
                     }
@@ -266,6 +285,7 @@ impl ShearSim {
                     vir.contacts += 1;
                     if list.shear[k] == 0.0 {
                         coll.begun += 1;
+                        coll.angle_making[angle_bin(dx, dy)] += 1;
                         list.shear[k] = 1.0 + now;
                     }
                 }

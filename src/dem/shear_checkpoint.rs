@@ -47,6 +47,22 @@ impl ShearSim {
         e.u64(self.coll.begun);
         e.u64(self.coll.ended);
         e.f64(self.coll.duration_sum);
+        e.i64s(
+            &self
+                .coll
+                .angle_making
+                .iter()
+                .map(|&v| v as i64)
+                .collect::<Vec<_>>(),
+        );
+        e.i64s(
+            &self
+                .coll
+                .angle_breaking
+                .iter()
+                .map(|&v| v as i64)
+                .collect::<Vec<_>>(),
+        );
         e.u64(self.rotate as u64);
         e.f64(self.gamma);
         e.bytes(extra);
@@ -101,10 +117,15 @@ impl ShearSim {
             dis: arr4(d.f64s()?)?,
             contacts: d.u64()? as usize,
         };
+        let (begun, ended, duration_sum) = (d.u64()?, d.u64()?, d.f64()?);
+        let to_u = |v: Vec<i64>| v.into_iter().map(|x| x as u64).collect::<Vec<u64>>();
+        let (angle_making, angle_breaking) = (to_u(d.i64s()?), to_u(d.i64s()?));
         let coll = Collisions {
-            begun: d.u64()?,
-            ended: d.u64()?,
-            duration_sum: d.f64()?,
+            begun,
+            ended,
+            duration_sum,
+            angle_making,
+            angle_breaking,
         };
         let rotate = d.u64()? != 0;
         let gamma = d.f64()?;

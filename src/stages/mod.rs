@@ -37,6 +37,7 @@ pub mod report_stages;
 pub mod shear;
 mod shear_ramp;
 mod shear_stats;
+mod shear_steady;
 mod shear_tracks;
 pub mod sim_setup;
 pub mod sim_tables;

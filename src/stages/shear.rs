@@ -6,6 +6,7 @@
 use super::shear_ramp::{finish_ramp, ramp_plan};
 pub use super::shear_stats::MeanErr;
 use super::shear_stats::summarize;
+use super::shear_steady::Steady;
 use super::shear_tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
 use super::sim_tables::{drop_parts_from, merge_parts};
 use crate::dem::checkpoint::{Dec, Enc};
@@ -152,6 +153,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
     let mut tracks = empty_tracks();
     let (mut frame, mut parts) = (0i64, 0u64);
+    let mut steady = Steady::default();
     let mut sim = if opt.resume {
         let bytes = std::fs::read(&ckpt).map_err(|e| {
             Error::input(
@@ -176,6 +178,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         for c in cols.iter_mut() {
             *c = d.f64s().map_err(bad)?;
         }
+        steady = Steady::decode(&mut d).map_err(bad)?;
         let (bf, bx) = (d.i64s().map_err(bad)?, d.f64s().map_err(bad)?);
         for (f, xy) in bf.into_iter().zip(bx) {
             tracks.meta.boxes.push(frame_box(f, sim.l, xy));
@@ -215,6 +218,9 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let mut fresh = !opt.resume;
     loop {
         if fresh && sim.step.is_multiple_of(opt.sample_every) {
+            if ramp.is_none() && sim.strain() >= opt.transient * opt.strain {
+                steady.sample(&sim);
+            }
             let (el, dis, kin) = sim.pressure_tensor();
             let pr = |t: [f64; 4]| 0.5 * (t[0] + t[3]);
             let sg = |t: [f64; 4]| -t[1];
@@ -266,6 +272,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             for c in &cols {
                 e.f64s(c);
             }
+            steady.encode(&mut e);
             e.i64s(
                 &tracks
                     .meta
@@ -341,6 +348,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         return finish_ramp(out, opt, &p, r, &cols, &sim, frame, series, tracks_path, t0);
     }
     let summary = summarize(&cols, &p, sim.g.len(), opt)?;
+    steady.write(&sim, out)?;
     let summary_json = serde_json::json!({
         "params": p, "options": opt, "steps": sim.step, "strain": sim.strain(),
         "box_side": sim.l, "averaged_from_strain": opt.transient * opt.strain, "blocks": opt.blocks,
@@ -365,7 +373,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     };
     let manifest = serde_json::json!({
         "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear",
-        "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path)},
+        "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet")},
         "elapsed_s": rep.elapsed_s,
         "ns_per_particle_step": rep.elapsed_s * 1e9 / (sim.g.len() as f64 * sim.step.max(1) as f64),
         "decisions": [

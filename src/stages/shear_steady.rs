@@ -1,0 +1,131 @@
+//! Steady-state accumulations of a sheared-disk run beyond the series: the collision
+//! angle histograms at contact making and breaking (3.6° bins) and the velocity profile
+//! v_x(y) — both counted only after the transient.
+
+use crate::dem::checkpoint::{Dec, Enc};
+use crate::dem::shear::{ANGLE_BINS, ShearSim};
+use crate::error::{Error, Result};
+use crate::io::table::write_table;
+use polars::prelude::*;
+use std::path::Path;
+
+/// Bins of the velocity profile across the box.
+pub const PROFILE_BINS: usize = 20;
+
+#[derive(Debug, Clone, Default)]
+pub struct Steady {
+    pub started: bool,
+    /// Histogram counts when the steady window began.
+    pub making0: Vec<u64>,
+    pub breaking0: Vec<u64>,
+    /// Σ v_x and samples per y bin (primary-cell images).
+    pub vx_sum: Vec<f64>,
+    pub count: Vec<f64>,
+}
+
+impl Steady {
+    /// Called at every sample of the steady window.
+    pub fn sample(&mut self, sim: &ShearSim) {
+        if !self.started {
+            self.started = true;
+            self.making0 = sim.coll.angle_making.clone();
+            self.breaking0 = sim.coll.angle_breaking.clone();
+            self.vx_sum = vec![0.0; PROFILE_BINS];
+            self.count = vec![0.0; PROFILE_BINS];
+        }
+        let shear_v = sim.p.rate * sim.l;
+        for i in 0..sim.g.len() {
+            let (_, yw) = sim.wrapped(i);
+            // The primary-cell image moves n γ̇ L slower than the unwrapped grain.
+            let n = ((sim.g.y[i] - yw) / sim.l).round();
+            let b = ((yw / sim.l * PROFILE_BINS as f64) as usize).min(PROFILE_BINS - 1);
+            self.vx_sum[b] += sim.g.vx[i] - n * shear_v;
+            self.count[b] += 1.0;
+        }
+    }
+
+    pub fn encode(&self, e: &mut Enc) {
+        e.u64(self.started as u64);
+        let u = |v: &[u64]| v.iter().map(|&x| x as i64).collect::<Vec<_>>();
+        e.i64s(&u(&self.making0));
+        e.i64s(&u(&self.breaking0));
+        e.f64s(&self.vx_sum);
+        e.f64s(&self.count);
+    }
+
+    pub fn decode(d: &mut Dec) -> std::result::Result<Self, String> {
+        let started = d.u64()? != 0;
+        let u = |v: Vec<i64>| v.into_iter().map(|x| x as u64).collect::<Vec<_>>();
+        Ok(Steady {
+            started,
+            making0: u(d.i64s()?),
+            breaking0: u(d.i64s()?),
+            vx_sum: d.f64s()?,
+            count: d.f64s()?,
+        })
+    }
+
+    /// `collision_angles.parquet` and `profile.parquet` in `out`.
+    pub fn write(&self, sim: &ShearSim, out: &Path) -> Result<()> {
+        if !self.started {
+            return Err(Error::param(
+                "strain",
+                "the run ended before its steady window began",
+            ));
+        }
+        let w = 180.0 / ANGLE_BINS as f64;
+        let diff = |now: &[u64], then: &[u64]| {
+            now.iter()
+                .zip(then)
+                .map(|(a, b)| (a - b) as f64)
+                .collect::<Vec<f64>>()
+        };
+        let (mk, br) = (
+            diff(&sim.coll.angle_making, &self.making0),
+            diff(&sim.coll.angle_breaking, &self.breaking0),
+        );
+        // Probability density per degree, so curves from runs of any length compare.
+        let pdf = |c: &[f64]| {
+            let t: f64 = c.iter().sum();
+            c.iter()
+                .map(|x| if t > 0.0 { x / (t * w) } else { 0.0 })
+                .collect::<Vec<f64>>()
+        };
+        let lo: Vec<f64> = (0..ANGLE_BINS).map(|k| k as f64 * w).collect();
+        let hi: Vec<f64> = lo.iter().map(|x| x + w).collect();
+        let mut df = DataFrame::new(
+            ANGLE_BINS,
+            vec![
+                Column::new("angle_lo_deg".into(), &lo),
+                Column::new("angle_hi_deg".into(), &hi),
+                Column::new("making".into(), &mk),
+                Column::new("breaking".into(), &br),
+                Column::new("making_pdf".into(), &pdf(&mk)),
+                Column::new("breaking_pdf".into(), &pdf(&br)),
+            ],
+        )
+        .map_err(|e| Error::polars("building the angle table", e))?;
+        write_table(&mut df, &out.join("collision_angles.parquet"))?;
+        let y: Vec<f64> = (0..PROFILE_BINS)
+            .map(|b| (b as f64 + 0.5) / PROFILE_BINS as f64 * sim.l)
+            .collect();
+        let vx: Vec<f64> = self
+            .vx_sum
+            .iter()
+            .zip(&self.count)
+            .map(|(s, n)| if *n > 0.0 { s / n } else { 0.0 })
+            .collect();
+        let affine: Vec<f64> = y.iter().map(|y| sim.p.rate * y).collect();
+        let mut df = DataFrame::new(
+            PROFILE_BINS,
+            vec![
+                Column::new("y".into(), &y),
+                Column::new("vx".into(), &vx),
+                Column::new("vx_affine".into(), &affine),
+                Column::new("samples".into(), &self.count),
+            ],
+        )
+        .map_err(|e| Error::polars("building the profile", e))?;
+        write_table(&mut df, &out.join("profile.parquet"))
+    }
+}
