@@ -124,7 +124,10 @@ fn contact_number_matches_two_tau_nu_and_disks_roll_at_minus_half_the_rate() {
         spin.mean,
         spin.err
     );
-    for k in ["p", "sigma", "mu", "b_p", "eta_p", "tau_dur", "nu_coll"] {
+    // Homogeneous flow: R_v = ⟨δv_x²⟩/⟨v_y²⟩ of order one (Eq. 37).
+    let rv = s["r_v"].mean;
+    assert!(rv > 0.3 && rv < 3.0, "R_v = {rv}");
+    for k in ["p", "sigma", "mu", "b_p", "eta_p", "tau_dur", "nu_coll", "r_v"] {
         assert!(s[k].mean > 0.0 && s[k].err >= 0.0, "{k}");
     }
     let j: serde_json::Value =

@@ -97,7 +97,7 @@ pub struct ShearReport {
     pub elapsed_s: f64,
 }
 
-pub(crate) const SERIES: [&str; 17] = [
+pub(crate) const SERIES: [&str; 19] = [
     "time",
     "strain",
     "p",
@@ -115,6 +115,8 @@ pub(crate) const SERIES: [&str; 17] = [
     "contact_time_ended",
     "collisions_ended",
     "rate",
+    "dvx2",
+    "vy2",
 ];
 
 pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
@@ -247,6 +249,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 sim.coll.duration_sum,
                 sim.coll.ended as f64,
                 sim.p.rate,
+                kin[0] * sim.l * sim.l / n,
+                kin[3] * sim.l * sim.l / n,
             ];
             for (c, v) in cols.iter_mut().zip(row) {
                 c.push(v);

@@ -81,6 +81,11 @@ pub(crate) fn summarize(
         "mu".into(),
         per_block(&|r| mean_in(col("sigma"), r) / mean_in(col("p"), r)),
     );
+    // Eqs. 35–37: R_v = ⟨δv_x²⟩/⟨v_y²⟩, O(1) when homogeneous, large in shear bands.
+    s.insert(
+        "r_v".into(),
+        per_block(&|r| mean_in(col("dvx2"), r) / mean_in(col("vy2"), r)),
+    );
     s.insert(
         "mu_el".into(),
         per_block(&|r| mean_in(col("sigma_el"), r) / mean_in(col("p_el"), r)),
