@@ -80,6 +80,10 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         "shear_ramp",
         include_str!("../data_schema/shear_ramp.schema.json"),
     ),
+    (
+        "contact_velocities",
+        include_str!("../data_schema/contact_velocities.schema.json"),
+    ),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,

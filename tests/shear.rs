@@ -127,7 +127,9 @@ fn contact_number_matches_two_tau_nu_and_disks_roll_at_minus_half_the_rate() {
     // Homogeneous flow: R_v = ⟨δv_x²⟩/⟨v_y²⟩ of order one (Eq. 37).
     let rv = s["r_v"].mean;
     assert!(rv > 0.3 && rv < 3.0, "R_v = {rv}");
-    for k in ["p", "sigma", "mu", "b_p", "eta_p", "tau_dur", "nu_coll", "r_v"] {
+    for k in [
+        "p", "sigma", "mu", "b_p", "eta_p", "tau_dur", "nu_coll", "r_v",
+    ] {
         assert!(s[k].mean > 0.0 && s[k].err >= 0.0, "{k}");
     }
     let j: serde_json::Value =
@@ -290,7 +292,13 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
     );
     let (ok, text) = run_cli(&["--checkpoint-every", "300", "--resume", b.to_str().unwrap()]);
     assert!(ok, "{text}");
-    for t in ["series.parquet", "tracks.parquet"] {
+    for t in [
+        "series.parquet",
+        "tracks.parquet",
+        "collision_angles.parquet",
+        "profile.parquet",
+        "contact_velocities.parquet",
+    ] {
         let (x, y) = (
             read_table(&a.join(t), &[]).unwrap(),
             read_table(&b.join(t), &[]).unwrap(),
@@ -483,4 +491,30 @@ fn collision_angles_and_profile_in_steady_shear() {
         / y.iter().map(|a| (a - my).powi(2)).sum::<f64>();
     assert!((slope / 1e-2 - 1.0).abs() < 0.2, "dv_x/dy = {slope}");
     assert!((aff[0] - 1e-2 * y[0]).abs() < 1e-15);
+    // Contact velocities (Fig. 21): the sample, V^C_T = V_T + V^R, and in CDrot the
+    // rotation cancels much of the tangential slip: var V^C_T < var V_T.
+    let cv = read_table(&out.join("contact_velocities.parquet"), &[]).unwrap();
+    assert_eq!(
+        cv.columns(),
+        pillar_pipe::schema::load("contact_velocities").names()
+    );
+    assert!(cv.df.height() >= 4000, "{}", cv.df.height());
+    let (vt, vr, vct) = (
+        cv.f64("v_t").unwrap(),
+        cv.f64("v_r").unwrap(),
+        cv.f64("v_c_t").unwrap(),
+    );
+    for k in 0..vt.len() {
+        assert!((vct[k] - vt[k] - vr[k]).abs() <= 1e-9 * (1.0 + vct[k].abs()));
+    }
+    let var = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64
+    };
+    assert!(
+        var(&vct) < var(&vt),
+        "var V^C_T {} vs var V_T {}",
+        var(&vct),
+        var(&vt)
+    );
 }

@@ -411,6 +411,40 @@ impl ShearSim {
         self.refresh();
     }
 
+    /// Contact-velocity components of every current contact (vagberg-sheared-disks
+    /// Eqs. 30–34), in units of d_s γ̇: [V_T, V^R, V^C_T, V_N] with r̂_ji the outward
+    /// normal of i at the contact and t̂_ji = ẑ × r̂_ji. V^R uses Eq. 6's moment arms
+    /// (|s_ji| = d_i/2 at contact), i.e. Eq. 31 with the radii: V^C = V + V^R is then the
+    /// exact contact-point velocity difference the CDrot force acts on.
+    pub fn contact_velocities(&self) -> Vec<[f64; 4]> {
+        let b = self.boundary();
+        let (g, shear_v, rate) = (&self.g, self.p.rate * self.l, self.p.rate);
+        let mut out = Vec::new();
+        for i in 0..g.len() {
+            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
+                let j = self.list.j[k] as usize;
+                let (dx, dy, img) = b.delta_image(g.x[i] - g.x[j], g.y[i] - g.y[j]);
+                let dij = g.radius[i] + g.radius[j];
+                let r2 = dx * dx + dy * dy;
+                if r2 >= dij * dij {
+                    continue;
+                }
+                let d = r2.sqrt();
+                // r̂_ji points from i to j.
+                let (nx, ny) = (-dx / d, -dy / d);
+                let (tx, ty) = (-ny, nx);
+                let (vx, vy) = (
+                    (g.vx[i] - g.vx[j] - img * shear_v) / rate,
+                    (g.vy[i] - g.vy[j]) / rate,
+                );
+                let v_r = (g.omega[i] * g.radius[i] + g.omega[j] * g.radius[j]) / rate;
+                let v_t = vx * tx + vy * ty;
+                out.push([v_t, v_r, v_t + v_r, vx * nx + vy * ny]);
+            }
+        }
+        out
+    }
+
     /// Positions mapped into the primary cell [0, L)², Lees–Edwards aware.
     pub fn wrapped(&self, i: usize) -> (f64, f64) {
         let off = self.gamma * self.l;

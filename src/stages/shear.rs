@@ -215,13 +215,16 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         Some(_) => ((opt.window / p.dt).round() as u64).max(1),
         None => ((0.05 / (p.rate * p.dt)).round() as u64).max(1),
     });
+    // Contact-velocity draws per steady sample, so that CONTACT_SAMPLES spread over the window.
+    let steady_samples = ((1.0 - opt.transient) * total as f64 / opt.sample_every as f64).max(1.0);
+    let per_sample = (super::shear_steady::CONTACT_SAMPLES as f64 / steady_samples).ceil() as usize;
     let bar = super::progress(total, "shear", opt.quiet);
     // A resumed run's current step was recorded and checkpointed before the stop.
     let mut fresh = !opt.resume;
     loop {
         if fresh && sim.step.is_multiple_of(opt.sample_every) {
             if ramp.is_none() && sim.strain() >= opt.transient * opt.strain {
-                steady.sample(&sim);
+                steady.sample(&sim, per_sample, opt.seed);
             }
             let (el, dis, kin) = sim.pressure_tensor();
             let pr = |t: [f64; 4]| 0.5 * (t[0] + t[3]);
@@ -377,7 +380,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     };
     let manifest = serde_json::json!({
         "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear",
-        "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet")},
+        "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet"), "contact_velocities": out.join("contact_velocities.parquet")},
         "elapsed_s": rep.elapsed_s,
         "ns_per_particle_step": rep.elapsed_s * 1e9 / (sim.g.len() as f64 * sim.step.max(1) as f64),
         "decisions": [

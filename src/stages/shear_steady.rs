@@ -21,11 +21,27 @@ pub struct Steady {
     /// Σ v_x and samples per y bin (primary-cell images).
     pub vx_sum: Vec<f64>,
     pub count: Vec<f64>,
+    /// Contact-velocity samples [V_T, V^R, V^C_T, V_N] (Fig. 21), flattened.
+    pub contact_v: Vec<f64>,
 }
 
+/// Collisions sampled for Fig. 21, spread over the steady window.
+pub const CONTACT_SAMPLES: usize = 5000;
+
 impl Steady {
-    /// Called at every sample of the steady window.
-    pub fn sample(&mut self, sim: &ShearSim) {
+    /// Called at every sample of the steady window; `per_sample` contacts are drawn
+    /// (seeded) for the contact-velocity table until it holds CONTACT_SAMPLES.
+    pub fn sample(&mut self, sim: &ShearSim, per_sample: usize, seed: u64) {
+        if self.contact_v.len() < 4 * CONTACT_SAMPLES {
+            let cv = sim.contact_velocities();
+            if !cv.is_empty() {
+                let mut rng =
+                    crate::rng::Rng::new(seed ^ sim.step.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+                for _ in 0..per_sample.min(CONTACT_SAMPLES - self.contact_v.len() / 4) {
+                    self.contact_v.extend_from_slice(&cv[rng.below(cv.len())]);
+                }
+            }
+        }
         if !self.started {
             self.started = true;
             self.making0 = sim.coll.angle_making.clone();
@@ -51,6 +67,7 @@ impl Steady {
         e.i64s(&u(&self.breaking0));
         e.f64s(&self.vx_sum);
         e.f64s(&self.count);
+        e.f64s(&self.contact_v);
     }
 
     pub fn decode(d: &mut Dec) -> std::result::Result<Self, String> {
@@ -62,10 +79,11 @@ impl Steady {
             breaking0: u(d.i64s()?),
             vx_sum: d.f64s()?,
             count: d.f64s()?,
+            contact_v: d.f64s()?,
         })
     }
 
-    /// `collision_angles.parquet` and `profile.parquet` in `out`.
+    /// `collision_angles.parquet`, `profile.parquet` and `contact_velocities.parquet`.
     pub fn write(&self, sim: &ShearSim, out: &Path) -> Result<()> {
         if !self.started {
             return Err(Error::param(
@@ -126,6 +144,26 @@ impl Steady {
             ],
         )
         .map_err(|e| Error::polars("building the profile", e))?;
-        write_table(&mut df, &out.join("profile.parquet"))
+        write_table(&mut df, &out.join("profile.parquet"))?;
+        let c = |k: usize| {
+            self.contact_v
+                .iter()
+                .skip(k)
+                .step_by(4)
+                .copied()
+                .collect::<Vec<f64>>()
+        };
+        let n = self.contact_v.len() / 4;
+        let mut df = DataFrame::new(
+            n,
+            vec![
+                Column::new("v_t".into(), &c(0)),
+                Column::new("v_r".into(), &c(1)),
+                Column::new("v_c_t".into(), &c(2)),
+                Column::new("v_n".into(), &c(3)),
+            ],
+        )
+        .map_err(|e| Error::polars("building the contact velocities", e))?;
+        write_table(&mut df, &out.join("contact_velocities.parquet"))
     }
 }
