@@ -84,6 +84,10 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         "contact_velocities",
         include_str!("../data_schema/contact_velocities.schema.json"),
     ),
+    (
+        "shear_fields",
+        include_str!("../data_schema/shear_fields.schema.json"),
+    ),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,

@@ -298,6 +298,7 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
         "collision_angles.parquet",
         "profile.parquet",
         "contact_velocities.parquet",
+        "fields.parquet",
     ] {
         let (x, y) = (
             read_table(&a.join(t), &[]).unwrap(),
@@ -491,6 +492,23 @@ fn collision_angles_and_profile_in_steady_shear() {
         / y.iter().map(|a| (a - my).powi(2)).sum::<f64>();
     assert!((slope / 1e-2 - 1.0).abs() < 0.2, "dv_x/dy = {slope}");
     assert!((aff[0] - 1e-2 * y[0]).abs() < 1e-15);
+    // φ(y) and the local fields average back to the global φ; the local rate to γ̇.
+    let phi_y = p.f64("phi").unwrap();
+    let mean_phi = phi_y.iter().sum::<f64>() / phi_y.len() as f64;
+    assert!((mean_phi / 0.8 - 1.0).abs() < 0.02, "φ(y) mean {mean_phi}");
+    let f = read_table(&out.join("fields.parquet"), &[]).unwrap();
+    assert_eq!(
+        f.columns(),
+        pillar_pipe::schema::load("shear_fields").names()
+    );
+    let (fphi, fg) = (f.f64("phi").unwrap(), f.f64("gamma_dot_over_rate").unwrap());
+    let m = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    assert!(
+        (m(&fphi) / 0.8 - 1.0).abs() < 0.1,
+        "local φ mean {}",
+        m(&fphi)
+    );
+    assert!((m(&fg) - 1.0).abs() < 0.3, "local γ̇/γ̇ mean {}", m(&fg));
     // Contact velocities (Fig. 21): the sample, V^C_T = V_T + V^R, and in CDrot the
     // rotation cancels much of the tangential slip: var V^C_T < var V_T.
     let cv = read_table(&out.join("contact_velocities.parquet"), &[]).unwrap();

@@ -218,13 +218,15 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     // Contact-velocity draws per steady sample, so that CONTACT_SAMPLES spread over the window.
     let steady_samples = ((1.0 - opt.transient) * total as f64 / opt.sample_every as f64).max(1.0);
     let per_sample = (super::shear_steady::CONTACT_SAMPLES as f64 / steady_samples).ceil() as usize;
+    let field_every =
+        ((steady_samples / super::shear_steady::FIELD_SNAPSHOTS as f64).floor() as u64).max(1);
     let bar = super::progress(total, "shear", opt.quiet);
     // A resumed run's current step was recorded and checkpointed before the stop.
     let mut fresh = !opt.resume;
     loop {
         if fresh && sim.step.is_multiple_of(opt.sample_every) {
             if ramp.is_none() && sim.strain() >= opt.transient * opt.strain {
-                steady.sample(&sim, per_sample, opt.seed);
+                steady.sample(&sim, per_sample, field_every, opt.seed);
             }
             let (el, dis, kin) = sim.pressure_tensor();
             let pr = |t: [f64; 4]| 0.5 * (t[0] + t[3]);
@@ -380,7 +382,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     };
     let manifest = serde_json::json!({
         "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear",
-        "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet"), "contact_velocities": out.join("contact_velocities.parquet")},
+        "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet"), "contact_velocities": out.join("contact_velocities.parquet"), "fields": out.join("fields.parquet")},
         "elapsed_s": rep.elapsed_s,
         "ns_per_particle_step": rep.elapsed_s * 1e9 / (sim.g.len() as f64 * sim.step.max(1) as f64),
         "decisions": [

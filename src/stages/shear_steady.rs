@@ -23,7 +23,20 @@ pub struct Steady {
     pub count: Vec<f64>,
     /// Contact-velocity samples [V_T, V^R, V^C_T, V_N] (Fig. 21), flattened.
     pub contact_v: Vec<f64>,
+    /// Σ disk area per y bin (for φ(y)) and the number of samples.
+    pub area_sum: Vec<f64>,
+    pub samples: u64,
+    /// Local fields over circles of radius 4 d_s on a grid (Figs. 27–28): Σ φ, Σ γ̇
+    /// and snapshots taken.
+    pub field_phi: Vec<f64>,
+    pub field_gdot: Vec<f64>,
+    pub field_snapshots: u64,
 }
+
+/// Radius of the circles the local fields average over (d_s).
+pub const FIELD_RADIUS: f64 = 4.0;
+/// Snapshots of the local fields over the steady window.
+pub const FIELD_SNAPSHOTS: u64 = 10;
 
 /// Collisions sampled for Fig. 21, spread over the steady window.
 pub const CONTACT_SAMPLES: usize = 5000;
@@ -31,7 +44,7 @@ pub const CONTACT_SAMPLES: usize = 5000;
 impl Steady {
     /// Called at every sample of the steady window; `per_sample` contacts are drawn
     /// (seeded) for the contact-velocity table until it holds CONTACT_SAMPLES.
-    pub fn sample(&mut self, sim: &ShearSim, per_sample: usize, seed: u64) {
+    pub fn sample(&mut self, sim: &ShearSim, per_sample: usize, field_every: u64, seed: u64) {
         if self.contact_v.len() < 4 * CONTACT_SAMPLES {
             let cv = sim.contact_velocities();
             if !cv.is_empty() {
@@ -48,7 +61,15 @@ impl Steady {
             self.breaking0 = sim.coll.angle_breaking.clone();
             self.vx_sum = vec![0.0; PROFILE_BINS];
             self.count = vec![0.0; PROFILE_BINS];
+            self.area_sum = vec![0.0; PROFILE_BINS];
+            let g = field_grid(sim.l);
+            self.field_phi = vec![0.0; g * g];
+            self.field_gdot = vec![0.0; g * g];
         }
+        if self.samples.is_multiple_of(field_every) {
+            self.field_snapshot(sim);
+        }
+        self.samples += 1;
         let shear_v = sim.p.rate * sim.l;
         for i in 0..sim.g.len() {
             let (_, yw) = sim.wrapped(i);
@@ -57,7 +78,48 @@ impl Steady {
             let b = ((yw / sim.l * PROFILE_BINS as f64) as usize).min(PROFILE_BINS - 1);
             self.vx_sum[b] += sim.g.vx[i] - n * shear_v;
             self.count[b] += 1.0;
+            self.area_sum[b] += std::f64::consts::PI * sim.g.radius[i] * sim.g.radius[i];
         }
+    }
+
+    /// Local φ and γ̇ at every grid point: disks whose centres lie within FIELD_RADIUS
+    /// (their whole area counted), and the least-squares slope dv_x/dy of their velocity
+    /// images (Lees–Edwards aware) against height.
+    fn field_snapshot(&mut self, sim: &ShearSim) {
+        let (l, g) = (sim.l, field_grid(sim.l));
+        let b = sim.boundary();
+        let shear_v = sim.p.rate * l;
+        let r2max = FIELD_RADIUS * FIELD_RADIUS;
+        for a in 0..g {
+            for c in 0..g {
+                let (gx, gy) = (
+                    (a as f64 + 0.5) * l / g as f64,
+                    (c as f64 + 0.5) * l / g as f64,
+                );
+                let (mut area, mut n, mut sy, mut sv, mut syy, mut syv) =
+                    (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+                for i in 0..sim.g.len() {
+                    let (dx, dy, img) = b.delta_image(sim.g.x[i] - gx, sim.g.y[i] - gy);
+                    if dx * dx + dy * dy >= r2max {
+                        continue;
+                    }
+                    let v = sim.g.vx[i] - img * shear_v;
+                    area += std::f64::consts::PI * sim.g.radius[i] * sim.g.radius[i];
+                    n += 1.0;
+                    sy += dy;
+                    sv += v;
+                    syy += dy * dy;
+                    syv += dy * v;
+                }
+                let k = c * g + a;
+                self.field_phi[k] += area / (std::f64::consts::PI * r2max);
+                let den = n * syy - sy * sy;
+                if n >= 3.0 && den > 0.0 {
+                    self.field_gdot[k] += (n * syv - sy * sv) / den;
+                }
+            }
+        }
+        self.field_snapshots += 1;
     }
 
     pub fn encode(&self, e: &mut Enc) {
@@ -68,6 +130,11 @@ impl Steady {
         e.f64s(&self.vx_sum);
         e.f64s(&self.count);
         e.f64s(&self.contact_v);
+        e.f64s(&self.area_sum);
+        e.u64(self.samples);
+        e.f64s(&self.field_phi);
+        e.f64s(&self.field_gdot);
+        e.u64(self.field_snapshots);
     }
 
     pub fn decode(d: &mut Dec) -> std::result::Result<Self, String> {
@@ -80,6 +147,11 @@ impl Steady {
             vx_sum: d.f64s()?,
             count: d.f64s()?,
             contact_v: d.f64s()?,
+            area_sum: d.f64s()?,
+            samples: d.u64()?,
+            field_phi: d.f64s()?,
+            field_gdot: d.f64s()?,
+            field_snapshots: d.u64()?,
         })
     }
 
@@ -134,12 +206,38 @@ impl Steady {
             .map(|(s, n)| if *n > 0.0 { s / n } else { 0.0 })
             .collect();
         let affine: Vec<f64> = y.iter().map(|y| sim.p.rate * y).collect();
+        let bin_area = sim.l * sim.l / PROFILE_BINS as f64;
+        let phi: Vec<f64> = self
+            .area_sum
+            .iter()
+            .map(|a| a / (self.samples.max(1) as f64 * bin_area))
+            .collect();
+        // γ̇(y) by central differences; across the boundary the image flows γ̇L faster.
+        let h = sim.l / PROFILE_BINS as f64;
+        let nb = PROFILE_BINS;
+        let gdot: Vec<f64> = (0..nb)
+            .map(|k| {
+                let up = if k + 1 < nb {
+                    vx[k + 1]
+                } else {
+                    vx[0] + sim.p.rate * sim.l
+                };
+                let down = if k > 0 {
+                    vx[k - 1]
+                } else {
+                    vx[nb - 1] - sim.p.rate * sim.l
+                };
+                (up - down) / (2.0 * h)
+            })
+            .collect();
         let mut df = DataFrame::new(
             PROFILE_BINS,
             vec![
                 Column::new("y".into(), &y),
                 Column::new("vx".into(), &vx),
                 Column::new("vx_affine".into(), &affine),
+                Column::new("gamma_dot".into(), &gdot),
+                Column::new("phi".into(), &phi),
                 Column::new("samples".into(), &self.count),
             ],
         )
@@ -164,6 +262,31 @@ impl Steady {
             ],
         )
         .map_err(|e| Error::polars("building the contact velocities", e))?;
-        write_table(&mut df, &out.join("contact_velocities.parquet"))
+        write_table(&mut df, &out.join("contact_velocities.parquet"))?;
+        let g = field_grid(sim.l);
+        let ns = self.field_snapshots.max(1) as f64;
+        let coord = |k: usize| (k as f64 + 0.5) * sim.l / g as f64;
+        let (fx, fy): (Vec<f64>, Vec<f64>) =
+            (0..g * g).map(|k| (coord(k % g), coord(k / g))).unzip();
+        let phi: Vec<f64> = self.field_phi.iter().map(|v| v / ns).collect();
+        let gd: Vec<f64> = self.field_gdot.iter().map(|v| v / ns).collect();
+        let gd_rel: Vec<f64> = gd.iter().map(|v| v / sim.p.rate).collect();
+        let mut df = DataFrame::new(
+            g * g,
+            vec![
+                Column::new("x".into(), &fx),
+                Column::new("y".into(), &fy),
+                Column::new("phi".into(), &phi),
+                Column::new("gamma_dot".into(), &gd),
+                Column::new("gamma_dot_over_rate".into(), &gd_rel),
+            ],
+        )
+        .map_err(|e| Error::polars("building the local fields", e))?;
+        write_table(&mut df, &out.join("fields.parquet"))
     }
+}
+
+/// Grid points per side for the local fields: spacing ≥ FIELD_RADIUS.
+pub fn field_grid(l: f64) -> usize {
+    ((l / FIELD_RADIUS).floor() as usize).max(1)
 }
