@@ -235,7 +235,7 @@ fn shear(a: ShearArgs) -> Result<()> {
         println!("  {k:30} {:>12.5e} ± {:.2e}", v.mean, v.err);
     }
     println!(
-        "wrote       {}/{{series.parquet, tracks.parquet, summary.json, manifest.json}}",
+        "wrote       {}/{{series, tracks, profile, fields, collision_angles, contact_velocities}}.parquet, summary.json, manifest.json",
         out.display()
     );
     Ok(())
