@@ -265,6 +265,8 @@ pub struct SweepArgs {
     jobs: Option<usize>,
     #[arg(short, long)]
     output: PathBuf,
+    #[arg(long)]
+    quiet: bool,
 }
 
 pub fn sweep(a: SweepArgs) -> Result<()> {
@@ -288,6 +290,7 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
         rate: a.rate,
         base,
         jobs,
+        quiet: a.quiet,
     };
     let rep =
         run_sweep(&a.output, &opt).with_context(|| format!("sweep into {}", a.output.display()))?;

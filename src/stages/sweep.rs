@@ -18,6 +18,8 @@ pub struct SweepOptions {
     /// Everything else of each run (its phi, q, rate are replaced).
     pub base: ShearOptions,
     pub jobs: usize,
+    /// No progress bar.
+    pub quiet: bool,
 }
 
 pub struct SweepReport {
@@ -50,6 +52,7 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
         .num_threads(opt.jobs.max(1))
         .build()
         .map_err(|e| Error::Other(format!("thread pool: {e}")))?;
+    let bar = super::progress(grid.len() as u64, "sweep", opt.quiet);
     let results: Vec<Result<(bool, serde_json::Value)>> = pool.install(|| {
         use rayon::prelude::*;
         grid.par_iter()
@@ -77,6 +80,7 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
             })
             .collect()
     });
+    bar.finish_and_clear();
     // One row per run, in grid order (deterministic whatever the scheduling).
     let mut cols: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     let mut reused = 0;
