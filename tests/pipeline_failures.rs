@@ -252,3 +252,67 @@ fn killed_run_resumes_from_completed_stages() {
         "the killed run's temporary directory was swept"
     );
 }
+
+/// A simulate stage killed mid-run resumes from its last checkpoint on the next run
+/// (its work directory survives the sweep of temporary stage directories), and ends with
+/// the same trajectories as an uninterrupted run.
+#[test]
+fn killed_simulation_stage_resumes_from_its_checkpoint() {
+    let d = tmpdir("simkill");
+    let pipeline = d.join("sim.toml");
+    std::fs::write(
+        &pipeline,
+        "[simulation.simulate]\npreset = \"fast\"\nn = 120\nstrain = 0.08\nseed = 2\ncheckpoint_every = 20000\n",
+    )
+    .unwrap();
+    let file = pipeline.to_str().unwrap();
+    let (a, b) = (d.join("runs-a"), d.join("runs-b"));
+    run_ok(&["run", file, "--quiet"], &a);
+    let mut child = Command::new(BIN)
+        .args(["run", file, "--quiet", "--runs-dir"])
+        .arg(&b)
+        .spawn()
+        .unwrap();
+    let cache = b.join("cache");
+    let t0 = std::time::Instant::now();
+    let checkpointed = || {
+        std::fs::read_dir(&cache)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .any(|e| {
+                e.file_name()
+                    .to_string_lossy()
+                    .starts_with(".work-simulate-")
+                    && e.path().join("checkpoint.bin").exists()
+            })
+    };
+    while !checkpointed() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let resumed = checkpointed();
+    run_ok(&["run", file, "--quiet"], &b);
+    let tracks = |runs: &std::path::Path| {
+        let dir = final_dirs(runs)
+            .into_iter()
+            .find(|p| {
+                p.file_name()
+                    .unwrap()
+                    .to_string_lossy()
+                    .starts_with("simulate-")
+            })
+            .unwrap();
+        std::fs::read(dir.join("tracks.parquet")).unwrap()
+    };
+    assert_eq!(tracks(&a), tracks(&b), "same trajectories after the resume");
+    assert!(
+        !std::fs::read_dir(&cache)
+            .unwrap()
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().starts_with(".work-")),
+        "the work directory is gone once the stage is complete"
+    );
+    eprintln!("killed after a checkpoint: {resumed}");
+}

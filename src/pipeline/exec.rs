@@ -96,13 +96,15 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let mut o: stages::simulate::SimulateOptions = typed(&s.name, &s.params)?;
             o.packing = s.files.get("packing").cloned();
             o.quiet = q;
-            o.resume = false;
-            let r = stages::simulate::run(out, &o)?;
+            let r = simulate_resumable(out, &mut o)?;
             let rel: BTreeMap<String, String> = r
                 .tables
                 .iter()
                 .map(|(k, p)| {
-                    let p = p.strip_prefix(out).unwrap_or(p);
+                    let p = p
+                        .file_name()
+                        .map(std::path::PathBuf::from)
+                        .unwrap_or_else(|| p.clone());
                     (k.clone(), p.display().to_string())
                 })
                 .collect();
@@ -227,4 +229,64 @@ fn provenance(s: &Stage, ctx: &Ctx) -> Json {
 
 fn sum<T: serde::Serialize>(r: &T) -> Json {
     serde_json::to_value(r).unwrap_or(Json::Null)
+}
+
+/// Run a simulation so that a killed pipeline resumes it: the work happens in a
+/// directory beside the cache named by the run's options (`.work-simulate-<hash>`, not
+/// swept with the stage's temporary directory), with checkpoints; a rerun continues
+/// from the last one, and the finished tables are then moved into the stage's `out`.
+fn simulate_resumable(
+    out: &Path,
+    o: &mut stages::simulate::SimulateOptions,
+) -> Result<stages::simulate::SimulateReport> {
+    let cache = out.parent().unwrap_or(out);
+    let mut key = serde_json::to_value(&*o).unwrap_or_default();
+    if let Some(m) = key.as_object_mut() {
+        m.remove("quiet");
+        m.remove("resume");
+    }
+    if let Some(p) = &o.packing {
+        key["packing_sha256"] = json!(crate::io::sha256_file(p)?);
+    }
+    key["tool"] = json!(super::cache::build_id());
+    let hash = crate::io::hash::sha256_bytes(key.to_string().as_bytes());
+    let work = cache.join(format!(".work-simulate-{}", &hash[..16]));
+    if o.checkpoint_every == 0 {
+        // About a minute of work between checkpoints at either preset.
+        o.checkpoint_every = 2_000_000 / (o.n as u64 / 200).max(1);
+    }
+    let finished = work.join(stages::simulate::MANIFEST).exists();
+    o.resume = !finished && work.join("checkpoint.bin").exists();
+    if !finished && !o.resume && work.exists() {
+        std::fs::remove_dir_all(&work).map_err(|e| Error::io(&work, e))?;
+    }
+    let report = if finished {
+        let text = std::fs::read_to_string(work.join(stages::simulate::MANIFEST))
+            .map_err(|e| Error::io(&work, e))?;
+        let m: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| Error::input(work.display(), e.to_string()))?;
+        serde_json::from_value(m["report"].clone())
+            .map_err(|e| Error::input(work.display(), e.to_string()))?
+    } else {
+        stages::simulate::run(&work, o)?
+    };
+    // Move every file (tables, sidecars, manifest) into the stage directory.
+    for e in std::fs::read_dir(&work)
+        .map_err(|e| Error::io(&work, e))?
+        .flatten()
+    {
+        if e.path().is_file() {
+            let to = out.join(e.file_name());
+            std::fs::rename(e.path(), &to).map_err(|err| Error::io(&to, err))?;
+        }
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    let mut report = report;
+    report.out = out.to_path_buf();
+    for p in report.tables.values_mut() {
+        if let Some(name) = p.file_name() {
+            *p = out.join(name);
+        }
+    }
+    Ok(report)
 }
