@@ -81,6 +81,23 @@ pub fn bench_pillar(
     if let Some(dir) = export {
         export_state(&sim, dir)?;
     }
+    time_pillar(sim, steps, z)
+}
+
+/// A pillar from a `simulate pillar` checkpoint (the state of a real run, mid-way),
+/// timed for `steps` steps as [`bench_pillar`] does.
+pub fn bench_checkpoint(path: &Path, steps: u64) -> Result<PillarBench> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let (mut sim, _) = PillarSim::load(&bytes).map_err(|e| Error::input(path.display(), e))?;
+    // Same state, nothing advanced: the recorded forces are the ones the run would use.
+    let z = 2.0 * sim.contacts() as f64 / sim.grains.len() as f64;
+    sim.record = None;
+    time_pillar(sim, steps, z)
+}
+
+/// Time `steps` steps from `sim`, with the frozen-grain skip and (same state) without,
+/// check both give the same grains, and time the pair-list distance pass.
+fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
     sim.scratch.skip_frozen = true;
     sim.scratch.frozen_grain_steps = 0;
     let mut plain = sim.clone();

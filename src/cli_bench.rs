@@ -76,6 +76,10 @@ pub enum BenchCmd {
         /// Write the loaded state here (for bench/lammps_pillar.py).
         #[arg(long)]
         export: Option<PathBuf>,
+        /// Time a real run's state instead: a `simulate pillar --checkpoint-every`
+        /// checkpoint (DIR/checkpoint.bin); --k, --preset and --preload are then unused.
+        #[arg(long, conflicts_with = "export")]
+        checkpoint: Option<PathBuf>,
         #[arg(long)]
         json: bool,
     },
@@ -128,19 +132,28 @@ pub fn bench(what: BenchCmd) -> Result<()> {
             preset,
             preload,
             export,
+            checkpoint,
             json,
         } => {
-            for k in k {
-                let dir = export
-                    .as_ref()
-                    .map(|d| d.join(format!("n{}", 1000 * k * k)));
-                let b = pillar_pipe::bench_dem::bench_pillar(
-                    k,
-                    steps,
-                    &preset,
-                    preload,
-                    dir.as_deref(),
-                )?;
+            let results: Vec<pillar_pipe::bench_dem::PillarBench> = match &checkpoint {
+                Some(path) => vec![pillar_pipe::bench_dem::bench_checkpoint(path, steps)?],
+                None => k
+                    .iter()
+                    .map(|&k| {
+                        let dir = export
+                            .as_ref()
+                            .map(|d| d.join(format!("n{}", 1000 * k * k)));
+                        pillar_pipe::bench_dem::bench_pillar(
+                            k,
+                            steps,
+                            &preset,
+                            preload,
+                            dir.as_deref(),
+                        )
+                    })
+                    .collect::<Result<_, _>>()?,
+            };
+            for b in results {
                 if json {
                     println!("{}", serde_json::to_string(&b)?);
                 } else {

@@ -144,6 +144,23 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
         !b.join("tracks.parquet").exists(),
         "no complete-looking table from an interrupted run"
     );
+    // The benchmark times a real run's state from its checkpoint (and checks that the
+    // frozen-grain skip changes nothing there).
+    let ck = b.join("checkpoint.bin");
+    let (ok, text) = run(&[
+        "bench",
+        "dem",
+        "--checkpoint",
+        ck.to_str().unwrap(),
+        "--steps",
+        "300",
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("json");
+    assert_eq!(v["n"], 120);
+    let frozen = v["reused_fraction"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&frozen) && v["ns_per_particle_step"].as_f64().unwrap() > 0.0);
     // Resuming with different physics is refused; with the same, it finishes.
     let (ok, text) = run(&[
         "simulate",
@@ -176,6 +193,17 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
     ]);
     assert!(ok, "{text}");
     assert_eq!(contents(&a), contents(&b));
+    // The manifest counts the wall time of both sessions.
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(b.join("manifest.json")).unwrap()).unwrap();
+    let (this, total) = (
+        m["report"]["elapsed_s"].as_f64().unwrap(),
+        m["report"]["elapsed_total_s"].as_f64().unwrap(),
+    );
+    assert!(
+        total > this
+            && m["steps_this_session"].as_u64().unwrap() < m["report"]["steps"].as_u64().unwrap()
+    );
 }
 
 #[test]

@@ -82,6 +82,13 @@ impl TangentialLaw for Frictionless {
     }
 }
 
+/// `a` when `c`, else `b`, as a bit mask (no branch to mispredict).
+#[inline(always)]
+fn pick(c: bool, a: f64, b: f64) -> f64 {
+    let m = 0u64.wrapping_sub(c as u64);
+    f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
+
 /// Coulomb friction of the substrate under each grain (li-granular-pillars
 /// Sec. II.B.3 and Eq. 9, with the ξ rule of Eq. 11).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,18 +106,34 @@ impl SubstrateFriction {
     #[inline(always)]
     pub fn force(&self, m: f64, vx: f64, vy: f64, fx: f64, fy: f64) -> (f64, f64) {
         let f_max = m * self.g * self.mu;
+        self.force_with(f_max, f_max * f_max, vx, vy, fx, fy)
+    }
+
+    /// [`SubstrateFriction::force`] given m g μ (N) and its square.
+    #[inline(always)]
+    pub fn force_with(
+        &self,
+        f_max: f64,
+        f_max2: f64,
+        vx: f64,
+        vy: f64,
+        fx: f64,
+        fy: f64,
+    ) -> (f64, f64) {
+        // Both cases computed and one picked without a branch: moving and resting
+        // grains mix at random.
         let v2 = vx * vx + vy * vy;
-        if v2 > 0.0 {
-            let k = f_max / v2.sqrt();
-            return (-k * vx, -k * vy);
-        }
+        let k_moving = f_max / v2.max(f64::MIN_POSITIVE).sqrt();
         let f2 = fx * fx + fy * fy;
-        if f2 <= f_max * f_max {
-            (-fx, -fy)
+        let k_rest = if f2 <= f_max2 {
+            1.0
         } else {
-            let k = f_max / f2.sqrt();
-            (-k * fx, -k * fy)
-        }
+            f_max / f2.max(f64::MIN_POSITIVE).sqrt()
+        };
+        let moving = v2 > 0.0;
+        let (ax, ay) = (pick(moving, vx, fx), pick(moving, vy, fy));
+        let k = pick(moving, k_moving, k_rest);
+        (-k * ax, -k * ay)
     }
 
     /// Largest substrate torque (2/3) m g μ R (N m), Eq. 9.
@@ -123,14 +146,15 @@ impl SubstrateFriction {
     /// torque `t` (N m): −T_max ω̂ (Eq. 9), or whatever cancels `t` up to T_max at rest.
     #[inline(always)]
     pub fn torque(&self, m: f64, r: f64, omega: f64, t: f64) -> f64 {
-        let t_max = self.torque_max(m, r);
-        if omega != 0.0 {
-            -t_max.copysign(omega)
-        } else if t.abs() <= t_max {
-            -t
-        } else {
-            -t_max.copysign(t)
-        }
+        self.torque_with(self.torque_max(m, r), omega, t)
+    }
+
+    /// [`SubstrateFriction::torque`] given T_max = (2/3) m g μ R (N m).
+    #[inline(always)]
+    pub fn torque_with(&self, t_max: f64, omega: f64, t: f64) -> f64 {
+        let spinning = -t_max.copysign(omega);
+        let at_rest = (-t).clamp(-t_max, t_max);
+        pick(omega != 0.0, spinning, at_rest)
     }
 
     /// ξ_v = g μ δt (m/s), Eq. 11.

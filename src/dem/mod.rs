@@ -17,6 +17,7 @@ pub mod grains;
 pub mod pack;
 pub mod params;
 pub mod pillar;
+pub mod pillar_kernels;
 pub mod shear;
 pub mod shear_checkpoint;
 pub mod verlet;

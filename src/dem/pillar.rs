@@ -17,6 +17,7 @@ use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, Tangent
 use super::forces::{ContactRecord, pair_forces, pair_forces_frozen};
 use super::grains::{Grains, LARGE};
 use super::params::PillarParams;
+use super::pillar_kernels::{GrainConsts, kick_drift, substrate_kick};
 use super::verlet::{Boundary, PairList};
 
 /// Sums over an output interval (for averages the paper's σ and κ use).
@@ -77,6 +78,43 @@ pub struct Scratch {
     /// Grain-steps and pair evaluations skipped since the start (diagnostics).
     pub frozen_grain_steps: u64,
     pub skipped_pairs: u64,
+    /// Per-grain constants of the substrate and the integrator (see [`Consts`]).
+    pub consts: Consts,
+}
+
+/// Per-grain constants derived from masses, radii and parameters, so the per-step
+/// loops multiply instead of divide.
+#[derive(Debug, Clone, Default)]
+pub struct Consts {
+    /// (δt, g, μ) they were computed for, and the grain count.
+    key: (f64, f64, f64, usize),
+    /// 1/m (1/kg), 1/I (1/(kg m²)).
+    pub inv_mass: Vec<f64>,
+    pub inv_inertia: Vec<f64>,
+    /// m g μ (N) and its square; (2/3) m g μ R (N m), Eq. 9.
+    pub f_max: Vec<f64>,
+    pub f_max2: Vec<f64>,
+    pub t_max: Vec<f64>,
+    /// ξ_ω = 4 g μ δt / (3 R) (rad/s), Eq. 11.
+    pub xi_omega: Vec<f64>,
+}
+
+impl Consts {
+    fn refresh(&mut self, g: &Grains, sub: &SubstrateFriction, dt: f64) {
+        let key = (dt, sub.g, sub.mu, g.len());
+        if self.key == key && !self.inv_mass.is_empty() {
+            return;
+        }
+        self.key = key;
+        self.inv_mass = g.mass.iter().map(|m| 1.0 / m).collect();
+        self.inv_inertia = g.inertia.iter().map(|m| 1.0 / m).collect();
+        self.f_max = g.mass.iter().map(|&m| m * sub.g * sub.mu).collect();
+        self.f_max2 = self.f_max.iter().map(|f| f * f).collect();
+        self.t_max = (0..g.len())
+            .map(|i| sub.torque_max(g.mass[i], g.radius[i]))
+            .collect();
+        self.xi_omega = g.radius.iter().map(|&r| sub.xi_omega(dt, r)).collect();
+    }
 }
 
 impl PartialEq for Scratch {
@@ -179,26 +217,29 @@ impl PillarSim {
     }
 
     /// Advance one time step δt.
-    #[allow(clippy::needless_range_loop)]
     pub fn step(&mut self) {
-        let dt = self.params.dt;
         let g = &mut self.grains;
-        let resting = &mut self.scratch.resting;
-        resting.resize(g.len(), false);
-        for i in 0..g.len() {
-            resting[i] = g.vx[i] == 0.0
-                && g.vy[i] == 0.0
-                && g.ax[i] == 0.0
-                && g.ay[i] == 0.0
-                && g.omega[i] == 0.0;
-            g.vx[i] += 0.5 * dt * g.ax[i];
-            g.vy[i] += 0.5 * dt * g.ay[i];
-            g.x[i] += dt * g.vx[i];
-            g.y[i] += dt * g.vy[i];
-            g.theta[i] += dt * g.omega[i];
-        }
+        self.scratch.resting.resize(g.len(), false);
+        let moved2 = kick_drift(
+            self.params.dt,
+            &mut g.x,
+            &mut g.y,
+            &mut g.theta,
+            &mut g.vx,
+            &mut g.vy,
+            &g.ax,
+            &g.ay,
+            &g.omega,
+            &mut self.scratch.resting,
+            &self.list.x_ref,
+            &self.list.y_ref,
+        );
         self.step += 1;
-        self.list.update(&g.x, &g.y, &g.radius, Boundary::Open);
+        // The list's own rebuild test (some grain moved more than half the skin).
+        let half = 0.5 * self.list.skin;
+        if moved2 > half * half {
+            self.list.build(&g.x, &g.y, &g.radius, Boundary::Open);
+        }
         self.mark_frozen();
         self.contact_forces();
         self.accelerate(true);
@@ -316,10 +357,13 @@ impl PillarSim {
         let frozen = &self.scratch.frozen;
         let (mut top_force, mut bottom_force, mut shear_force) = (0.0, 0.0, 0.0);
         for i in 0..g.len() {
-            if frozen[i] {
-                continue; // clear of both bars by definition
-            }
             let r = g.radius[i];
+            if frozen[i] || (top - g.y[i] >= r && g.y[i] - bottom >= r) {
+                // Clear of both bars (frozen grains are by definition).
+                self.top_shear[i] = 0.0;
+                self.bottom_shear[i] = 0.0;
+                continue;
+            }
             // n points from the bar into the grain; t̂ = ẑ × n.
             for (face, ny, bar_vy, shear, total) in [
                 (top, -1.0, -v_bar, &mut self.top_shear[i], &mut top_force),
@@ -360,44 +404,35 @@ impl PillarSim {
     fn accelerate(&mut self, kick: bool) {
         let sub = self.substrate();
         let dt = self.params.dt;
-        let xi_v = sub.xi_v(dt);
+        let c = &mut self.scratch.consts;
+        c.refresh(&self.grains, &sub, dt);
+        let consts = GrainConsts {
+            inv_mass: &c.inv_mass,
+            inv_inertia: &c.inv_inertia,
+            f_max: &c.f_max,
+            f_max2: &c.f_max2,
+            t_max: &c.t_max,
+            xi_omega: &c.xi_omega,
+        };
         let g = &mut self.grains;
-        let (mut p_t, mut p_r) = (0.0, 0.0);
-        let frozen = &self.scratch.frozen;
-        for i in 0..g.len() {
-            if kick && frozen.get(i).copied().unwrap_or(false) {
-                // Same forces as last step: it stays at rest, its substrate force too.
-                continue;
-            }
-            let m = g.mass[i];
-            let (fx, fy) = (self.fx[i], self.fy[i]);
-            let (sx, sy) = sub.force(m, g.vx[i], g.vy[i], fx, fy);
-            p_t += (sx * g.vx[i] + sy * g.vy[i]).abs();
-            self.sub_fx[i] = sx;
-            self.sub_fy[i] = sy;
-            g.ax[i] = (fx + sx) / m;
-            g.ay[i] = (fy + sy) / m;
-            if kick {
-                g.vx[i] += 0.5 * dt * g.ax[i];
-                g.vy[i] += 0.5 * dt * g.ay[i];
-                let f_max = m * sub.g * sub.mu;
-                if g.vx[i] * g.vx[i] + g.vy[i] * g.vy[i] < xi_v * xi_v
-                    && fx * fx + fy * fy <= f_max * f_max
-                {
-                    g.vx[i] = 0.0;
-                    g.vy[i] = 0.0;
-                    g.ax[i] = 0.0;
-                    g.ay[i] = 0.0;
-                }
-                let (r, t) = (g.radius[i], self.tq[i]);
-                let ts = sub.torque(m, r, g.omega[i], t);
-                p_r += (ts * g.omega[i]).abs();
-                g.omega[i] += dt * (t + ts) / g.inertia[i];
-                if g.omega[i].abs() < sub.xi_omega(dt, r) && t.abs() <= sub.torque_max(m, r) {
-                    g.omega[i] = 0.0;
-                }
-            }
-        }
+        let (p_t, p_r) = substrate_kick(
+            kick,
+            dt,
+            sub.xi_v(dt) * sub.xi_v(dt),
+            &sub,
+            &consts,
+            &self.scratch.frozen,
+            &self.fx,
+            &self.fy,
+            &self.tq,
+            &mut g.vx,
+            &mut g.vy,
+            &mut g.ax,
+            &mut g.ay,
+            &mut g.omega,
+            &mut self.sub_fx,
+            &mut self.sub_fy,
+        );
         if kick {
             let iv = &mut self.interval;
             iv.steps += 1;

@@ -123,7 +123,12 @@ pub struct SimulateReport {
     pub steps: u64,
     /// Mean flow stress ⟨σ⟩ for 0.05 ≤ ε ≤ 0.2 (N/m), when the run reached ε = 0.2.
     pub mean_flow_stress: Option<f64>,
+    /// Wall time of this session (s).
     pub elapsed_s: f64,
+    /// Wall time of the whole run, earlier sessions of a resumed run included, up to
+    /// their last checkpoint (s).
+    #[serde(default)]
+    pub elapsed_total_s: f64,
 }
 
 /// Output bookkeeping saved with each checkpoint.
@@ -134,6 +139,8 @@ struct Progress {
     prev_y: Vec<f64>,
     physics: String,
     setup: String,
+    /// Wall time (s) of the earlier sessions of this run.
+    elapsed_before: f64,
 }
 
 impl Progress {
@@ -145,6 +152,7 @@ impl Progress {
         e.f64s(&self.prev_y);
         e.bytes(self.physics.as_bytes());
         e.bytes(self.setup.as_bytes());
+        e.f64(self.elapsed_before);
         e.0
     }
     fn decode(b: &[u8]) -> std::result::Result<Self, String> {
@@ -156,6 +164,8 @@ impl Progress {
             prev_y: d.f64s()?,
             physics: String::from_utf8(d.bytes()?).map_err(|e| e.to_string())?,
             setup: String::from_utf8(d.bytes()?).map_err(|e| e.to_string())?,
+            // Checkpoints from before this field existed: unknown, counted as 0.
+            elapsed_before: if d.done() { 0.0 } else { d.f64()? },
         };
         Ok(p)
     }
@@ -230,10 +240,12 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
             prev_y: sim.grains.y.clone(),
             physics,
             setup: serde_json::to_string(&setup).expect("json"),
+            elapsed_before: 0.0,
         };
         (sim, prog)
     };
     let p = sim.params.clone();
+    let step0 = sim.step;
     let h0 = sim.top_y0 - sim.bottom_y;
     let total = (opt.strain * h0 / (p.bar_speed * p.dt)).ceil() as u64;
     let out_every = opt
@@ -295,7 +307,10 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
             if ck_every > 0 && sim.step % ck_every == 0 && sim.step < total {
                 buf.flush(&parts_dir, prog.parts)?;
                 prog.parts += 1;
+                let saved = prog.elapsed_before;
+                prog.elapsed_before += t0.elapsed().as_secs_f64();
                 let bytes = sim.save(&prog.encode());
+                prog.elapsed_before = saved;
                 atomic_write(&ckpt, |f| {
                     use std::io::Write;
                     f.write_all(&bytes).map_err(|e| Error::io(&ckpt, e))
@@ -335,6 +350,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         steps: sim.step,
         mean_flow_stress,
         elapsed_s: elapsed,
+        elapsed_total_s: prog.elapsed_before + elapsed,
     };
     let manifest = serde_json::json!({
         "tool": super::TOOL,
@@ -353,7 +369,8 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         "rows": rows,
         "pair_list_builds": sim.list.builds,
         "report": &report,
-        "particle_steps_per_s_this_session": (sim.grains.len() as f64 * sim.step as f64) / elapsed,
+        "steps_this_session": sim.step - step0,
+        "particle_steps_per_s_this_session": (sim.grains.len() as f64 * (sim.step - step0) as f64) / elapsed,
         "decisions": super::sim_setup::DECISIONS,
     });
     atomic_write_str(
