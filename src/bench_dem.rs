@@ -264,6 +264,8 @@ pub struct ShearBench {
     /// Per step of Eqs. 21–24 (two force evaluations).
     pub ns_per_particle_step: f64,
     pub list_builds: u64,
+    /// Same steps from the same state without re-sorting into cell order (same run).
+    pub ns_per_particle_step_unsorted: f64,
 }
 
 /// Sheared disks at φ = 0.82, Q = 1, γ̇ = 1e-4, CDrot: `warmup` steps, then `steps` timed.
@@ -283,6 +285,15 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
     for _ in 0..warmup {
         s.step();
     }
+    let mut unsorted = s.clone();
+    unsorted.resort_every = 0;
+    let t = Instant::now();
+    for _ in 0..steps {
+        unsorted.step();
+    }
+    let seconds_unsorted = t.elapsed().as_secs_f64();
+    // Time from the first re-sort on, as a long run sees it.
+    s.resort();
     let b0 = s.list.builds;
     let t = Instant::now();
     for _ in 0..steps {
@@ -296,5 +307,6 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         seconds,
         ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
         list_builds: s.list.builds - b0,
+        ns_per_particle_step_unsorted: seconds_unsorted / (n as f64 * steps as f64) * 1e9,
     }
 }

@@ -20,6 +20,9 @@ pub mod pillar;
 pub mod pillar_kernels;
 pub mod shear;
 pub mod shear_checkpoint;
+pub mod shear_integrate;
+pub mod shear_order;
+pub mod shear_pairs;
 pub mod verlet;
 
 #[cfg(test)]

@@ -9,7 +9,9 @@
 //! by n γ̇ L, which is the Lees–Edwards rule without any remapping of stored state.
 
 use super::grains::{Grains, LARGE, SMALL};
-use super::verlet::{Boundary, PairList, rint};
+use super::shear_integrate::{correct, predict};
+use super::shear_pairs::{PairParams, pair_loop};
+use super::verlet::{Boundary, PairList};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -120,6 +122,8 @@ pub struct ShearSim {
     pub coll: Collisions,
     /// Integrate spins (turning it off is exact for CD: rotation never feeds back).
     pub rotate: bool,
+    /// Steps between re-sorts into cell order (0: never); see `shear_order`.
+    pub resort_every: u64,
     /// The predicted state of Eq. 22 and the forces f_0 of Eq. 21 (reused buffers).
     pub pred: Predicted,
 }
@@ -134,6 +138,9 @@ pub struct Predicted {
     pub f0x: Vec<f64>,
     pub f0y: Vec<f64>,
     pub t0: Vec<f64>,
+    /// 1/m and 1/I per grain (storage order; cleared when the grains are re-sorted).
+    pub inv_m: Vec<f64>,
+    pub inv_i: Vec<f64>,
 }
 
 /// A state to evaluate forces at.
@@ -187,6 +194,7 @@ impl ShearSim {
                 ..Default::default()
             },
             rotate: true,
+            resort_every: super::shear_order::RESORT_EVERY,
             pred: Predicted::default(),
         };
         s.refresh();
@@ -254,83 +262,23 @@ impl ShearSim {
             .chain(fy.iter_mut())
             .chain(tq.iter_mut())
             .for_each(|v| *v = 0.0);
-        let r = &g.radius;
-        let (kd, alpha, shear_v) = (1.0 / p.q, p.alpha, p.rate * self.l);
-        let cdrot = p.model == Dissipation::Cdrot;
+        let pp = PairParams {
+            kd: 1.0 / p.q,
+            alpha: p.alpha,
+            shear_v: p.rate * self.l,
+            cdrot: p.model == Dissipation::Cdrot,
+            ll: self.l,
+            inv_l: 1.0 / self.l,
+            offset: b.offset(),
+            now: *time,
+        };
         let mut vir = Virial::default();
-        let now = *time;
-        let (ll, inv_l, offset) = (self.l, 1.0 / self.l, b.offset());
-        for i in 0..x.len() {
-            for k in list.start[i] as usize..list.start[i + 1] as usize {
-                let j = list.j[k] as usize;
-                // Minimum image, Lees–Edwards (as Boundary::delta_image, with the
-                // divisions by L hoisted out of the loop).
-                let (dx, dy) = (x[i] - x[j], y[i] - y[j]);
-                let img = rint(dy * inv_l);
-                let dy = dy - img * ll;
-                let dx = dx - img * offset;
-                let dx = dx - ll * rint(dx * inv_l);
-                let dij = r[i] + r[j];
-                let r2 = dx * dx + dy * dy;
-                if r2 >= dij * dij {
-                    if track && list.shear[k] != 0.0 {
-                        coll.ended += 1;
-                        coll.angle_breaking[angle_bin(dx, dy)] += 1;
-                        coll.duration_sum += now - (list.shear[k] - 1.0);
-                        list.shear[k] = 0.0;
-                    }
-                    continue;
-                }
-                if track {
-                    vir.contacts += 1;
-                    if list.shear[k] == 0.0 {
-                        coll.begun += 1;
-                        coll.angle_making[angle_bin(dx, dy)] += 1;
-                        list.shear[k] = 1.0 + now;
-                    }
-                }
-                let dist = r2.sqrt();
-                let inv_dist = 1.0 / dist;
-                let inv_dij = 1.0 / dij;
-                let (nx, ny) = (dx * inv_dist, dy * inv_dist);
-                // Eq. 2 with d_ij = (d_i + d_j)/2 = R_i + R_j and k_e = 1.
-                let overlap = 1.0 - dist * inv_dij;
-                let fe = if alpha == 2.0 {
-                    overlap * inv_dij
-                } else {
-                    overlap.powf(alpha - 1.0) * inv_dij
-                };
-                let (ex, ey) = (fe * nx, fe * ny);
-                // Relative velocity; j's image moves img·γ̇L faster along x.
-                let (mut dvx, mut dvy) = (vx[i] - vx[j] - img * shear_v, vy[i] - vy[j]);
-                // Moment arms s_ji (i to contact) = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
-                let (si, sj) = (r[i] * inv_dij, r[j] * inv_dij);
-                let (six, siy, sjx, sjy) = (-dx * si, -dy * si, dx * sj, dy * sj);
-                if cdrot {
-                    // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
-                    dvx += -w[i] * siy + w[j] * sjy;
-                    dvy += w[i] * six - w[j] * sjx;
-                }
-                let (ddx, ddy) = (-kd * dvx, -kd * dvy);
-                fx[i] += ex + ddx;
-                fy[i] += ey + ddy;
-                fx[j] -= ex + ddx;
-                fy[j] -= ey + ddy;
-                // Eq. 7: torques of the dissipative force about each centre.
-                tq[i] += six * ddy - siy * ddx;
-                tq[j] += sjx * (-ddy) - sjy * (-ddx);
-                if track {
-                    // f ⊗ r_ij (Eqs. 12–13), per unit area later.
-                    vir.el[0] += ex * dx;
-                    vir.el[1] += ex * dy;
-                    vir.el[2] += ey * dx;
-                    vir.el[3] += ey * dy;
-                    vir.dis[0] += ddx * dx;
-                    vir.dis[1] += ddx * dy;
-                    vir.dis[2] += ddy * dx;
-                    vir.dis[3] += ddy * dy;
-                }
-            }
+        let st = (x, y, vx, vy, w, &g.radius[..]);
+        let (start, js, hist) = (&list.start[..], &list.j[..], &mut list.shear[..]);
+        if track {
+            pair_loop::<true>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
+        } else {
+            pair_loop::<false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
         }
         if track {
             *virial = vir;
@@ -339,45 +287,53 @@ impl ShearSim {
 
     /// One step of Eqs. 21–24.
     pub fn step(&mut self) {
+        if self.resort_every > 0 && self.step > 0 && self.step.is_multiple_of(self.resort_every) {
+            self.resort();
+        }
         let dt = self.p.dt;
         let n = self.g.len();
         let rotate = self.rotate;
-        {
-            let (g, pr) = (&self.g, &mut self.pred);
-            for v in [&mut pr.x, &mut pr.y, &mut pr.vx, &mut pr.vy, &mut pr.w] {
-                v.resize(n, 0.0);
-            }
-            pr.f0x.clone_from(&self.fx);
-            pr.f0y.clone_from(&self.fy);
-            pr.t0.clone_from(&self.tq);
-            for i in 0..n {
-                pr.vx[i] = g.vx[i] + pr.f0x[i] * dt / g.mass[i];
-                pr.vy[i] = g.vy[i] + pr.f0y[i] * dt / g.mass[i];
-                pr.x[i] = g.x[i] + g.vx[i] * dt;
-                pr.y[i] = g.y[i] + g.vy[i] * dt;
-                pr.w[i] = if rotate {
-                    g.omega[i] + pr.t0[i] * dt / g.inertia[i]
-                } else {
-                    0.0
-                };
-            }
+        let (g, pr) = (&self.g, &mut self.pred);
+        for v in [&mut pr.x, &mut pr.y, &mut pr.vx, &mut pr.vy, &mut pr.w] {
+            v.resize(n, 0.0);
         }
+        if pr.inv_m.len() != n {
+            pr.inv_m = g.mass.iter().map(|m| 1.0 / m).collect();
+            pr.inv_i = g.inertia.iter().map(|i| 1.0 / i).collect();
+        }
+        pr.f0x.clone_from(&self.fx);
+        pr.f0y.clone_from(&self.fy);
+        pr.t0.clone_from(&self.tq);
+        predict(
+            dt,
+            rotate,
+            (&g.x, &g.y, &g.vx, &g.vy, &g.omega),
+            (&pr.inv_m, &pr.inv_i),
+            (&pr.f0x, &pr.f0y, &pr.t0),
+            &mut pr.x,
+            &mut pr.y,
+            &mut pr.vx,
+            &mut pr.vy,
+            &mut pr.w,
+        );
         self.step += 1;
         self.time = self.step as f64 * dt;
         self.gamma += self.p.rate * dt;
         self.evaluate(true);
         let (g, pr) = (&mut self.g, &self.pred);
-        for i in 0..n {
-            let (vx0, vy0, w0) = (g.vx[i], g.vy[i], g.omega[i]);
-            g.vx[i] = vx0 + (pr.f0x[i] + self.fx[i]) * dt / (2.0 * g.mass[i]);
-            g.vy[i] = vy0 + (pr.f0y[i] + self.fy[i]) * dt / (2.0 * g.mass[i]);
-            g.x[i] += (vx0 + g.vx[i]) * dt / 2.0;
-            g.y[i] += (vy0 + g.vy[i]) * dt / 2.0;
-            if rotate {
-                g.omega[i] = w0 + (pr.t0[i] + self.tq[i]) * dt / (2.0 * g.inertia[i]);
-                g.theta[i] += (w0 + g.omega[i]) * dt / 2.0;
-            }
-        }
+        correct(
+            dt,
+            rotate,
+            (&pr.inv_m, &pr.inv_i),
+            (&pr.f0x, &pr.f0y, &pr.t0),
+            (&self.fx, &self.fy, &self.tq),
+            &mut g.x,
+            &mut g.y,
+            &mut g.theta,
+            &mut g.vx,
+            &mut g.vy,
+            &mut g.omega,
+        );
         self.evaluate(false);
     }
 

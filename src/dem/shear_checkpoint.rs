@@ -156,6 +156,7 @@ impl ShearSim {
             virial,
             coll,
             rotate,
+            resort_every: super::shear_order::RESORT_EVERY,
             pred: Predicted::default(),
         };
         Ok((sim, extra))
