@@ -225,6 +225,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
         }
         BenchCmd::Ingest { rows, dir, keep } => {
             let dir = dir.unwrap_or_else(std::env::temp_dir);
+            std::fs::create_dir_all(&dir)?;
             let csv = dir.join(format!("pillar-pipe-bench-{rows}.csv"));
             eprintln!(
                 "generating {} rows of trackpy CSV at {} ...",

@@ -11,7 +11,6 @@ use super::table::read_table_columns;
 use crate::error::{Error, Result};
 use crate::neighbors::{CellList, Cutoff};
 use crate::tracks::{LARGE, RowLocator, SMALL, Tracks, TracksMeta, finalize};
-use std::collections::BTreeMap;
 use std::path::Path;
 
 #[derive(Debug, Clone, Default)]
@@ -234,14 +233,16 @@ pub fn otsu(sorted: &[f64]) -> f64 {
 /// the same species, so half the median nearest same-species distance estimates each
 /// radius. Uses the frame with the most detections.
 fn estimate_radii(frame: &[i64], x: &[f64], y: &[f64], species: &[i32]) -> Result<(f64, f64)> {
-    let mut counts: BTreeMap<i64, usize> = BTreeMap::new();
-    for &f in frame {
-        *counts.entry(f).or_default() += 1;
+    // Detections per frame through dense frame indices (a map per row costs more than
+    // the whole neighbour search below).
+    let (dense, frames) = crate::tracks::dense_ids(frame);
+    let mut counts = vec![0usize; frames.len()];
+    for &d in &dense {
+        counts[d as usize] += 1;
     }
-    let best = counts
-        .iter()
-        .max_by_key(|(f, c)| (**c, std::cmp::Reverse(**f)))
-        .map(|(f, _)| *f)
+    let best = (0..frames.len())
+        .max_by_key(|&k| (counts[k], std::cmp::Reverse(frames[k])))
+        .map(|k| frames[k])
         .unwrap_or(0);
     let idx: Vec<usize> = (0..frame.len()).filter(|&i| frame[i] == best).collect();
     let mut out = [0.0; 2];

@@ -45,47 +45,60 @@ pub fn summarize(t: &Tracks) -> TracksSummary {
     let ranges = t.frame_ranges();
     let counts: Vec<usize> = ranges.iter().map(|(_, r)| r.len()).collect();
     let frames_sorted: Vec<i64> = ranges.iter().map(|(f, _)| *f).collect();
-    // Rows are sorted by frame, so each particle's rows come out in frame order.
-    let per = super::ByParticle::new(&t.particle);
-    let mut fpos = vec![0usize; t.len()];
-    for (k, (_, r)) in ranges.iter().enumerate() {
-        fpos[r.clone()].fill(k);
-    }
+    // Sequential passes only: rows are sorted by (frame, particle), so per-particle
+    // facts come from one sweep in frame order and a one-frame step from a merge of two
+    // consecutive frames (a per-trajectory walk would jump a frame's length per row).
+    let (dense, ids) = super::dense_ids(&t.particle);
+    let np = ids.len();
     let nf = ranges.len();
+    let (mut first, mut last, mut count) =
+        (vec![usize::MAX; np], vec![0usize; np], vec![0usize; np]);
+    let mut first_row = vec![0usize; np];
+    for (k, (_, r)) in ranges.iter().enumerate() {
+        for row in r.clone() {
+            let p = dense[row] as usize;
+            if first[p] == usize::MAX {
+                first[p] = k;
+                first_row[p] = row;
+            }
+            last[p] = k;
+            count[p] += 1;
+        }
+    }
     let d_large = t.large_diameter().unwrap_or(f64::INFINITY);
-    let (mut full, mut short, mut late, mut early, mut with_gaps, mut gap_frames, mut jumps) =
-        (0, 0, 0, 0, 0, 0, 0);
-    let (mut n_small, mut n_large) = (0, 0);
-    for k in 0..per.len() {
-        let rows = per.rows_of(k);
-        let pos: Vec<usize> = rows.iter().map(|&r| fpos[r]).collect();
-        let span = pos[pos.len() - 1] - pos[0] + 1;
-        if rows.len() == nf {
-            full += 1;
-        }
-        if 2 * rows.len() < nf {
-            short += 1;
-        }
-        if pos[0] > 0 {
-            late += 1;
-        }
-        if pos[pos.len() - 1] + 1 < nf {
-            early += 1;
-        }
-        if span > rows.len() {
-            with_gaps += 1;
-            gap_frames += span - rows.len();
-        }
-        for w in rows.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            if fpos[b] == fpos[a] + 1 {
-                let d = ((t.x[b] - t.x[a]).powi(2) + (t.y[b] - t.y[a]).powi(2)).sqrt();
-                if d > JUMP_FRACTION * d_large {
-                    jumps += 1;
+    let limit2 = (JUMP_FRACTION * d_large).powi(2);
+    let mut jumps = 0;
+    for w in ranges.windows(2) {
+        let (mut a, mut b) = (w[0].1.clone(), w[1].1.clone());
+        while let (Some(ra), Some(rb)) = (a.clone().next(), b.clone().next()) {
+            match t.particle[ra].cmp(&t.particle[rb]) {
+                std::cmp::Ordering::Less => a.start += 1,
+                std::cmp::Ordering::Greater => b.start += 1,
+                std::cmp::Ordering::Equal => {
+                    let (dx, dy) = (t.x[rb] - t.x[ra], t.y[rb] - t.y[ra]);
+                    if dx * dx + dy * dy > limit2 {
+                        jumps += 1;
+                    }
+                    a.start += 1;
+                    b.start += 1;
                 }
             }
         }
-        match t.species.as_ref().map(|s| s[rows[0]]) {
+    }
+    let (mut full, mut short, mut late, mut early, mut with_gaps, mut gap_frames) =
+        (0, 0, 0, 0, 0, 0);
+    let (mut n_small, mut n_large) = (0, 0);
+    for p in 0..np {
+        let (n, span) = (count[p], last[p] - first[p] + 1);
+        full += (n == nf) as usize;
+        short += (2 * n < nf) as usize;
+        late += (first[p] > 0) as usize;
+        early += (last[p] + 1 < nf) as usize;
+        if span > n {
+            with_gaps += 1;
+            gap_frames += span - n;
+        }
+        match t.species.as_ref().map(|s| s[first_row[p]]) {
             Some(SMALL) => n_small += 1,
             Some(LARGE) => n_large += 1,
             _ => {}
@@ -118,7 +131,7 @@ pub fn summarize(t: &Tracks) -> TracksSummary {
         particles_per_frame_min: counts.iter().copied().min().unwrap_or(0),
         particles_per_frame_max: counts.iter().copied().max().unwrap_or(0),
         particles_per_frame_mean: counts.iter().sum::<usize>() as f64 / nf.max(1) as f64,
-        trajectories: per.len(),
+        trajectories: np,
         full_length_trajectories: full,
         short_trajectories: short,
         trajectories_starting_late: late,
@@ -196,5 +209,56 @@ impl std::fmt::Display for TracksSummary {
             Some(b) => write!(f, "box           {b}"),
             None => write!(f, "box           open (no periodic box)"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Five frames; particle 1 full and still, 2 with a gap at frame 2 (and a long move
+    /// across it, which is no one-frame jump), 3 late, 4 early and short, 5 full with one
+    /// jump of 1 D between frames 1 and 2.
+    #[test]
+    fn counts_coverage_gaps_and_jumps_exactly() {
+        let present: [(i64, &[i64]); 5] = [
+            (1, &[0, 1, 2, 3, 4]),
+            (2, &[0, 1, 3, 4]),
+            (3, &[2, 3, 4]),
+            (4, &[0, 1]),
+            (5, &[0, 1, 2, 3, 4]),
+        ];
+        let mut t = Tracks::default();
+        for f in 0..5i64 {
+            for (p, frames) in present {
+                if !frames.contains(&f) {
+                    continue;
+                }
+                let x = match p {
+                    2 if f >= 3 => 5.0,
+                    5 if f >= 2 => 6.0,
+                    _ => p as f64,
+                };
+                t.frame.push(f);
+                t.particle.push(p);
+                t.x.push(x);
+                t.y.push(0.0);
+                let large = [1, 2, 5].contains(&p);
+                t.radius.push(if large { 0.5 } else { 0.35 });
+                t.species
+                    .get_or_insert_with(Vec::new)
+                    .push(if large { LARGE } else { SMALL });
+            }
+        }
+        let s = summarize(&t);
+        assert_eq!((s.rows, s.frames, s.trajectories), (19, 5, 5));
+        assert_eq!((s.particles_per_frame_min, s.particles_per_frame_max), (3, 4));
+        assert_eq!(s.full_length_trajectories, 2);
+        assert_eq!(s.short_trajectories, 1);
+        assert_eq!(s.trajectories_starting_late, 1);
+        assert_eq!(s.trajectories_ending_early, 1);
+        assert_eq!((s.trajectories_with_gaps, s.gap_frames), (1, 1));
+        assert_eq!(s.suspicious_jumps, 1);
+        assert_eq!((s.small_trajectories, s.large_trajectories), (2, 3));
     }
 }
