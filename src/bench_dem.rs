@@ -25,6 +25,9 @@ pub struct PillarBench {
     pub ns_per_particle_step_no_skip: f64,
     /// Fraction of grain-steps frozen (skipped).
     pub reused_fraction: f64,
+    /// Threads of the timed run, and the same steps on one thread (same run, skip on).
+    pub threads: usize,
+    pub ns_per_particle_step_one_thread: f64,
 }
 
 /// A jammed periodic packing of 1000 grains tiled k × k (N = 1000 k²; the packing is
@@ -69,7 +72,7 @@ pub fn bench_pillar(
     load.bar_speed *= 10.0;
     let mut sim = PillarSim::new(load, &x, &y, &s, &ids);
     while sim.strain() < preload {
-        sim.step();
+        sim.advance(100);
     }
     // Continue at the benchmarked preset from the loaded state (bar where it is now).
     let top = sim.top_y();
@@ -95,27 +98,29 @@ pub fn bench_checkpoint(path: &Path, steps: u64) -> Result<PillarBench> {
     time_pillar(sim, steps, z)
 }
 
-/// Time `steps` steps from `sim`, with the frozen-grain skip and (same state) without,
-/// check both give the same grains, and time the pair-list distance pass.
+/// Time `steps` steps from `sim`: without the frozen-grain skip on one thread, with
+/// it on one thread, and with it on `threads_for_run()` threads (the headline number);
+/// check all three give the same grains; time the pair-list distance pass.
 fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
     sim.scratch.skip_frozen = true;
     sim.scratch.frozen_grain_steps = 0;
     let mut plain = sim.clone();
     plain.scratch.skip_frozen = false;
     let t = Instant::now();
-    for _ in 0..steps {
-        plain.step();
-    }
+    plain.advance_with(steps, 1);
     let seconds_plain = t.elapsed().as_secs_f64();
+    let mut single = sim.clone();
+    let t = Instant::now();
+    single.advance_with(steps, 1);
+    let seconds_single = t.elapsed().as_secs_f64();
+    let threads = sim.threads_for_run();
     let builds0 = sim.list.builds;
     let t = Instant::now();
-    for _ in 0..steps {
-        sim.step();
-    }
+    sim.advance_with(steps, threads);
     let seconds = t.elapsed().as_secs_f64();
-    if plain.grains != sim.grains {
+    if plain.grains != sim.grains || single.grains != sim.grains {
         return Err(Error::Other(
-            "the frozen-grain skip changed the results".into(),
+            "the frozen-grain skip or the thread count changed the results".into(),
         ));
     }
     let reused_fraction =
@@ -149,6 +154,8 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
         list_builds: sim.list.builds - builds0,
         ns_per_particle_step_no_skip: seconds_plain / (n as f64 * steps as f64) * 1e9,
         reused_fraction,
+        threads,
+        ns_per_particle_step_one_thread: seconds_single / (n as f64 * steps as f64) * 1e9,
     })
 }
 

@@ -164,14 +164,15 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                     println!("{}", serde_json::to_string(&b)?);
                 } else {
                     println!(
-                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step; without the frozen-grain skip {:.1} ({:.2}x, {:.0}% of grain-steps frozen); pair-list distance pass {:.1} ns/particle; {} list builds",
+                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step on {} thread(s); one thread {:.1}; one thread without the frozen-grain skip {:.1} ({:.0}% of grain-steps frozen); pair-list distance pass {:.1} ns/particle; {} list builds",
                         b.n,
                         b.z,
                         b.steps,
                         b.seconds,
                         b.ns_per_particle_step,
+                        b.threads,
+                        b.ns_per_particle_step_one_thread,
                         b.ns_per_particle_step_no_skip,
-                        b.ns_per_particle_step_no_skip / b.ns_per_particle_step,
                         100.0 * b.reused_fraction,
                         b.floor_ns_per_particle,
                         b.list_builds

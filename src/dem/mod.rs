@@ -18,6 +18,8 @@ pub mod pack;
 pub mod params;
 pub mod pillar;
 pub mod pillar_kernels;
+pub mod pillar_par;
+pub mod pillar_phases;
 pub mod shear;
 pub mod shear_checkpoint;
 pub mod shear_integrate;

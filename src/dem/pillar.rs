@@ -13,11 +13,11 @@
 //!
 //! The substrate's static test uses grain–grain and grain–bar forces only.
 
-use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, TangentialLaw};
-use super::forces::{ContactRecord, pair_forces, pair_forces_frozen};
+use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction};
+use super::forces::ContactRecord;
 use super::grains::{Grains, LARGE};
 use super::params::PillarParams;
-use super::pillar_kernels::{GrainConsts, kick_drift, substrate_kick};
+use super::pillar_par::StepBuffers;
 use super::verlet::{Boundary, PairList};
 
 /// Sums over an output interval (for averages the paper's σ and κ use).
@@ -68,7 +68,7 @@ pub struct PillarSim {
 
 /// Which grains are frozen this step (at rest, every partner at rest, clear of both
 /// bars): their forces cannot change, so they need no work (exactly the same results;
-/// see `pair_forces_frozen`).
+/// see `pillar_phases`).
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
     /// Skip frozen grains (default on; off for comparison runs).
@@ -80,6 +80,10 @@ pub struct Scratch {
     pub skipped_pairs: u64,
     /// Per-grain constants of the substrate and the integrator (see [`Consts`]).
     pub consts: Consts,
+    /// Per-step buffers of the phases (`pillar_par`).
+    pub buffers: StepBuffers,
+    /// Threads for `advance` (0: one per core, at most one per 256 grains).
+    pub threads: usize,
 }
 
 /// Per-grain constants derived from masses, radii and parameters, so the per-step
@@ -100,7 +104,7 @@ pub struct Consts {
 }
 
 impl Consts {
-    fn refresh(&mut self, g: &Grains, sub: &SubstrateFriction, dt: f64) {
+    pub(crate) fn refresh(&mut self, g: &Grains, sub: &SubstrateFriction, dt: f64) {
         let key = (dt, sub.g, sub.mu, g.len());
         if self.key == key && !self.inv_mass.is_empty() {
             return;
@@ -177,8 +181,7 @@ impl PillarSim {
         };
         s.list
             .build(&s.grains.x, &s.grains.y, &s.grains.radius, Boundary::Open);
-        s.contact_forces();
-        s.accelerate(false);
+        s.refresh_forces();
         s
     }
 
@@ -216,231 +219,14 @@ impl PillarSim {
         (self.top_y0 - self.top_y()) / (self.top_y0 - self.bottom_y)
     }
 
-    /// Advance one time step δt.
+    /// Advance one time step δt (on this thread; `advance` runs many on several).
+    ///
+    /// 1. v ← v + ½ δt a; r ← r + δt v; θ ← θ + δt ω; the top bar moves;
+    /// 2. contact forces and torques at the new positions (grain–grain, grain–bar);
+    /// 3. substrate friction, a ← (F + f)/m, v ← v + ½ δt a, ω ← ω + δt (T + T_μ)/I;
+    /// 4. the ξ rule of Eq. 11.
     pub fn step(&mut self) {
-        let g = &mut self.grains;
-        self.scratch.resting.resize(g.len(), false);
-        let moved2 = kick_drift(
-            self.params.dt,
-            &mut g.x,
-            &mut g.y,
-            &mut g.theta,
-            &mut g.vx,
-            &mut g.vy,
-            &g.ax,
-            &g.ay,
-            &g.omega,
-            &mut self.scratch.resting,
-            &self.list.x_ref,
-            &self.list.y_ref,
-        );
-        self.step += 1;
-        // The list's own rebuild test (some grain moved more than half the skin).
-        let half = 0.5 * self.list.skin;
-        if moved2 > half * half {
-            self.list.build(&g.x, &g.y, &g.radius, Boundary::Open);
-        }
-        self.mark_frozen();
-        self.contact_forces();
-        self.accelerate(true);
-    }
-
-    /// Evaluate forces and accelerations at the current state without moving anything
-    /// (contact history does advance by δt × the current slip, so use on a copy or at
-    /// rest).
-    pub fn refresh_forces(&mut self) {
-        self.scratch.frozen.iter_mut().for_each(|f| *f = false);
-        self.contact_forces();
-        self.accelerate(false);
-    }
-
-    /// Contact forces and torques on every grain: grain–grain, then the bars.
-    /// Grains frozen this step: resting, all list partners resting, touching neither
-    /// bar (the top bar moves; a bottom-bar contact would have to be re-summed).
-    fn mark_frozen(&mut self) {
-        let (top, bottom) = (self.top_y(), self.bottom_y);
-        let sc = &mut self.scratch;
-        let n = self.grains.len();
-        sc.frozen.resize(n, false);
-        let on = sc.skip_frozen && self.record.is_none() && sc.resting.len() == n;
-        if !on {
-            sc.frozen.iter_mut().for_each(|f| *f = false);
-            return;
-        }
-        let g = &self.grains;
-        // A margin of one step of bar travel keeps a grain about to be touched awake.
-        let margin = 2.0 * self.params.bar_speed * self.params.dt;
-        for i in 0..n {
-            sc.frozen[i] = sc.resting[i]
-                && top - g.y[i] > g.radius[i] + margin
-                && g.y[i] - bottom > g.radius[i];
-        }
-        for i in 0..n {
-            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
-                let j = self.list.j[k] as usize;
-                if !sc.resting[j] {
-                    sc.frozen[i] = false;
-                }
-                if !sc.resting[i] {
-                    sc.frozen[j] = false;
-                }
-            }
-        }
-        sc.frozen_grain_steps += sc.frozen.iter().filter(|&&f| f).count() as u64;
-    }
-
-    /// Contact forces and torques on every grain: grain–grain, then the bars. Frozen
-    /// grains keep last step's sums.
-    fn contact_forces(&mut self) {
-        let n = self.grains.len();
-        let (normal, tangential) = (self.normal(), self.tangential());
-        let sc = &mut self.scratch;
-        if sc.frozen.len() != n {
-            sc.frozen = vec![false; n];
-        }
-        for i in 0..n {
-            if !sc.frozen[i] {
-                self.fx[i] = 0.0;
-                self.fy[i] = 0.0;
-                self.tq[i] = 0.0;
-            }
-        }
-        if let Some(rec) = self.record.as_mut() {
-            *rec = ContactRecord::zeroed(n);
-        }
-        if sc.frozen.iter().any(|&f| f) {
-            sc.skipped_pairs += pair_forces_frozen(
-                &self.grains,
-                &mut self.list,
-                Boundary::Open,
-                &normal,
-                &tangential,
-                self.params.dt,
-                &sc.frozen,
-                &mut self.fx,
-                &mut self.fy,
-                &mut self.tq,
-            );
-        } else {
-            pair_forces(
-                &self.grains,
-                &mut self.list,
-                Boundary::Open,
-                &normal,
-                &tangential,
-                self.params.dt,
-                &mut self.fx,
-                &mut self.fy,
-                &mut self.tq,
-                self.record.as_mut(),
-            );
-        }
-        self.bar_forces();
-    }
-
-    /// Grain–bar contacts: the bar is a grain of infinite radius with 2 k_n and 2 k_t
-    /// (Sec. II.B.2), friction μ_bar, unaffected by the grains.
-    #[allow(clippy::needless_range_loop)]
-    fn bar_forces(&mut self) {
-        let p = &self.params;
-        let normal = Hooke {
-            k_n: 2.0 * p.k_n,
-            damping: p.damping_n,
-        };
-        let tangential = CundallStrack {
-            k_t: 2.0 * p.kt_over_kn * p.k_n,
-            mu: p.mu_bar,
-        };
-        let (top, bottom) = (self.top_y(), self.bottom_y);
-        let (dt, v_bar) = (p.dt, p.bar_speed);
-        let g = &self.grains;
-        let frozen = &self.scratch.frozen;
-        let (mut top_force, mut bottom_force, mut shear_force) = (0.0, 0.0, 0.0);
-        for i in 0..g.len() {
-            let r = g.radius[i];
-            if frozen[i] || (top - g.y[i] >= r && g.y[i] - bottom >= r) {
-                // Clear of both bars (frozen grains are by definition).
-                self.top_shear[i] = 0.0;
-                self.bottom_shear[i] = 0.0;
-                continue;
-            }
-            // n points from the bar into the grain; t̂ = ẑ × n.
-            for (face, ny, bar_vy, shear, total) in [
-                (top, -1.0, -v_bar, &mut self.top_shear[i], &mut top_force),
-                (
-                    bottom,
-                    1.0,
-                    0.0,
-                    &mut self.bottom_shear[i],
-                    &mut bottom_force,
-                ),
-            ] {
-                let gap = (g.y[i] - face) * ny;
-                let delta = r - gap;
-                if delta <= 0.0 {
-                    *shear = 0.0;
-                    continue;
-                }
-                let vn = (g.vy[i] - bar_vy) * ny;
-                let f_n = normal.force(delta, vn);
-                // t̂ = (−n_y, 0); contact point at −gap n from the centre.
-                let tx = -ny;
-                let vt = g.vx[i] * tx - gap * g.omega[i];
-                let f_t = tangential.force(shear, vt, dt, f_n);
-                self.fx[i] += f_t * tx;
-                shear_force += f_t * tx;
-                self.fy[i] += f_n * ny;
-                self.tq[i] += -gap * f_t;
-                *total += f_n;
-            }
-        }
-        self.top_force = top_force;
-        self.bottom_force = bottom_force;
-        self.bar_shear_force = shear_force;
-    }
-
-    /// Substrate friction, new accelerations, the second half kick (when `kick`) and
-    /// the spin update, then the ξ rule (Eq. 11).
-    fn accelerate(&mut self, kick: bool) {
-        let sub = self.substrate();
-        let dt = self.params.dt;
-        let c = &mut self.scratch.consts;
-        c.refresh(&self.grains, &sub, dt);
-        let consts = GrainConsts {
-            inv_mass: &c.inv_mass,
-            inv_inertia: &c.inv_inertia,
-            f_max: &c.f_max,
-            f_max2: &c.f_max2,
-            t_max: &c.t_max,
-            xi_omega: &c.xi_omega,
-        };
-        let g = &mut self.grains;
-        let (p_t, p_r) = substrate_kick(
-            kick,
-            dt,
-            sub.xi_v(dt) * sub.xi_v(dt),
-            &sub,
-            &consts,
-            &self.scratch.frozen,
-            &self.fx,
-            &self.fy,
-            &self.tq,
-            &mut g.vx,
-            &mut g.vy,
-            &mut g.ax,
-            &mut g.ay,
-            &mut g.omega,
-            &mut self.sub_fx,
-            &mut self.sub_fy,
-        );
-        if kick {
-            let iv = &mut self.interval;
-            iv.steps += 1;
-            iv.top_force += self.top_force;
-            iv.bottom_force += self.bottom_force;
-            iv.substrate_power += p_t;
-            iv.substrate_power_rot += p_r;
-        }
+        self.advance_with(1, 1);
     }
 
     /// Grain–grain elastic energy (J), for tests and diagnostics.

@@ -294,33 +294,34 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         record_frame(&c, &mut buf, &mut prog);
     }
     while sim.step < total {
-        let next = sim.step + 1;
-        if next % out_every == 0 && (prog.frames % opt.forces_every) == 0 {
+        // Run to the next output frame (or the end) in one go, so the threads of
+        // `advance` live for many steps; the last step records forces when due.
+        let stop = ((sim.step / out_every + 1) * out_every).min(total);
+        sim.advance(stop - sim.step - 1);
+        if stop.is_multiple_of(out_every) && prog.frames.is_multiple_of(opt.forces_every) {
             sim.record = Some(ContactRecord::default());
         }
-        sim.step();
-        if sim.step % out_every == 0 || sim.step == total {
-            record_frame(&sim, &mut buf, &mut prog);
-            sim.record = None;
-            sim.interval = Interval::default();
-            bar.set_position(sim.step);
-            if ck_every > 0 && sim.step % ck_every == 0 && sim.step < total {
-                buf.flush(&parts_dir, prog.parts)?;
-                prog.parts += 1;
-                let saved = prog.elapsed_before;
-                prog.elapsed_before += t0.elapsed().as_secs_f64();
-                let bytes = sim.save(&prog.encode());
-                prog.elapsed_before = saved;
-                atomic_write(&ckpt, |f| {
-                    use std::io::Write;
-                    f.write_all(&bytes).map_err(|e| Error::io(&ckpt, e))
-                })?;
-                if opt.halt_after.is_some_and(|h| sim.step >= h) {
-                    return Err(Error::Other(format!(
-                        "halted after the checkpoint at step {} (testing)",
-                        sim.step
-                    )));
-                }
+        sim.advance(1);
+        record_frame(&sim, &mut buf, &mut prog);
+        sim.record = None;
+        sim.interval = Interval::default();
+        bar.set_position(sim.step);
+        if ck_every > 0 && sim.step % ck_every == 0 && sim.step < total {
+            buf.flush(&parts_dir, prog.parts)?;
+            prog.parts += 1;
+            let saved = prog.elapsed_before;
+            prog.elapsed_before += t0.elapsed().as_secs_f64();
+            let bytes = sim.save(&prog.encode());
+            prog.elapsed_before = saved;
+            atomic_write(&ckpt, |f| {
+                use std::io::Write;
+                f.write_all(&bytes).map_err(|e| Error::io(&ckpt, e))
+            })?;
+            if opt.halt_after.is_some_and(|h| sim.step >= h) {
+                return Err(Error::Other(format!(
+                    "halted after the checkpoint at step {} (testing)",
+                    sim.step
+                )));
             }
         }
     }

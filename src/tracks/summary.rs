@@ -252,7 +252,10 @@ mod tests {
         }
         let s = summarize(&t);
         assert_eq!((s.rows, s.frames, s.trajectories), (19, 5, 5));
-        assert_eq!((s.particles_per_frame_min, s.particles_per_frame_max), (3, 4));
+        assert_eq!(
+            (s.particles_per_frame_min, s.particles_per_frame_max),
+            (3, 4)
+        );
         assert_eq!(s.full_length_trajectories, 2);
         assert_eq!(s.short_trajectories, 1);
         assert_eq!(s.trajectories_starting_late, 1);

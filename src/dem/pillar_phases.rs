@@ -1,0 +1,338 @@
+//! One pillar step (li-granular-pillars Sec. II.B) as phases that each write only a
+//! range of grains, or the pair slots those grains own, so threads can share a step
+//! without locks and without the answer depending on how the grains were split:
+//!
+//! 1. kick and drift (per grain);
+//! 2. which grains are frozen (per grain, reading every grain's rest flag);
+//! 3. every pair's contact force into its own slot (per pair, half list);
+//! 4. each grain's sum over its slots in a fixed order (own slots, then the slots where
+//!    it is the partner), the bars, the substrate and the second kick (per grain).
+//!
+//! Sums over grains (bar forces, dissipated power) are formed per [`CHUNK`] of grains
+//! and the chunks added in order; threads get whole chunks. So every thread count gives
+//! the same numbers, bit for bit.
+
+use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, TangentialLaw};
+use super::pillar_kernels::{GrainConsts, substrate_kick};
+use std::ops::Range;
+
+/// Grains per reduction chunk.
+pub const CHUNK: usize = 64;
+
+/// For each grain j, the pair slots k of the half list whose partner is j (ascending),
+/// and the grain i that owns each: with the list's own slots, all of j's contacts.
+#[derive(Debug, Clone, Default)]
+pub struct Reverse {
+    pub start: Vec<u32>,
+    pub slot: Vec<u32>,
+    pub other: Vec<u32>,
+}
+
+impl Reverse {
+    #[allow(clippy::needless_range_loop)]
+    pub fn build(n: usize, start: &[u32], js: &[u32]) -> Reverse {
+        let mut rs = vec![0u32; n + 1];
+        for &j in js {
+            rs[j as usize + 1] += 1;
+        }
+        for k in 0..n {
+            rs[k + 1] += rs[k];
+        }
+        let mut fill = rs.clone();
+        let (mut slot, mut other) = (vec![0u32; js.len()], vec![0u32; js.len()]);
+        for i in 0..n {
+            for k in start[i] as usize..start[i + 1] as usize {
+                let j = js[k] as usize;
+                slot[fill[j] as usize] = k as u32;
+                other[fill[j] as usize] = i as u32;
+                fill[j] += 1;
+            }
+        }
+        Reverse {
+            start: rs,
+            slot,
+            other,
+        }
+    }
+    pub fn of(&self, j: usize) -> Range<usize> {
+        self.start[j] as usize..self.start[j + 1] as usize
+    }
+}
+
+/// Phase 2: grains in `range` frozen this step (at rest, every partner at rest, clear
+/// of both bars by a margin of one step of bar travel); `frozen` holds the range's
+/// flags. Returns how many.
+#[allow(clippy::too_many_arguments)]
+pub fn mark_frozen(
+    range: Range<usize>,
+    frozen: &mut [bool],
+    resting: &[bool],
+    y: &[f64],
+    radius: &[f64],
+    (start, js): (&[u32], &[u32]),
+    rev: &Reverse,
+    (top, bottom, margin): (f64, f64, f64),
+) -> usize {
+    let mut count = 0;
+    for (f, i) in frozen.iter_mut().zip(range) {
+        let mut ok = resting[i] && top - y[i] > radius[i] + margin && y[i] - bottom > radius[i];
+        if ok {
+            ok = js[start[i] as usize..start[i + 1] as usize]
+                .iter()
+                .all(|&j| resting[j as usize])
+                && rev.other[rev.of(i)].iter().all(|&j| resting[j as usize]);
+        }
+        *f = ok;
+        count += ok as usize;
+    }
+    count
+}
+
+/// Positions (m), velocities (m/s), spins (rad/s) and radii (m) of every grain.
+#[derive(Clone, Copy)]
+pub struct GrainState<'a> {
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+    pub vx: &'a [f64],
+    pub vy: &'a [f64],
+    pub omega: &'a [f64],
+    pub radius: &'a [f64],
+}
+
+/// Per-slot contact magnitudes for force snapshots: F_n (N), |F_t| (N), touching.
+pub struct SlotRecord<'a> {
+    pub f_n: &'a mut [f64],
+    pub f_t: &'a mut [f64],
+    pub touching: &'a mut [bool],
+}
+
+/// Phase 3: the contact of every pair slot owned by the grains in `range` (slots
+/// `start[range.start]..start[range.end]`, which `shear`, `slot_force` and `rec` hold):
+/// force on the owner (N, x and y) and the torque on each grain (N m), Eqs. 4, 7, 8.
+/// Normal along n = r_ij/|r_ij|, tangential along t̂ = ẑ × n from the contact history;
+/// lever arms ½|r_ij|; separated pairs forget their history and hold zeros. A slot
+/// between two `frozen` grains keeps last step's values. Returns the slots skipped.
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+pub fn pair_slots(
+    range: Range<usize>,
+    g: GrainState,
+    (start, js): (&[u32], &[u32]),
+    shear: &mut [f64],
+    slot_force: &mut [[f64; 3]],
+    frozen: Option<&[bool]>,
+    (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
+    mut rec: Option<SlotRecord>,
+) -> u64 {
+    let k0 = start[range.start] as usize;
+    let mut skipped = 0u64;
+    for i in range {
+        let (xi, yi, ri, vxi, vyi, wi) =
+            (g.x[i], g.y[i], g.radius[i], g.vx[i], g.vy[i], g.omega[i]);
+        let fi = frozen.is_some_and(|f| f[i]);
+        for k in start[i] as usize..start[i + 1] as usize {
+            let j = js[k] as usize;
+            let s = k - k0;
+            if fi && frozen.is_some_and(|f| f[j]) {
+                skipped += 1;
+                continue;
+            }
+            let (dx, dy) = (xi - g.x[j], yi - g.y[j]);
+            let rs = ri + g.radius[j];
+            let r2 = dx * dx + dy * dy;
+            if r2 >= rs * rs {
+                shear[s] = 0.0;
+                slot_force[s] = [0.0; 3];
+                if let Some(r) = rec.as_mut() {
+                    r.touching[s] = false;
+                }
+                continue;
+            }
+            let dist = r2.sqrt();
+            let (nx, ny) = (dx / dist, dy / dist);
+            let (dvx, dvy) = (vxi - g.vx[j], vyi - g.vy[j]);
+            let f_n = normal.force(rs - dist, dvx * nx + dvy * ny);
+            let vt = dvy * nx - dvx * ny - 0.5 * dist * (wi + g.omega[j]);
+            let f_t = tangential.force(&mut shear[s], vt, dt, f_n);
+            slot_force[s] = [f_n * nx - f_t * ny, f_n * ny + f_t * nx, -0.5 * dist * f_t];
+            if let Some(r) = rec.as_mut() {
+                r.touching[s] = true;
+                r.f_n[s] = f_n;
+                r.f_t[s] = f_t.abs();
+            }
+        }
+    }
+    skipped
+}
+
+/// Phase 4a: each grain's contact force and torque, Σ over its own slots minus Σ over
+/// the slots where it is the partner (the torque T_ij = −½ r_ij × F_t acts alike on
+/// both); `fx`, `fy`, `tq` hold the range. Frozen grains keep last step's sums.
+#[allow(clippy::too_many_arguments)]
+pub fn gather(
+    range: Range<usize>,
+    start: &[u32],
+    rev: &Reverse,
+    slot_force: &[[f64; 3]],
+    frozen: Option<&[bool]>,
+    fx: &mut [f64],
+    fy: &mut [f64],
+    tq: &mut [f64],
+) {
+    let lo = range.start;
+    for i in range {
+        if frozen.is_some_and(|f| f[i]) {
+            continue;
+        }
+        let (mut sx, mut sy, mut st) = (0.0, 0.0, 0.0);
+        for f in &slot_force[start[i] as usize..start[i + 1] as usize] {
+            sx += f[0];
+            sy += f[1];
+            st += f[2];
+        }
+        for &k in &rev.slot[rev.of(i)] {
+            let f = &slot_force[k as usize];
+            sx -= f[0];
+            sy -= f[1];
+            st += f[2];
+        }
+        fx[i - lo] = sx;
+        fy[i - lo] = sy;
+        tq[i - lo] = st;
+    }
+}
+
+/// The bars as grains of infinite radius with 2 k_n and 2 k_t and friction μ_bar
+/// (Sec. II.B.2): the top face at `top` moving down at `v_bar` (m/s), the bottom at
+/// `bottom`, fixed.
+#[derive(Clone, Copy)]
+pub struct Bars {
+    pub normal: Hooke,
+    pub tangential: CundallStrack,
+    pub top: f64,
+    pub bottom: f64,
+    pub v_bar: f64,
+    pub dt: f64,
+}
+
+/// One grain's view for the bar contacts (its slices of the range).
+pub struct BarGrains<'a> {
+    pub y: &'a [f64],
+    pub vx: &'a [f64],
+    pub vy: &'a [f64],
+    pub omega: &'a [f64],
+    pub radius: &'a [f64],
+    pub frozen: Option<&'a [bool]>,
+    pub top_shear: &'a mut [f64],
+    pub bottom_shear: &'a mut [f64],
+}
+
+/// Phase 4b: grain–bar contacts of a range (all slices are the range's), added into
+/// `fx`, `fy`, `tq`; returns Σ F_n on the top bar, on the bottom bar, and Σ of the
+/// bars' tangential forces on the grains (N).
+pub fn bar_contacts(
+    b: &Bars,
+    g: BarGrains,
+    fx: &mut [f64],
+    fy: &mut [f64],
+    tq: &mut [f64],
+) -> [f64; 3] {
+    let (mut top_force, mut bottom_force, mut shear_force) = (0.0, 0.0, 0.0);
+    for i in 0..g.y.len() {
+        let r = g.radius[i];
+        if g.frozen.is_some_and(|f| f[i]) || (b.top - g.y[i] >= r && g.y[i] - b.bottom >= r) {
+            // Clear of both bars (frozen grains are by definition).
+            g.top_shear[i] = 0.0;
+            g.bottom_shear[i] = 0.0;
+            continue;
+        }
+        // n points from the bar into the grain; t̂ = ẑ × n.
+        for (face, ny, bar_vy, shear, total) in [
+            (b.top, -1.0, -b.v_bar, &mut g.top_shear[i], &mut top_force),
+            (
+                b.bottom,
+                1.0,
+                0.0,
+                &mut g.bottom_shear[i],
+                &mut bottom_force,
+            ),
+        ] {
+            let gap = (g.y[i] - face) * ny;
+            let delta = r - gap;
+            if delta <= 0.0 {
+                *shear = 0.0;
+                continue;
+            }
+            let vn = (g.vy[i] - bar_vy) * ny;
+            let f_n = b.normal.force(delta, vn);
+            // t̂ = (−n_y, 0); contact point at −gap n from the centre.
+            let tx = -ny;
+            let vt = g.vx[i] * tx - gap * g.omega[i];
+            let f_t = b.tangential.force(shear, vt, b.dt, f_n);
+            fx[i] += f_t * tx;
+            shear_force += f_t * tx;
+            fy[i] += f_n * ny;
+            tq[i] += -gap * f_t;
+            *total += f_n;
+        }
+    }
+    [top_force, bottom_force, shear_force]
+}
+
+/// Velocities, accelerations and spins of a range (m/s, m/s², rad/s).
+pub type Motion<'a> = (
+    &'a mut [f64],
+    &'a mut [f64],
+    &'a mut [f64],
+    &'a mut [f64],
+    &'a mut [f64],
+);
+
+/// The substrate and the second half kick of a range, chunk by chunk (`CHUNK` grains,
+/// the range starting on a chunk boundary): per chunk Σ|f·v| and Σ|T_μ ω| (W) into
+/// `power`.
+#[allow(clippy::too_many_arguments)]
+pub fn substrate_chunks(
+    kick: bool,
+    dt: f64,
+    sub: &SubstrateFriction,
+    c: &GrainConsts,
+    frozen: Option<&[bool]>,
+    (fx, fy, tq): (&[f64], &[f64], &[f64]),
+    (vx, vy, ax, ay, omega): Motion,
+    (sub_fx, sub_fy): (&mut [f64], &mut [f64]),
+    power: &mut [[f64; 2]],
+) {
+    let n = vx.len();
+    let xi_v2 = sub.xi_v(dt) * sub.xi_v(dt);
+    let no_frozen = [false; 0];
+    for (ch, p) in power.iter_mut().enumerate() {
+        let r = ch * CHUNK..((ch + 1) * CHUNK).min(n);
+        let cc = GrainConsts {
+            inv_mass: &c.inv_mass[r.clone()],
+            inv_inertia: &c.inv_inertia[r.clone()],
+            f_max: &c.f_max[r.clone()],
+            f_max2: &c.f_max2[r.clone()],
+            t_max: &c.t_max[r.clone()],
+            xi_omega: &c.xi_omega[r.clone()],
+        };
+        let (p_t, p_r) = substrate_kick(
+            kick,
+            dt,
+            xi_v2,
+            sub,
+            &cc,
+            frozen.map_or(&no_frozen[..], |f| &f[r.clone()]),
+            &fx[r.clone()],
+            &fy[r.clone()],
+            &tq[r.clone()],
+            &mut vx[r.clone()],
+            &mut vy[r.clone()],
+            &mut ax[r.clone()],
+            &mut ay[r.clone()],
+            &mut omega[r.clone()],
+            &mut sub_fx[r.clone()],
+            &mut sub_fy[r.clone()],
+        );
+        *p = [p_t, p_r];
+    }
+}
