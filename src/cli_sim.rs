@@ -57,6 +57,10 @@ pub struct PillarArgs {
     /// Testing: fail right after the first checkpoint at or past this step.
     #[arg(long, hide = true)]
     halt_after: Option<u64>,
+    /// Threads (default: one per core, at most one per 256 grains; any count gives the
+    /// same numbers).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
 }
 
 fn parse_kv(s: &str) -> std::result::Result<(String, f64), String> {
@@ -162,6 +166,7 @@ pub fn simulate(cmd: SimulateCmd) -> Result<()> {
         resume,
         quiet: a.quiet,
         halt_after: a.halt_after,
+        threads: a.threads,
     };
     let rep = run(&out, &opt).with_context(|| format!("simulate pillar into {}", out.display()))?;
     if a.json {

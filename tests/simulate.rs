@@ -31,18 +31,17 @@ fn columns(p: &Path) -> Vec<String> {
 }
 
 /// Every table of a run, as rows of strings (exact values, for equality).
-fn contents(dir: &Path) -> Vec<String> {
-    ["tracks", "bar_forces", "stress_strain", "forces"]
-        .iter()
-        .map(|t| {
-            format!(
-                "{:?}",
-                read_table(&dir.join(format!("{t}.parquet")), &[])
-                    .unwrap()
-                    .df
-            )
-        })
-        .collect()
+/// Every value of every output table, bit for bit (column name and f64 bits).
+fn contents(dir: &Path) -> Vec<(String, Vec<u64>)> {
+    let mut out = Vec::new();
+    for t in ["tracks", "bar_forces", "stress_strain", "forces"] {
+        let table = read_table(&dir.join(format!("{t}.parquet")), &[]).unwrap();
+        for c in table.columns() {
+            let v = table.f64_or_nan(&c).unwrap();
+            out.push((format!("{t}.{c}"), v.iter().map(|x| x.to_bits()).collect()));
+        }
+    }
+    out
 }
 
 /// A 120-grain fast run; `extra` may replace the preset or strain.
@@ -357,4 +356,18 @@ fn pack_then_simulate_from_the_packing_file() {
         format!("{:?}", read_table(&pk, &[]).unwrap().df),
         format!("{:?}", read_table(&pk2, &[]).unwrap().df)
     );
+}
+
+#[test]
+fn the_thread_count_changes_nothing() {
+    let dir = tmpdir("threads");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let (ok, text) = small(&a, &["--threads", "1"]);
+    assert!(ok, "{text}");
+    let (ok, text) = small(&b, &["--threads", "2"]);
+    assert!(ok, "{text}");
+    assert_eq!(contents(&a), contents(&b));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(b.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["threads_this_session"], 2);
 }

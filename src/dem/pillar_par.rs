@@ -20,7 +20,7 @@ use super::verlet::Boundary;
 use std::cell::UnsafeCell;
 use std::ops::Range;
 use std::sync::OnceLock;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::thread::Thread;
 
 /// Per-step work the serial sections share with the phases (not state).
@@ -46,6 +46,8 @@ pub struct StepBuffers {
     pub frozen_count: Vec<usize>,
     /// Thread t works on grains bounds[t]..bounds[t + 1] (chunk multiples).
     pub bounds: Vec<usize>,
+    /// Seconds each thread spent working (not waiting) since the last rebalance.
+    pub busy: Vec<f64>,
 }
 
 #[derive(Clone, Copy)]
@@ -108,6 +110,7 @@ struct Arrays {
     moved2: P<f64>,
     skipped: P<u64>,
     frozen_count: P<usize>,
+    busy: P<f64>,
     inv_mass: P<f64>,
     inv_inertia: P<f64>,
     f_max: P<f64>,
@@ -134,6 +137,24 @@ struct SpinBarrier {
     generation: AtomicUsize,
     /// Every participant, set before the first wait by the thread that spawns them.
     handles: OnceLock<Vec<Thread>>,
+    /// Set when a participant panics, so the others stop waiting for it.
+    poisoned: AtomicBool,
+    /// Waits that lasted long (the others were descheduled), since last read.
+    long_waits: AtomicUsize,
+}
+
+/// Poisons the barrier if its thread unwinds.
+struct PoisonOnPanic<'a>(&'a SpinBarrier);
+
+impl Drop for PoisonOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.poisoned.store(true, Ordering::Release);
+            if let Some(hs) = self.0.handles.get() {
+                hs.iter().for_each(|h| h.unpark());
+            }
+        }
+    }
 }
 
 impl SpinBarrier {
@@ -143,12 +164,14 @@ impl SpinBarrier {
             count: AtomicUsize::new(0),
             generation: AtomicUsize::new(0),
             handles: OnceLock::new(),
+            poisoned: AtomicBool::new(false),
+            long_waits: AtomicUsize::new(0),
         }
     }
 
     /// Wait for every thread; `spin` is this thread's spinning budget (iterations),
-    /// adapted: doubled when a wait ended while spinning, halved when it had to sleep,
-    /// so an idle machine spins (short waits) and a busy one sleeps (no stolen time).
+    /// adapted: halved when the wait was long (the others were descheduled: a busy
+    /// machine, where spinning steals time), doubled otherwise.
     fn wait(&self, me: usize, spin: &mut u32) {
         if self.threads == 1 {
             return;
@@ -167,24 +190,39 @@ impl SpinBarrier {
             return;
         }
         let mut spins = 0u32;
+        let mut slept: Option<std::time::Instant> = None;
         while self.generation.load(Ordering::Acquire) == g {
+            if self.poisoned.load(Ordering::Acquire) {
+                panic!("another pillar thread panicked");
+            }
             if spins < *spin {
                 spins += 1;
                 std::hint::spin_loop();
             } else {
+                slept.get_or_insert_with(std::time::Instant::now);
                 // Timed, so a wake-up that raced ahead is never waited for long.
                 std::thread::park_timeout(std::time::Duration::from_micros(500));
             }
         }
-        *spin = if spins < *spin {
-            (*spin * 2).min(MAX_SPIN)
-        } else {
+        // Sleeping was right only if the others were long in coming (descheduled on a
+        // busy machine); a short sleep means spinning a little longer would have won.
+        let long = slept.is_some_and(|t| t.elapsed() > std::time::Duration::from_micros(200));
+        *spin = if long {
+            self.long_waits.fetch_add(1, Ordering::Relaxed);
             (*spin / 2).max(MIN_SPIN)
+        } else {
+            (*spin * 2).min(MAX_SPIN)
         };
     }
 }
 
 const MIN_SPIN: u32 = 64;
+/// Over each window of steps, more long waits than this send the rest of an `advance`
+/// call to one thread.
+const FALLBACK_WINDOW: u64 = 64;
+const FALLBACK_LONG_WAITS: usize = 16;
+/// Steps between rebalances of the threads' shares.
+const REBALANCE_EVERY: u64 = 32;
 const MAX_SPIN: u32 = 50_000;
 
 /// The serial sections' view of the arrays, republished after each.
@@ -198,14 +236,16 @@ impl Shared {
 
 impl PillarSim {
     /// Threads an `advance` uses: the `threads` setting, or (0) one per core up to one
-    /// per 256 grains.
+    /// per 256 grains (fewer grains per thread cost more in waiting than they save).
     pub fn threads_for_run(&self) -> usize {
         let n = self.grains.len();
-        let want = match self.scratch.threads {
-            0 => std::thread::available_parallelism().map_or(1, |c| c.get()),
-            t => t,
-        };
-        want.min(n / 256).max(1)
+        match self.scratch.threads {
+            0 => std::thread::available_parallelism()
+                .map_or(1, |c| c.get())
+                .min(n / 256)
+                .max(1),
+            t => t.min(n).max(1),
+        }
     }
 
     /// Advance `steps` time steps δt (see `step`), on `threads_for_run()` threads; the
@@ -225,34 +265,61 @@ impl PillarSim {
         let shared = Shared(UnsafeCell::new(self.arrays(true)));
         let sim: *mut PillarSim = self;
         let sim = SendPtr(sim);
+        // Steps done, and a request (from thread 0) to finish on one thread: on a machine
+        // busy with other work each barrier can cost a scheduler time slice.
+        let done = AtomicU64::new(0);
+        let fall_back = AtomicBool::new(false);
         let body = |t: usize| {
+            let _poison = PoisonOnPanic(&barrier);
             let mut spin = MAX_SPIN;
             for _ in 0..steps {
                 // SAFETY: see the module notes; serial sections run on thread 0 while
                 // the others wait at a barrier holding no references.
                 unsafe {
                     let a = *shared.get();
+                    let clock = std::time::Instant::now();
                     let m = phase_kick(&a, t, (*sim.get()).params.dt);
                     *a.moved2.part(t..t + 1).first_mut().expect("slot") = m;
+                    let mut work = clock.elapsed().as_secs_f64();
                     barrier.wait(t, &mut spin);
                     if t == 0 {
                         let s = &mut *sim.get();
                         s.serial_before();
+                        if s.step.is_multiple_of(REBALANCE_EVERY) {
+                            s.rebalance();
+                        }
                         *shared.get() = s.arrays(true);
                     }
                     barrier.wait(t, &mut spin);
                     let a = *shared.get();
                     let s = &*sim.get();
+                    let clock = std::time::Instant::now();
                     phase_frozen(&a, t, s);
+                    work += clock.elapsed().as_secs_f64();
                     barrier.wait(t, &mut spin);
+                    let clock = std::time::Instant::now();
                     phase_pairs(&a, t, s);
+                    work += clock.elapsed().as_secs_f64();
                     barrier.wait(t, &mut spin);
+                    let clock = std::time::Instant::now();
                     phase_grains(&a, t, s);
+                    work += clock.elapsed().as_secs_f64();
+                    a.busy.part(t..t + 1)[0] += work;
                     barrier.wait(t, &mut spin);
                     if t == 0 {
                         (*sim.get()).serial_after(true);
+                        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                        if threads > 1
+                            && d.is_multiple_of(FALLBACK_WINDOW)
+                            && barrier.long_waits.swap(0, Ordering::Relaxed) > FALLBACK_LONG_WAITS
+                        {
+                            fall_back.store(true, Ordering::Relaxed);
+                        }
                     }
                     barrier.wait(t, &mut spin);
+                    if fall_back.load(Ordering::Relaxed) {
+                        break;
+                    }
                 }
             }
         };
@@ -268,6 +335,10 @@ impl PillarSim {
                 let _ = barrier.handles.set(handles);
                 body(0);
             });
+        }
+        let left = steps - done.load(Ordering::Relaxed);
+        if left > 0 {
+            self.advance_with(left, 1);
         }
     }
 
@@ -303,19 +374,40 @@ impl PillarSim {
         b.moved2 = vec![0.0; threads];
         b.skipped = vec![0; threads];
         b.frozen_count = vec![0; threads];
+        b.busy = vec![0.0; threads];
         self.sync_list_buffers();
-        self.balance(threads);
+        let b = &self.scratch.buffers;
+        if b.bounds.len() != threads + 1 || b.bounds.last() != Some(&n) {
+            self.balance(threads);
+        }
     }
 
     /// Split the grains into `threads` runs of whole chunks, equal in number (any split
-    /// gives the same numbers; splits weighted by work measured slower here: the cut
-    /// then falls among moving grains and their slots cross between the cores' caches).
+    /// gives the same numbers; `rebalance` then follows the measured work).
     fn balance(&mut self, threads: usize) {
         let n = self.grains.len();
         let chunks = n.div_ceil(CHUNK);
         self.scratch.buffers.bounds = (0..=threads)
             .map(|t| (chunks * t / threads * CHUNK).min(n))
             .collect();
+    }
+
+    /// Move each boundary between two threads one chunk towards the one that worked
+    /// less since the last call (frozen grains cost little and gather at the bottom,
+    /// so equal shares of grains are unequal shares of work).
+    fn rebalance(&mut self) {
+        let n = self.grains.len();
+        let b = &mut self.scratch.buffers;
+        let t_max = b.bounds.len() - 1;
+        for t in 1..t_max {
+            let (left, right) = (b.busy[t - 1], b.busy[t]);
+            if left < 0.9 * right && b.bounds[t] + CHUNK <= b.bounds[t + 1].min(n) {
+                b.bounds[t] += CHUNK;
+            } else if left > 1.1 * right && b.bounds[t] >= b.bounds[t - 1] + CHUNK {
+                b.bounds[t] -= CHUNK;
+            }
+        }
+        b.busy.iter_mut().for_each(|v| *v = 0.0);
     }
 
     /// Per-slot buffers and the reverse index for the current list.
@@ -446,6 +538,7 @@ impl PillarSim {
             moved2: P::of(&mut b.moved2),
             skipped: P::of(&mut b.skipped),
             frozen_count: P::of(&mut b.frozen_count),
+            busy: P::of(&mut b.busy),
             inv_mass: P::of(&mut c.inv_mass),
             inv_inertia: P::of(&mut c.inv_inertia),
             f_max: P::of(&mut c.f_max),

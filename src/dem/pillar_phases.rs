@@ -17,7 +17,7 @@ use super::pillar_kernels::{GrainConsts, substrate_kick};
 use std::ops::Range;
 
 /// Grains per reduction chunk.
-pub const CHUNK: usize = 64;
+pub const CHUNK: usize = 32;
 
 /// For each grain j, the pair slots k of the half list whose partner is j (ascending),
 /// and the grain i that owns each: with the list's own slots, all of j's contacts.

@@ -44,6 +44,10 @@ pub struct SimulateOptions {
     /// this step, as a kill would.
     #[serde(skip)]
     pub halt_after: Option<u64>,
+    /// Threads (0: one per core, at most one per 256 grains). Not part of the physics:
+    /// any count gives the same numbers.
+    #[serde(skip)]
+    pub threads: usize,
 }
 
 impl Default for SimulateOptions {
@@ -61,6 +65,7 @@ impl Default for SimulateOptions {
             resume: false,
             quiet: false,
             halt_after: None,
+            threads: 0,
         }
     }
 }
@@ -244,6 +249,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         };
         (sim, prog)
     };
+    sim.scratch.threads = opt.threads;
     let p = sim.params.clone();
     let step0 = sim.step;
     let h0 = sim.top_y0 - sim.bottom_y;
@@ -371,6 +377,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         "pair_list_builds": sim.list.builds,
         "report": &report,
         "steps_this_session": sim.step - step0,
+        "threads_this_session": sim.threads_for_run(),
         "particle_steps_per_s_this_session": (sim.grains.len() as f64 * (sim.step - step0) as f64) / elapsed,
         "decisions": super::sim_setup::DECISIONS,
     });
