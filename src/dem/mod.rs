@@ -10,6 +10,7 @@
 //!
 //! Internal units are SI (m, kg, s, N); the stage layer converts lengths to cm on output.
 
+pub mod barrier;
 pub mod checkpoint;
 pub mod contact;
 pub mod forces;
@@ -17,6 +18,7 @@ pub mod grains;
 pub mod pack;
 pub mod params;
 pub mod pillar;
+pub mod pillar_arrays;
 pub mod pillar_kernels;
 pub mod pillar_par;
 pub mod pillar_phases;

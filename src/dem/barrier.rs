@@ -1,0 +1,100 @@
+//! A barrier for a fixed set of threads that meet tens of thousands of times a second
+//! (the pillar's step phases): waiters spin, and sleep only when waits grow long, as on
+//! a machine busy with other work, where spinning would steal the time the others need.
+
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::thread::Thread;
+
+/// A barrier for a fixed number of threads: waiters spin for a while (tens of
+/// microseconds, longer than a step's imbalance), then sleep until the last thread to
+/// arrive wakes them, so a machine busy with other work is not made busier by
+/// spinning.
+pub struct SpinBarrier {
+    pub threads: usize,
+    count: AtomicUsize,
+    generation: AtomicUsize,
+    /// Every participant, set before the first wait by the thread that spawns them.
+    pub handles: OnceLock<Vec<Thread>>,
+    /// Set when a participant panics, so the others stop waiting for it.
+    poisoned: AtomicBool,
+    /// Waits that lasted long (the others were descheduled), since last read.
+    pub long_waits: AtomicUsize,
+}
+
+/// Poisons the barrier if its thread unwinds.
+pub struct PoisonOnPanic<'a>(pub &'a SpinBarrier);
+
+impl Drop for PoisonOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.poisoned.store(true, Ordering::Release);
+            if let Some(hs) = self.0.handles.get() {
+                hs.iter().for_each(|h| h.unpark());
+            }
+        }
+    }
+}
+
+impl SpinBarrier {
+    pub fn new(threads: usize) -> Self {
+        SpinBarrier {
+            threads,
+            count: AtomicUsize::new(0),
+            generation: AtomicUsize::new(0),
+            handles: OnceLock::new(),
+            poisoned: AtomicBool::new(false),
+            long_waits: AtomicUsize::new(0),
+        }
+    }
+
+    /// Wait for every thread; `spin` is this thread's spinning budget (iterations),
+    /// adapted: halved when the wait was long (the others were descheduled: a busy
+    /// machine, where spinning steals time), doubled otherwise.
+    pub fn wait(&self, me: usize, spin: &mut u32) {
+        if self.threads == 1 {
+            return;
+        }
+        let g = self.generation.load(Ordering::Acquire);
+        if self.count.fetch_add(1, Ordering::AcqRel) + 1 == self.threads {
+            self.count.store(0, Ordering::Relaxed);
+            self.generation.store(g + 1, Ordering::Release);
+            if let Some(hs) = self.handles.get() {
+                // Cheap (no system call) for a thread that is still spinning.
+                hs.iter()
+                    .enumerate()
+                    .filter(|&(t, _)| t != me)
+                    .for_each(|(_, h)| h.unpark());
+            }
+            return;
+        }
+        let mut spins = 0u32;
+        let mut slept: Option<std::time::Instant> = None;
+        while self.generation.load(Ordering::Acquire) == g {
+            if self.poisoned.load(Ordering::Acquire) {
+                panic!("another pillar thread panicked");
+            }
+            if spins < *spin {
+                spins += 1;
+                std::hint::spin_loop();
+            } else {
+                slept.get_or_insert_with(std::time::Instant::now);
+                // Timed, so a wake-up that raced ahead is never waited for long.
+                std::thread::park_timeout(std::time::Duration::from_micros(500));
+            }
+        }
+        // Sleeping was right only if the others were long in coming (descheduled on a
+        // busy machine); a short sleep means spinning a little longer would have won.
+        let long = slept.is_some_and(|t| t.elapsed() > std::time::Duration::from_micros(200));
+        *spin = if long {
+            self.long_waits.fetch_add(1, Ordering::Relaxed);
+            (*spin / 2).max(MIN_SPIN)
+        } else {
+            (*spin * 2).min(MAX_SPIN)
+        };
+    }
+}
+
+/// Spin budget bounds (iterations of `spin_loop`); a thread starts at the maximum.
+pub const MIN_SPIN: u32 = 64;
+pub const MAX_SPIN: u32 = 50_000;

@@ -1,0 +1,354 @@
+//! Raw views of the pillar's arrays for the threads of `pillar_par`, and each phase of
+//! `pillar_phases` run on one thread's share through them.
+//!
+//! Safety: each phase writes only its own range of grains or pair slots (disjoint
+//! between threads) and reads only what no thread writes in that phase; the barrier
+//! between phases orders the writes before the reads (release/acquire). Arrays are
+//! reached through raw pointers refreshed by the first thread after any reallocation
+//! (a list rebuild), while the others wait at the barrier.
+
+use super::pillar::PillarSim;
+use super::pillar_kernels::{GrainConsts, kick_drift};
+use super::pillar_phases::{
+    BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, bar_contacts, gather, mark_frozen,
+    pair_slots, substrate_chunks,
+};
+use std::cell::UnsafeCell;
+use std::ops::Range;
+
+#[derive(Clone, Copy)]
+pub(crate) struct P<T>(*mut T, usize);
+unsafe impl<T> Send for P<T> {}
+unsafe impl<T> Sync for P<T> {}
+
+impl<T> P<T> {
+    fn of(v: &mut [T]) -> Self {
+        P(v.as_mut_ptr(), v.len())
+    }
+    /// # Safety
+    /// No thread writes any of it for the lifetime of the slice.
+    unsafe fn all<'a>(self) -> &'a [T] {
+        unsafe { std::slice::from_raw_parts(self.0, self.1) }
+    }
+    /// # Safety
+    /// No other thread touches `r` for the lifetime of the slice.
+    pub(crate) unsafe fn part<'a>(self, r: Range<usize>) -> &'a mut [T] {
+        assert!(
+            r.start <= r.end && r.end <= self.1,
+            "range within the array"
+        );
+        unsafe { std::slice::from_raw_parts_mut(self.0.add(r.start), r.end - r.start) }
+    }
+}
+
+/// Raw views of every array a phase touches.
+#[derive(Clone, Copy)]
+pub(crate) struct Arrays {
+    x: P<f64>,
+    y: P<f64>,
+    vx: P<f64>,
+    vy: P<f64>,
+    ax: P<f64>,
+    ay: P<f64>,
+    theta: P<f64>,
+    omega: P<f64>,
+    radius: P<f64>,
+    x_ref: P<f64>,
+    y_ref: P<f64>,
+    start: P<u32>,
+    js: P<u32>,
+    shear: P<f64>,
+    fx: P<f64>,
+    fy: P<f64>,
+    tq: P<f64>,
+    sub_fx: P<f64>,
+    sub_fy: P<f64>,
+    top_shear: P<f64>,
+    bottom_shear: P<f64>,
+    resting: P<bool>,
+    frozen: P<bool>,
+    slot_force: P<[f64; 3]>,
+    rec_fn: P<f64>,
+    rec_ft: P<f64>,
+    rec_touch: P<bool>,
+    bar_sums: P<[f64; 3]>,
+    power: P<[f64; 2]>,
+    pub(crate) moved2: P<f64>,
+    skipped: P<u64>,
+    frozen_count: P<usize>,
+    pub(crate) busy: P<f64>,
+    inv_mass: P<f64>,
+    inv_inertia: P<f64>,
+    f_max: P<f64>,
+    f_max2: P<f64>,
+    t_max: P<f64>,
+    xi_omega: P<f64>,
+    rev: *const Reverse,
+    bounds: *const Vec<usize>,
+    /// This step: frozen grains skipped; force snapshot wanted; second kick.
+    freeze: bool,
+    record: bool,
+    kick: bool,
+}
+unsafe impl Send for Arrays {}
+unsafe impl Sync for Arrays {}
+
+/// The serial sections' view of the arrays, republished after each.
+pub(crate) struct Shared(pub(crate) UnsafeCell<Arrays>);
+unsafe impl Sync for Shared {}
+impl Shared {
+    pub(crate) fn get(&self) -> *mut Arrays {
+        self.0.get()
+    }
+}
+
+pub(crate) struct SendPtr(pub(crate) *mut PillarSim);
+unsafe impl Send for SendPtr {}
+unsafe impl Sync for SendPtr {}
+impl SendPtr {
+    pub(crate) fn get(&self) -> *mut PillarSim {
+        self.0
+    }
+}
+
+impl PillarSim {
+    /// Raw views of every array, and this step's switches (frozen skip, force
+    /// snapshot, second kick).
+    pub(crate) fn arrays(&mut self, kick: bool) -> Arrays {
+        let freeze = self.scratch.skip_frozen
+            && self.record.is_none()
+            && self.scratch.buffers.slots_valid
+            && kick;
+        let record = self.record.is_some();
+        let g = &mut self.grains;
+        let l = &mut self.list;
+        let sc = &mut self.scratch;
+        let c = &mut sc.consts;
+        let b = &mut sc.buffers;
+        Arrays {
+            x: P::of(&mut g.x),
+            y: P::of(&mut g.y),
+            vx: P::of(&mut g.vx),
+            vy: P::of(&mut g.vy),
+            ax: P::of(&mut g.ax),
+            ay: P::of(&mut g.ay),
+            theta: P::of(&mut g.theta),
+            omega: P::of(&mut g.omega),
+            radius: P::of(&mut g.radius),
+            x_ref: P::of(&mut l.x_ref),
+            y_ref: P::of(&mut l.y_ref),
+            start: P::of(&mut l.start),
+            js: P::of(&mut l.j),
+            shear: P::of(&mut l.shear),
+            fx: P::of(&mut self.fx),
+            fy: P::of(&mut self.fy),
+            tq: P::of(&mut self.tq),
+            sub_fx: P::of(&mut self.sub_fx),
+            sub_fy: P::of(&mut self.sub_fy),
+            top_shear: P::of(&mut self.top_shear),
+            bottom_shear: P::of(&mut self.bottom_shear),
+            resting: P::of(&mut sc.resting),
+            frozen: P::of(&mut sc.frozen),
+            slot_force: P::of(&mut b.slot_force),
+            rec_fn: P::of(&mut b.rec_fn),
+            rec_ft: P::of(&mut b.rec_ft),
+            rec_touch: P::of(&mut b.rec_touch),
+            bar_sums: P::of(&mut b.bar_sums),
+            power: P::of(&mut b.power),
+            moved2: P::of(&mut b.moved2),
+            skipped: P::of(&mut b.skipped),
+            frozen_count: P::of(&mut b.frozen_count),
+            busy: P::of(&mut b.busy),
+            inv_mass: P::of(&mut c.inv_mass),
+            inv_inertia: P::of(&mut c.inv_inertia),
+            f_max: P::of(&mut c.f_max),
+            f_max2: P::of(&mut c.f_max2),
+            t_max: P::of(&mut c.t_max),
+            xi_omega: P::of(&mut c.xi_omega),
+            rev: &b.reverse,
+            bounds: &b.bounds,
+            freeze,
+            record,
+            kick,
+        }
+    }
+}
+
+/// Thread t's grains.
+unsafe fn range(a: &Arrays, t: usize) -> Range<usize> {
+    let b = unsafe { &*a.bounds };
+    b[t]..b[t + 1]
+}
+
+/// Phase 1: kick and drift of thread t's grains; their largest move since the build.
+pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64) -> f64 {
+    unsafe {
+        let r = range(a, t);
+        let refs_ok = a.x_ref.1 == a.x.1;
+        let (xr, yr): (&[f64], &[f64]) = if refs_ok {
+            (&a.x_ref.all()[r.clone()], &a.y_ref.all()[r.clone()])
+        } else {
+            (&[], &[])
+        };
+        kick_drift(
+            dt,
+            a.x.part(r.clone()),
+            a.y.part(r.clone()),
+            a.theta.part(r.clone()),
+            a.vx.part(r.clone()),
+            a.vy.part(r.clone()),
+            &a.ax.all()[r.clone()],
+            &a.ay.all()[r.clone()],
+            &a.omega.all()[r.clone()],
+            a.resting.part(r.clone()),
+            xr,
+            yr,
+        )
+    }
+}
+
+/// Phase 2: frozen flags of thread t's grains.
+pub(crate) unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim) {
+    unsafe {
+        let r = range(a, t);
+        let out = a.frozen.part(r.clone());
+        if !a.freeze {
+            out.fill(false);
+            return;
+        }
+        let margin = 2.0 * s.params.bar_speed * s.params.dt;
+        let c = mark_frozen(
+            r,
+            out,
+            a.resting.all(),
+            a.y.all(),
+            a.radius.all(),
+            (a.start.all(), a.js.all()),
+            &*a.rev,
+            (s.top_y(), s.bottom_y, margin),
+        );
+        a.frozen_count.part(t..t + 1)[0] = c;
+    }
+}
+
+/// Phase 3: the pair slots of thread t's grains.
+pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim) {
+    unsafe {
+        let r = range(a, t);
+        let start = a.start.all();
+        let slots = start[r.start] as usize..start[r.end] as usize;
+        let g = GrainState {
+            x: a.x.all(),
+            y: a.y.all(),
+            vx: a.vx.all(),
+            vy: a.vy.all(),
+            omega: a.omega.all(),
+            radius: a.radius.all(),
+        };
+        let rec = a.record.then(|| SlotRecord {
+            f_n: a.rec_fn.part(slots.clone()),
+            f_t: a.rec_ft.part(slots.clone()),
+            touching: a.rec_touch.part(slots.clone()),
+        });
+        let skipped = pair_slots(
+            r,
+            g,
+            (start, a.js.all()),
+            a.shear.part(slots.clone()),
+            a.slot_force.part(slots),
+            a.freeze.then(|| a.frozen.all()),
+            (&s.normal(), &s.tangential(), s.params.dt),
+            rec,
+        );
+        a.skipped.part(t..t + 1)[0] = skipped;
+    }
+}
+
+/// Phase 4: thread t's grains: contact sums, bars, substrate and second kick.
+pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim) {
+    unsafe {
+        let r = range(a, t);
+        let frozen = a.frozen.all();
+        let fz = a.freeze.then_some(frozen);
+        let (fx, fy, tq) = (
+            a.fx.part(r.clone()),
+            a.fy.part(r.clone()),
+            a.tq.part(r.clone()),
+        );
+        gather(
+            r.clone(),
+            a.start.all(),
+            &*a.rev,
+            a.slot_force.all(),
+            fz,
+            fx,
+            fy,
+            tq,
+        );
+        let p = &s.params;
+        let bars = Bars {
+            normal: super::contact::Hooke {
+                k_n: 2.0 * p.k_n,
+                damping: p.damping_n,
+            },
+            tangential: super::contact::CundallStrack {
+                k_t: 2.0 * p.kt_over_kn * p.k_n,
+                mu: p.mu_bar,
+            },
+            top: s.top_y(),
+            bottom: s.bottom_y,
+            v_bar: p.bar_speed,
+            dt: p.dt,
+        };
+        let chunks = r.start / CHUNK..r.end.div_ceil(CHUNK);
+        let sums = a.bar_sums.part(chunks.clone());
+        // Own-range views only: other threads write their ranges of these arrays now.
+        let (vx, vy, omega) = (
+            a.vx.part(r.clone()),
+            a.vy.part(r.clone()),
+            a.omega.part(r.clone()),
+        );
+        let (ys, rs) = (a.y.all(), a.radius.all());
+        let (top_shear, bottom_shear) =
+            (a.top_shear.part(r.clone()), a.bottom_shear.part(r.clone()));
+        for (k, ch) in chunks.clone().enumerate() {
+            let cr = ch * CHUNK..((ch + 1) * CHUNK).min(r.end);
+            let local = cr.start - r.start..cr.end - r.start;
+            sums[k] = bar_contacts(
+                &bars,
+                BarGrains {
+                    y: &ys[cr.clone()],
+                    vx: &vx[local.clone()],
+                    vy: &vy[local.clone()],
+                    omega: &omega[local.clone()],
+                    radius: &rs[cr.clone()],
+                    frozen: fz.map(|f| &f[cr.clone()]),
+                    top_shear: &mut top_shear[local.clone()],
+                    bottom_shear: &mut bottom_shear[local.clone()],
+                },
+                &mut fx[local.clone()],
+                &mut fy[local.clone()],
+                &mut tq[local],
+            );
+        }
+        let c = GrainConsts {
+            inv_mass: &a.inv_mass.all()[r.clone()],
+            inv_inertia: &a.inv_inertia.all()[r.clone()],
+            f_max: &a.f_max.all()[r.clone()],
+            f_max2: &a.f_max2.all()[r.clone()],
+            t_max: &a.t_max.all()[r.clone()],
+            xi_omega: &a.xi_omega.all()[r.clone()],
+        };
+        substrate_chunks(
+            a.kick,
+            p.dt,
+            &s.substrate(),
+            &c,
+            fz.map(|f| &f[r.clone()]),
+            (fx, fy, tq),
+            (vx, vy, a.ax.part(r.clone()), a.ay.part(r.clone()), omega),
+            (a.sub_fx.part(r.clone()), a.sub_fy.part(r.clone())),
+            a.power.part(chunks),
+        );
+    }
+}
