@@ -27,6 +27,7 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
 }
 pub mod compare;
 pub mod fit;
+pub mod fit_sampling;
 pub mod pack;
 pub mod quickstart;
 pub mod report;
