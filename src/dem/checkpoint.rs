@@ -103,6 +103,66 @@ impl<'a> Dec<'a> {
     }
 }
 
+/// Grains, in the order both simulators' checkpoints store them.
+pub fn enc_grains(e: &mut Enc, g: &Grains) {
+    e.i64s(&g.id);
+    e.i32s(&g.species);
+    for v in [
+        &g.radius, &g.mass, &g.inertia, &g.x, &g.y, &g.vx, &g.vy, &g.ax, &g.ay, &g.theta, &g.omega,
+    ] {
+        e.f64s(v);
+    }
+}
+
+pub fn dec_grains(d: &mut Dec) -> Result<Grains, String> {
+    let mut g = Grains {
+        id: d.i64s()?,
+        species: d.i32s()?,
+        ..Default::default()
+    };
+    for v in [
+        &mut g.radius,
+        &mut g.mass,
+        &mut g.inertia,
+        &mut g.x,
+        &mut g.y,
+        &mut g.vx,
+        &mut g.vy,
+        &mut g.ax,
+        &mut g.ay,
+        &mut g.theta,
+        &mut g.omega,
+    ] {
+        *v = d.f64s()?;
+    }
+    Ok(g)
+}
+
+/// A pair list with its contact history (the Lees–Edwards offset at the build is the
+/// shear checkpoint's own addition).
+pub fn enc_list(e: &mut Enc, l: &PairList) {
+    e.u32s(&l.start);
+    e.u32s(&l.j);
+    for v in [&l.shear, &l.x_ref, &l.y_ref] {
+        e.f64s(v);
+    }
+    e.f64(l.skin);
+    e.u64(l.builds);
+}
+
+pub fn dec_list(d: &mut Dec) -> Result<PairList, String> {
+    Ok(PairList {
+        start: d.u32s()?,
+        j: d.u32s()?,
+        shear: d.f64s()?,
+        x_ref: d.f64s()?,
+        y_ref: d.f64s()?,
+        skin: d.f64()?,
+        builds: d.u64()?,
+        offset_ref: 0.0,
+    })
+}
+
 impl PillarSim {
     /// The whole dynamical state, bit-exact. `extra` is the caller's own state (output
     /// bookkeeping), stored alongside.
@@ -114,23 +174,8 @@ impl PillarSim {
                 .expect("params serialise")
                 .as_bytes(),
         );
-        let g = &self.grains;
-        e.i64s(&g.id);
-        e.i32s(&g.species);
-        for v in [
-            &g.radius, &g.mass, &g.inertia, &g.x, &g.y, &g.vx, &g.vy, &g.ax, &g.ay, &g.theta,
-            &g.omega,
-        ] {
-            e.f64s(v);
-        }
-        let l = &self.list;
-        e.u32s(&l.start);
-        e.u32s(&l.j);
-        e.f64s(&l.shear);
-        e.f64s(&l.x_ref);
-        e.f64s(&l.y_ref);
-        e.f64(l.skin);
-        e.u64(l.builds);
+        enc_grains(&mut e, &self.grains);
+        enc_list(&mut e, &self.list);
         e.f64(self.bottom_y);
         e.f64(self.top_y0);
         e.f64s(&self.top_shear);
@@ -164,36 +209,8 @@ impl PillarSim {
         let mut d = Dec::new(&b[8..]);
         let params: PillarParams =
             serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
-        let mut g = Grains {
-            id: d.i64s()?,
-            species: d.i32s()?,
-            ..Default::default()
-        };
-        for v in [
-            &mut g.radius,
-            &mut g.mass,
-            &mut g.inertia,
-            &mut g.x,
-            &mut g.y,
-            &mut g.vx,
-            &mut g.vy,
-            &mut g.ax,
-            &mut g.ay,
-            &mut g.theta,
-            &mut g.omega,
-        ] {
-            *v = d.f64s()?;
-        }
-        let list = PairList {
-            start: d.u32s()?,
-            j: d.u32s()?,
-            shear: d.f64s()?,
-            x_ref: d.f64s()?,
-            y_ref: d.f64s()?,
-            skin: d.f64()?,
-            builds: d.u64()?,
-            offset_ref: 0.0,
-        };
+        let g = dec_grains(&mut d)?;
+        let list = dec_list(&mut d)?;
         let (bottom_y, top_y0) = (d.f64()?, d.f64()?);
         let (top_shear, bottom_shear, step) = (d.f64s()?, d.f64s()?, d.u64()?);
         let (fx, fy, tq, sub_fx, sub_fy) = (d.f64s()?, d.f64s()?, d.f64s()?, d.f64s()?, d.f64s()?);

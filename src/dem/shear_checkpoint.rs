@@ -1,9 +1,7 @@
 //! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
 
-use super::checkpoint::{Dec, Enc};
-use super::grains::Grains;
+use super::checkpoint::{Dec, Enc, dec_grains, dec_list, enc_grains, enc_list};
 use super::shear::{Collisions, Predicted, ShearParams, ShearSim, Virial};
-use super::verlet::PairList;
 
 const MAGIC: &[u8; 8] = b"PPSHEAR1";
 
@@ -17,24 +15,9 @@ impl ShearSim {
                 .expect("params serialise")
                 .as_bytes(),
         );
-        let g = &self.g;
-        e.i64s(&g.id);
-        e.i32s(&g.species);
-        for v in [
-            &g.radius, &g.mass, &g.inertia, &g.x, &g.y, &g.vx, &g.vy, &g.ax, &g.ay, &g.theta,
-            &g.omega,
-        ] {
-            e.f64s(v);
-        }
-        let l = &self.list;
-        e.u32s(&l.start);
-        e.u32s(&l.j);
-        for v in [&l.shear, &l.x_ref, &l.y_ref] {
-            e.f64s(v);
-        }
-        e.f64(l.skin);
-        e.u64(l.builds);
-        e.f64(l.offset_ref);
+        enc_grains(&mut e, &self.g);
+        enc_list(&mut e, &self.list);
+        e.f64(self.list.offset_ref);
         e.f64(self.l);
         e.f64(self.time);
         e.u64(self.step);
@@ -76,36 +59,9 @@ impl ShearSim {
         let mut d = Dec::new(&b[8..]);
         let p: ShearParams =
             serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
-        let mut g = Grains {
-            id: d.i64s()?,
-            species: d.i32s()?,
-            ..Default::default()
-        };
-        for v in [
-            &mut g.radius,
-            &mut g.mass,
-            &mut g.inertia,
-            &mut g.x,
-            &mut g.y,
-            &mut g.vx,
-            &mut g.vy,
-            &mut g.ax,
-            &mut g.ay,
-            &mut g.theta,
-            &mut g.omega,
-        ] {
-            *v = d.f64s()?;
-        }
-        let list = PairList {
-            start: d.u32s()?,
-            j: d.u32s()?,
-            shear: d.f64s()?,
-            x_ref: d.f64s()?,
-            y_ref: d.f64s()?,
-            skin: d.f64()?,
-            builds: d.u64()?,
-            offset_ref: d.f64()?,
-        };
+        let g = dec_grains(&mut d)?;
+        let mut list = dec_list(&mut d)?;
+        list.offset_ref = d.f64()?;
         let (l, time, step) = (d.f64()?, d.f64()?, d.u64()?);
         let (fx, fy, tq) = (d.f64s()?, d.f64s()?, d.f64s()?);
         let arr4 = |v: Vec<f64>| -> Result<[f64; 4], String> {
