@@ -1,28 +1,11 @@
 //! `fit` and `compare` from the user's side (issue 4 acceptance).
 
+mod common;
+
+use common::{cli as run, tmpdir};
 use pillar_pipe::fit::d2min_over_r2;
 use pillar_pipe::rng::Rng;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pp-fit-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> (bool, String) {
-    let out = Command::new(BIN).args(args).output().expect("binary runs");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.success(), text)
-}
+use std::path::Path;
 
 /// A `kinematics` CSV whose (η^s, D²min) follow Eq. 19 (D = 1, so R² = 1/4) with
 /// multiplicative log-normal scatter `s`; 10 start frames, lags 1, 2, 4.

@@ -2,11 +2,12 @@
 //! ground truth), round trips, and every bad input of issue 2 with its message and no
 //! output left behind.
 
+mod common;
+
+use common::{cli as run, tmpdir};
 use pillar_pipe::io::read_tracks;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
 
 /// The shared sample with its ground truth (present in the project workspace and CI).
 fn sample_dir() -> PathBuf {
@@ -16,23 +17,6 @@ fn sample_dir() -> PathBuf {
 /// The bundled copy of the same trackpy file (always in the repository).
 fn bundled_tracks() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/sample/tracks.csv")
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pp-ingest-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> (bool, String) {
-    let out = Command::new(BIN).args(args).output().expect("binary runs");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.success(), text)
 }
 
 fn scaled_sample(dir: &Path) -> PathBuf {

@@ -1,30 +1,13 @@
 //! The kinematics and fit stages from the user's side (CLI), on generated tracks with a
 //! known answer.
 
+mod common;
+
+use common::{cli as run, tmpdir};
 use pillar_pipe::geom::Mat2;
 use pillar_pipe::io::write_tracks;
 use pillar_pipe::synth::{bidisperse_packing, two_frame_tracks};
 use std::path::PathBuf;
-use std::process::Command;
-
-const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pp-kin-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> (bool, String) {
-    let out = Command::new(BIN).args(args).output().expect("binary runs");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.success(), text)
-}
 
 /// A plain canonical CSV (no sidecar, no species) in the minimal column set.
 fn plain_csv(dir: &std::path::Path, shuffle: bool) -> PathBuf {

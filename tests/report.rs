@@ -2,17 +2,11 @@
 //! group per series), a self-contained HTML with every section, and a headless-browser
 //! check when Chromium is installed.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{BIN, tmpdir};
+use std::path::Path;
 use std::process::Command;
-
-const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pp-report-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn quickstart(out: &Path) -> String {
     let o = Command::new(BIN)

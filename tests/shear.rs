@@ -2,11 +2,13 @@
 //! CD's decoupling of rotation, the Z = 2 τ_dur ν_coll consistency check, ⟨θ̇/γ̇⟩ ≈ −1/2,
 //! the linear profile, and the CLI's outputs.
 
+mod common;
+
+use common::tmpdir;
 use pillar_pipe::dem::grains::{Grains, SMALL};
 use pillar_pipe::dem::shear::{Dissipation, ShearParams, ShearSim};
 use pillar_pipe::io::table::read_table;
 use pillar_pipe::stages::shear::{ShearOptions, run};
-use std::path::PathBuf;
 use std::process::Command;
 
 fn params(n: usize, phi: f64, model: Dissipation, rate: f64) -> ShearParams {
@@ -20,12 +22,6 @@ fn params(n: usize, phi: f64, model: Dissipation, rate: f64) -> ShearParams {
         dt: 0.05,
         seed: 3,
     }
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pp-shear-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
 }
 
 /// Two disks touching across the top/bottom boundary, or the same pair with j placed

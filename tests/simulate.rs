@@ -2,29 +2,13 @@
 //! their schemas, kinematics reading the trajectories, checkpoint–kill–resume equal to
 //! an uninterrupted run, and clear refusals.
 
+mod common;
+
+use common::{BIN, cli as run, tmpdir};
 use pillar_pipe::io::table::read_table;
 use pillar_pipe::schema;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pp-sim-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> (bool, String) {
-    let out = Command::new(BIN).args(args).output().expect("binary runs");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.success(), text)
-}
 
 fn columns(p: &Path) -> Vec<String> {
     read_table(p, &[]).unwrap().columns()

@@ -1,5 +1,5 @@
-//! Helpers shared by the pipeline tests: run the CLI against a runs directory, read
-//! manifests, inspect the cache.
+//! Helpers shared by the integration tests: scratch directories, the CLI (alone or
+//! against a runs directory), manifests, the cache.
 
 #![allow(dead_code)]
 
@@ -13,10 +13,21 @@ pub const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
 pub const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
 pub fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pp-pipeline-{name}-{}", std::process::id()));
+    let d = std::env::temp_dir().join(format!("pp-test-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// Run the CLI: (success, stdout followed by stderr).
+pub fn cli(args: &[&str]) -> (bool, String) {
+    let out = Command::new(BIN).args(args).output().expect("binary runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
 }
 
 pub fn bundled(name: &str) -> String {
