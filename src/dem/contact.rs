@@ -84,7 +84,7 @@ impl TangentialLaw for Frictionless {
 
 /// `a` when `c`, else `b`, as a bit mask (no branch to mispredict).
 #[inline(always)]
-fn pick(c: bool, a: f64, b: f64) -> f64 {
+pub fn pick(c: bool, a: f64, b: f64) -> f64 {
     let m = 0u64.wrapping_sub(c as u64);
     f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }

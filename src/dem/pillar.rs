@@ -84,6 +84,11 @@ pub struct Scratch {
     pub buffers: StepBuffers,
     /// Threads for `advance` (0: one per core, at most one per 256 grains).
     pub threads: usize,
+    /// Never finish an `advance` on one thread when waits grow long (tests that must
+    /// really run split).
+    pub no_fallback: bool,
+    /// `advance` calls that finished on one thread because waits kept being long.
+    pub fallbacks: u64,
 }
 
 /// Per-grain constants derived from masses, radii and parameters, so the per-step

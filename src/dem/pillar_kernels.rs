@@ -5,19 +5,12 @@
 //! Resting and moving grains mix at random, so choices between them are bit masks, not
 //! branches that would mispredict.
 
-use super::contact::SubstrateFriction;
+use super::contact::{SubstrateFriction, pick};
 
 /// `v` when `keep`, else +0, without a branch.
 #[inline(always)]
 pub fn keep_or_zero(v: f64, keep: bool) -> f64 {
     f64::from_bits(v.to_bits() & 0u64.wrapping_sub(keep as u64))
-}
-
-/// `a` when `c`, else `b`, without a branch.
-#[inline(always)]
-pub fn pick(c: bool, a: f64, b: f64) -> f64 {
-    let m = 0u64.wrapping_sub(c as u64);
-    f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
 /// First half kick and drift of velocity Verlet (positions m, velocities m/s,

@@ -124,6 +124,7 @@ impl PillarSim {
                         (*sim.get()).serial_after(true);
                         let d = done.fetch_add(1, Ordering::Relaxed) + 1;
                         if threads > 1
+                            && !(*sim.get()).scratch.no_fallback
                             && d.is_multiple_of(FALLBACK_WINDOW)
                             && barrier.long_waits.swap(0, Ordering::Relaxed) > FALLBACK_LONG_WAITS
                         {
@@ -152,6 +153,7 @@ impl PillarSim {
         }
         let left = steps - done.load(Ordering::Relaxed);
         if left > 0 {
+            self.scratch.fallbacks += 1;
             self.advance_with(left, 1);
         }
     }

@@ -202,8 +202,8 @@ pub fn gather(
 }
 
 /// The bars as grains of infinite radius with 2 k_n and 2 k_t and friction μ_bar
-/// (Sec. II.B.2): the top face at `top` moving down at `v_bar` (m/s), the bottom at
-/// `bottom`, fixed.
+/// (Sec. II.B.2): the top face at height `top` (m) moving down at `v_bar` (m/s), the
+/// bottom face at `bottom` (m), fixed; time step `dt` (s).
 #[derive(Clone, Copy)]
 pub struct Bars {
     pub normal: Hooke,

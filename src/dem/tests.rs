@@ -332,6 +332,7 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
     let start = PillarSim::new(p, &x, &y, &pk.species, &ids);
     let run = |threads: usize| {
         let mut s = start.clone();
+        s.scratch.no_fallback = true; // really split, however busy the machine
         s.advance_with(3_000, threads);
         // A force snapshot on the last step, split across the threads too.
         s.record = Some(ContactRecord::default());
@@ -349,6 +350,7 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
     );
     for threads in [2, 3] {
         let other = run(threads);
+        assert_eq!(other.scratch.fallbacks, 0, "ran split on {threads} threads");
         assert_eq!(one.grains, other.grains, "{threads} threads");
         assert_eq!(one.list, other.list);
         assert_eq!(
@@ -364,6 +366,7 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
     }
     // And a run that switches thread counts half-way (as a resume on another machine).
     let mut mixed = start.clone();
+    mixed.scratch.no_fallback = true;
     mixed.advance_with(2_500, 2);
     mixed.advance_with(500, 1);
     mixed.record = Some(ContactRecord::default());

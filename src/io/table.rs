@@ -157,18 +157,23 @@ impl Table {
         }
     }
 
-    /// Column as f64 (ints are widened). Nulls are an error naming the row.
-    pub fn f64(&self, name: &str) -> Result<Vec<f64>> {
+    /// The column cast to f64 (ints widened), nulls kept.
+    fn float_column(&self, name: &str) -> Result<Column> {
         let c = self
             .df
             .column(name)
             .map_err(|e| Error::polars(&self.file, e))?;
-        let c = c.cast(&DataType::Float64).map_err(|_| Error::Value {
+        c.cast(&DataType::Float64).map_err(|_| Error::Value {
             file: self.file.clone(),
             loc: "whole column".into(),
             column: name.into(),
             msg: format!("has type {}, expected numbers", c.dtype()),
-        })?;
+        })
+    }
+
+    /// Column as f64 (ints are widened). Nulls are an error naming the row.
+    pub fn f64(&self, name: &str) -> Result<Vec<f64>> {
+        let c = self.float_column(name)?;
         if c.null_count() > 0 {
             return Err(self.null_error(name, &c));
         }
@@ -179,16 +184,7 @@ impl Table {
     /// Column as f64 with nulls read as NaN, for columns whose schema allows nulls
     /// (κ of the stress–strain table where P_in = 0).
     pub fn f64_or_nan(&self, name: &str) -> Result<Vec<f64>> {
-        let c = self
-            .df
-            .column(name)
-            .map_err(|e| Error::polars(&self.file, e))?;
-        let c = c.cast(&DataType::Float64).map_err(|_| Error::Value {
-            file: self.file.clone(),
-            loc: "whole column".into(),
-            column: name.into(),
-            msg: format!("has type {}, expected numbers", c.dtype()),
-        })?;
+        let c = self.float_column(name)?;
         let ca = c.f64().map_err(|e| Error::polars(&self.file, e))?;
         Ok(ca.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
     }

@@ -378,6 +378,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         "report": &report,
         "steps_this_session": sim.step - step0,
         "threads_this_session": sim.threads_for_run(),
+        "thread_fallbacks_this_session": sim.scratch.fallbacks,
         "particle_steps_per_s_this_session": (sim.grains.len() as f64 * (sim.step - step0) as f64) / elapsed,
         "decisions": super::sim_setup::DECISIONS,
     });
