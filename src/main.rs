@@ -12,6 +12,11 @@ use pillar_pipe::stages::ingest::{self, Format, IngestOptions};
 use pillar_pipe::stages::kinematics::{self as kin, KinematicsOptions, LagSpec};
 use std::path::PathBuf;
 
+// Large tables allocate and free hundreds of MB; glibc returns each to the kernel and
+// faults it in again page by page, mimalloc keeps and reuses it.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 #[derive(Parser)]
 #[command(
     name = "pillar-pipe",

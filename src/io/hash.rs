@@ -26,3 +26,16 @@ pub fn sha256_bytes(b: &[u8]) -> String {
 fn hex(b: &[u8]) -> String {
     b.iter().map(|x| format!("{x:02x}")).collect()
 }
+
+/// Make the calling thread the last to get a core (nice 19), so that work which can
+/// wait (hashing a large input) fills idle cycles instead of taking them from the
+/// parse. Linux sets niceness per thread; elsewhere this does nothing.
+pub fn lower_this_thread_priority() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: plain syscalls on the calling thread's own id; failure only leaves the
+    // priority unchanged.
+    unsafe {
+        let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;
+        libc::setpriority(libc::PRIO_PROCESS, tid, 19);
+    }
+}

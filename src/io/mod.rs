@@ -4,6 +4,7 @@
 
 pub mod atomic;
 pub mod csvdiag;
+pub mod fastcsv;
 pub mod hash;
 pub mod kinematics_io;
 pub mod lammps;

@@ -7,7 +7,8 @@
 //! up with the bar on top).
 
 use super::csvdiag::Expect;
-use super::table::read_table_columns;
+use super::fastcsv::read_numeric_csv;
+use super::table::{TableFormat, read_table_columns};
 use crate::error::{Error, Result};
 use crate::neighbors::{CellList, Cutoff};
 use crate::tracks::{LARGE, RowLocator, SMALL, Tracks, TracksMeta, finalize};
@@ -64,17 +65,22 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
             "missing length unit: --px-per-unit needs --unit (e.g. --unit cm)",
         )
     })?;
-    let table = read_table_columns(path, EXPECT, true)?;
-    table.require(&["x", "y", "frame", "particle"])?;
-    let x_px = table.f64("x")?;
-    let y_px = table.f64("y")?;
-    let frame = table.i64("frame")?;
-    let particle = table.i64("particle")?;
-    for (r, (&x, &y)) in x_px.iter().zip(&y_px).enumerate() {
+    let TrackpyColumns {
+        file,
+        x_px,
+        y_px,
+        frame,
+        particle,
+        size,
+        found,
+    } = read_columns(path)?;
+    let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+    let clean = finite(&x_px) && finite(&y_px);
+    for (r, (&x, &y)) in x_px.iter().zip(&y_px).enumerate().filter(|_| !clean) {
         for (c, v) in [("x", x), ("y", y)] {
             if !v.is_finite() {
                 return Err(Error::Value {
-                    file: table.file.clone(),
+                    file: file.clone(),
                     loc: format!("line {}", r + 2),
                     column: c.into(),
                     msg: format!("{v} is not a finite number"),
@@ -82,30 +88,27 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
             }
         }
     }
-    let size = if table.has("size") {
-        Some(table.f64("size")?)
-    } else {
-        None
-    };
     let (x0, y0) = opt
         .origin_px
         .unwrap_or((0.0, y_px.iter().copied().fold(f64::NEG_INFINITY, f64::max)));
-    let x: Vec<f64> = x_px.iter().map(|&v| (v - x0) / s).collect();
-    let y: Vec<f64> = y_px.iter().map(|&v| (y0 - v) / s).collect();
+    // In place: a 10 M-row file's columns are 80 MB each.
+    let (mut x, mut y) = (x_px, y_px);
+    x.iter_mut().for_each(|v| *v = (*v - x0) / s);
+    y.iter_mut().for_each(|v| *v = (y0 - *v) / s);
 
     let (species, threshold, n_small, n_large) = match &size {
         Some(sz) => split_by_size(&particle, sz),
         None if opt.radii.is_some() => {
             return Err(Error::input(
-                &table.file,
+                &file,
                 "no `size` column to tell the two species apart; trackpy's size column is needed",
             ));
         }
         None => {
             return Err(Error::MissingColumns {
-                file: table.file.clone(),
+                file: file.clone(),
                 missing: vec!["size".into()],
-                found: table.columns(),
+                found,
                 expected: vec![
                     "x".into(),
                     "y".into(),
@@ -160,12 +163,7 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
         theta: None,
         meta,
     };
-    let t = finalize(
-        t,
-        &table.file,
-        RowLocator::Line { first_data_line: 2 },
-        None,
-    )?;
+    let t = finalize(t, &file, RowLocator::Line { first_data_line: 2 }, None)?;
     Ok((
         t,
         SpeciesSplit {
@@ -179,28 +177,98 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
     ))
 }
 
+/// The columns trackpy output is read for, in pixels and frames.
+struct TrackpyColumns {
+    file: String,
+    x_px: Vec<f64>,
+    y_px: Vec<f64>,
+    frame: Vec<i64>,
+    particle: Vec<i64>,
+    size: Option<Vec<f64>>,
+    /// The file's columns, for the error when `size` is missing.
+    found: Vec<String>,
+}
+
+/// A plain numeric CSV with all five columns takes the fast reader; anything else
+/// (Parquet, quirks, errors to locate, a missing column) polars and its diagnostics.
+fn read_columns(path: &Path) -> Result<TrackpyColumns> {
+    let file = path.display().to_string();
+    if TableFormat::of(path) == TableFormat::Csv
+        && let Some(mut t) = read_numeric_csv(path, EXPECT)?
+        && let (Some(x_px), Some(y_px), Some(frame), Some(particle), Some(size)) = (
+            t.take_f64("x"),
+            t.take_f64("y"),
+            t.take_i64("frame"),
+            t.take_i64("particle"),
+            t.take_f64("size"),
+        )
+    {
+        return Ok(TrackpyColumns {
+            file,
+            x_px,
+            y_px,
+            frame,
+            particle,
+            size: Some(size),
+            found: Vec::new(),
+        });
+    }
+    let table = read_table_columns(path, EXPECT, true)?;
+    table.require(&["x", "y", "frame", "particle"])?;
+    Ok(TrackpyColumns {
+        file: table.file.clone(),
+        x_px: table.f64("x")?,
+        y_px: table.f64("y")?,
+        frame: table.i64("frame")?,
+        particle: table.i64("particle")?,
+        size: if table.has("size") {
+            Some(table.f64("size")?)
+        } else {
+            None
+        },
+        found: table.columns(),
+    })
+}
+
 /// Species per row from the per-trajectory median `size`, split into two populations by
 /// Otsu's threshold (the split minimising the within-class variance).
 fn split_by_size(particle: &[i64], size: &[f64]) -> (Vec<i32>, f64, usize, usize) {
-    let g = crate::tracks::ByParticle::new(particle);
-    let med: Vec<f64> = (0..g.len())
-        .map(|k| {
-            let mut v: Vec<f64> = g.rows_of(k).iter().map(|&r| size[r]).collect();
-            crate::stats::median_select(&mut v)
-        })
+    use rayon::prelude::*;
+    // Sizes grouped by trajectory (a counting sort), then a median per group.
+    let (dense, ids) = crate::tracks::dense_ids(particle);
+    let mut start = vec![0usize; ids.len() + 1];
+    for &d in &dense {
+        start[d as usize + 1] += 1;
+    }
+    for k in 0..ids.len() {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start[..ids.len()].to_vec();
+    let mut grouped = vec![0.0; size.len()];
+    for (&d, &v) in dense.iter().zip(size) {
+        grouped[fill[d as usize]] = v;
+        fill[d as usize] += 1;
+    }
+    let mut groups = Vec::with_capacity(ids.len());
+    let mut rest = grouped.as_mut_slice();
+    for k in 0..ids.len() {
+        let (g, r) = rest.split_at_mut(start[k + 1] - start[k]);
+        groups.push(g);
+        rest = r;
+    }
+    let med: Vec<f64> = groups
+        .into_par_iter()
+        .map(crate::stats::median_select)
         .collect();
     let mut vals = med.clone();
     vals.sort_by(f64::total_cmp);
     let threshold = otsu(&vals);
-    let n_large = med.iter().filter(|&&m| m > threshold).count();
-    let mut species = vec![SMALL; particle.len()];
-    for (k, &m) in med.iter().enumerate() {
-        if m > threshold {
-            for &r in g.rows_of(k) {
-                species[r] = LARGE;
-            }
-        }
-    }
+    let large: Vec<bool> = med.iter().map(|&m| m > threshold).collect();
+    let n_large = large.iter().filter(|&&l| l).count();
+    let species = dense
+        .iter()
+        .map(|&d| if large[d as usize] { LARGE } else { SMALL })
+        .collect();
     (species, threshold, med.len() - n_large, n_large)
 }
 

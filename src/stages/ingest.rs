@@ -3,7 +3,8 @@
 use crate::error::{Error, Result};
 use crate::io::lammps::{LammpsOptions, read_lammps};
 use crate::io::trackpy::{SpeciesSplit, TrackpyOptions, read_trackpy};
-use crate::io::{read_tracks, sha256_file, write_tracks};
+use crate::io::tracks_io::write_tracks_owned;
+use crate::io::{read_tracks, sha256_file};
 use crate::tracks::{
     Provenance, TracksSummary, detached_trajectories, drop_trajectories, summarize,
 };
@@ -187,63 +188,17 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         f => f,
     };
     let mut warnings = Vec::new();
-    // Hash the input on another thread while it is parsed.
-    let (source_sha256, tracks) = rayon::join(
-        || sha256_file(input),
-        || -> Result<_> {
-            let mut warnings = Vec::new();
-            let mut split = None;
-            let tracks = match format {
-                Format::Trackpy => {
-                    let keep_px = opt.px_per_unit.is_none() && opt.unit.as_deref() == Some("px");
-                    let o = TrackpyOptions {
-                        px_per_unit: if keep_px { Some(1.0) } else { opt.px_per_unit },
-                        unit: opt.unit.clone(),
-                        frame_time: opt.frame_time,
-                        radii: opt.radii,
-                        origin_px: opt.origin_px,
-                    };
-                    let (mut t, s) = read_trackpy(input, &o)?;
-                    split = Some(s);
-                    if !opt.keep_detached {
-                        let ids = detached_trajectories(&t);
-                        if !ids.is_empty() {
-                            warnings.push(format!(
-                        "dropped {} detached trajectories (fewer than 2 detections within 1.25 D in most of their frames; tracker artefacts such as bar corners): particles {:?}; --keep-detached keeps them",
-                        ids.len(),
-                        ids
-                    ));
-                            drop_trajectories(&mut t, &ids);
-                        }
-                    }
-                    t
-                }
-                Format::Lammps => read_lammps(
-                    input,
-                    &LammpsOptions {
-                        unit: opt.unit.clone(),
-                        frame_time: opt.frame_time,
-                        radii: opt.radii,
-                    },
-                )?,
-                Format::Canonical => {
-                    let (mut t, w) = read_tracks(input)?;
-                    warnings.extend(w);
-                    if let Some(u) = &opt.unit {
-                        t.meta.length_unit = u.clone();
-                    }
-                    if let Some(dt) = opt.frame_time {
-                        t.meta.frame_time = Some(dt);
-                        t.meta.time_unit = "s".into();
-                    }
-                    t
-                }
-                Format::Auto => unreachable!("resolved above"),
-            };
-            Ok((tracks, warnings, split))
-        },
-    );
-    let (mut tracks, w, s) = tracks?;
+    // Hash the input on a low-priority thread: it takes the cycles the parse leaves
+    // idle (the single-threaded steps after it) instead of half the parse's cores.
+    let hasher = {
+        let input = input.to_path_buf();
+        std::thread::spawn(move || {
+            crate::io::hash::lower_this_thread_priority();
+            sha256_file(&input)
+        })
+    };
+    let read = read_input(input, format, opt);
+    let (mut tracks, w, s) = read?;
     warnings.extend(w);
     let split = s;
     if tracks.meta.frame_time.is_none() {
@@ -258,7 +213,9 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         tool_version: super::VERSION.into(),
         source: input.display().to_string(),
         source_format: format!("{format:?}").to_lowercase(),
-        source_sha256: source_sha256?,
+        source_sha256: hasher
+            .join()
+            .map_err(|_| Error::Other("the hashing thread panicked".into()))??,
         parameters: serde_json::json!({
             "px_per_unit": opt.px_per_unit, "unit": opt.unit, "frame_time": opt.frame_time,
             "radii": opt.radii, "origin_px": opt.origin_px, "bar_speed": opt.bar_speed,
@@ -266,7 +223,7 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         }),
     };
     tracks.meta.summary = serde_json::to_value(&summary).expect("summary serialises");
-    write_tracks(&tracks, output)?;
+    write_tracks_owned(tracks, output)?;
     Ok(IngestReport {
         input: input.display().to_string(),
         output: output.display().to_string(),
@@ -276,4 +233,63 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
         settings_file: settings_file.map(|p| p.display().to_string()),
         warnings,
     })
+}
+
+/// Read `input` in `format` into validated tracks, with warnings and (trackpy) the
+/// species split.
+fn read_input(
+    input: &Path,
+    format: Format,
+    opt: &IngestOptions,
+) -> Result<(crate::tracks::Tracks, Vec<String>, Option<SpeciesSplit>)> {
+    let mut warnings = Vec::new();
+    let mut split = None;
+    let tracks = match format {
+        Format::Trackpy => {
+            let keep_px = opt.px_per_unit.is_none() && opt.unit.as_deref() == Some("px");
+            let o = TrackpyOptions {
+                px_per_unit: if keep_px { Some(1.0) } else { opt.px_per_unit },
+                unit: opt.unit.clone(),
+                frame_time: opt.frame_time,
+                radii: opt.radii,
+                origin_px: opt.origin_px,
+            };
+            let (mut t, s) = read_trackpy(input, &o)?;
+            split = Some(s);
+            if !opt.keep_detached {
+                let ids = detached_trajectories(&t);
+                if !ids.is_empty() {
+                    warnings.push(format!(
+                "dropped {} detached trajectories (fewer than 2 detections within 1.25 D in most of their frames; tracker artefacts such as bar corners): particles {:?}; --keep-detached keeps them",
+                ids.len(),
+                ids
+            ));
+                    drop_trajectories(&mut t, &ids);
+                }
+            }
+            t
+        }
+        Format::Lammps => read_lammps(
+            input,
+            &LammpsOptions {
+                unit: opt.unit.clone(),
+                frame_time: opt.frame_time,
+                radii: opt.radii,
+            },
+        )?,
+        Format::Canonical => {
+            let (mut t, w) = read_tracks(input)?;
+            warnings.extend(w);
+            if let Some(u) = &opt.unit {
+                t.meta.length_unit = u.clone();
+            }
+            if let Some(dt) = opt.frame_time {
+                t.meta.frame_time = Some(dt);
+                t.meta.time_unit = "s".into();
+            }
+            t
+        }
+        Format::Auto => unreachable!("resolved above"),
+    };
+    Ok((tracks, warnings, split))
 }

@@ -40,7 +40,21 @@ pub fn finalize(
     if t.is_empty() {
         return Err(Error::input(file, "no data rows (empty table)"));
     }
-    for r in 0..t.len() {
+    // One branch-free sweep per column first; the row-by-row walk below only runs to
+    // name the first bad row when there is one.
+    let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+    let clean = t.frame.iter().fold(true, |ok, &f| ok & (f >= 0))
+        && finite(&t.x)
+        && finite(&t.y)
+        && t.radius
+            .iter()
+            .fold(true, |ok, &r| ok & (r > 0.0) & r.is_finite())
+        && t.species
+            .as_ref()
+            .is_none_or(|s| s.iter().fold(true, |ok, &v| ok & ((v == 0) | (v == 1))))
+        && t.time.as_deref().is_none_or(finite)
+        && t.theta.as_deref().is_none_or(finite);
+    for r in (0..t.len()).filter(|_| !clean) {
         if t.frame[r] < 0 {
             return Err(bad(
                 r,
@@ -80,26 +94,25 @@ pub fn finalize(
             }
         }
     }
-    let mut perm: Vec<usize> = (0..t.len()).collect();
-    let sorted = perm
-        .windows(2)
-        .all(|w| (t.frame[w[0]], t.particle[w[0]]) < (t.frame[w[1]], t.particle[w[1]]));
+    let sorted =
+        (1..t.len()).all(|r| (t.frame[r - 1], t.particle[r - 1]) < (t.frame[r], t.particle[r]));
+    // Strictly increasing keys have no duplicates; otherwise sort a permutation, look
+    // for equal neighbours, and apply it.
     if !sorted {
+        let mut perm: Vec<usize> = (0..t.len()).collect();
         perm.sort_by_key(|&i| (t.frame[i], t.particle[i], i));
-    }
-    for w in perm.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        if t.frame[a] == t.frame[b] && t.particle[a] == t.particle[b] {
-            return Err(Error::Duplicate {
-                file: file.to_string(),
-                frame: t.frame[a],
-                particle: t.particle[a],
-                first: loc(a),
-                second: loc(b),
-            });
+        for w in perm.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if t.frame[a] == t.frame[b] && t.particle[a] == t.particle[b] {
+                return Err(Error::Duplicate {
+                    file: file.to_string(),
+                    frame: t.frame[a],
+                    particle: t.particle[a],
+                    first: loc(a),
+                    second: loc(b),
+                });
+            }
         }
-    }
-    if !sorted {
         t.permute(&perm);
     }
     t.meta.boxes.sort_by_key(|b| b.frame);
