@@ -122,17 +122,15 @@ impl SubstrateFriction {
     ) -> (f64, f64) {
         // Both cases computed and one picked without a branch: moving and resting
         // grains mix at random.
+        // One square root and one division: a moving grain's scale is m g μ/|v|, a
+        // resting grain's 1 or m g μ/|f|, so the root is taken of whichever applies.
         let v2 = vx * vx + vy * vy;
-        let k_moving = f_max / v2.max(f64::MIN_POSITIVE).sqrt();
         let f2 = fx * fx + fy * fy;
-        let k_rest = if f2 <= f_max2 {
-            1.0
-        } else {
-            f_max / f2.max(f64::MIN_POSITIVE).sqrt()
-        };
         let moving = v2 > 0.0;
+        let q = pick(moving, v2, f2);
+        let k_q = f_max / q.max(f64::MIN_POSITIVE).sqrt();
+        let k = pick(moving | (f2 > f_max2), k_q, 1.0);
         let (ax, ay) = (pick(moving, vx, fx), pick(moving, vy, fy));
-        let k = pick(moving, k_moving, k_rest);
         (-k * ax, -k * ay)
     }
 

@@ -115,7 +115,9 @@ impl PillarSim {
     /// Raw views of every array, and this step's switches (frozen skip, force
     /// snapshot, second kick).
     pub(crate) fn arrays(&mut self, kick: bool) -> Arrays {
+        // Skipping is exact only without normal damping (see `pair_slots`).
         let freeze = self.scratch.skip_frozen
+            && self.params.damping_n == 0.0
             && self.record.is_none()
             && self.scratch.buffers.slots_valid
             && kick;
@@ -174,6 +176,13 @@ impl PillarSim {
     }
 }
 
+/// This step's rest flags (the other half of the array is the next step's, which a
+/// thread ahead in its kick may be writing).
+unsafe fn resting<'a>(a: &Arrays, parity: usize) -> &'a [bool] {
+    let n = a.x.1;
+    unsafe { a.resting.part(parity * n..parity * n + n) }
+}
+
 /// Thread t's grains.
 unsafe fn range(a: &Arrays, t: usize) -> Range<usize> {
     let b = unsafe { &*a.bounds };
@@ -181,9 +190,10 @@ unsafe fn range(a: &Arrays, t: usize) -> Range<usize> {
 }
 
 /// Phase 1: kick and drift of thread t's grains; their largest move since the build.
-pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64) -> f64 {
+pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) -> f64 {
     unsafe {
         let r = range(a, t);
+        let n = a.x.1;
         let refs_ok = a.x_ref.1 == a.x.1;
         let (xr, yr): (&[f64], &[f64]) = if refs_ok {
             (&a.x_ref.all()[r.clone()], &a.y_ref.all()[r.clone()])
@@ -200,15 +210,15 @@ pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64) -> f64 {
             &a.ax.all()[r.clone()],
             &a.ay.all()[r.clone()],
             &a.omega.all()[r.clone()],
-            a.resting.part(r.clone()),
+            a.resting.part(parity * n + r.start..parity * n + r.end),
             xr,
             yr,
         )
     }
 }
 
-/// Phase 2: frozen flags of thread t's grains.
-pub(crate) unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim) {
+/// Frozen flags of thread t's grains (each reads every grain's rest flag).
+unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
     unsafe {
         let r = range(a, t);
         let out = a.frozen.part(r.clone());
@@ -218,21 +228,21 @@ pub(crate) unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim) {
         }
         let margin = 2.0 * s.params.bar_speed * s.params.dt;
         let c = mark_frozen(
-            r,
+            r.clone(),
             out,
-            a.resting.all(),
-            a.y.all(),
-            a.radius.all(),
+            resting(a, parity),
+            a.y.part(r),
             (a.start.all(), a.js.all()),
             &*a.rev,
             (s.top_y(), s.bottom_y, margin),
+            a.radius.all(),
         );
         a.frozen_count.part(t..t + 1)[0] = c;
     }
 }
 
-/// Phase 3: the pair slots of thread t's grains.
-pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim) {
+/// Phase 2: the pair slots of thread t's grains.
+pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
     unsafe {
         let r = range(a, t);
         let start = a.start.all();
@@ -256,7 +266,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim) {
             (start, a.js.all()),
             a.shear.part(slots.clone()),
             a.slot_force.part(slots),
-            a.freeze.then(|| a.frozen.all()),
+            a.freeze.then(|| resting(a, parity)),
             (&s.normal(), &s.tangential(), s.params.dt),
             rec,
         );
@@ -264,11 +274,16 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim) {
     }
 }
 
-/// Phase 4: thread t's grains: contact sums, bars, substrate and second kick.
-pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim) {
+/// Phase 3: thread t's grains: frozen flags, contact sums, bars, substrate and second
+/// kick.
+///
+/// No barrier separates this from the next step's kick, so it reads other threads'
+/// grains only in arrays no kick writes (slot forces, radii, the list).
+pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
     unsafe {
+        phase_frozen(a, t, s, parity);
         let r = range(a, t);
-        let frozen = a.frozen.all();
+        let frozen: &[bool] = a.frozen.part(r.clone());
         let fz = a.freeze.then_some(frozen);
         let (fx, fy, tq) = (
             a.fx.part(r.clone()),
@@ -308,7 +323,7 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim) {
             a.vy.part(r.clone()),
             a.omega.part(r.clone()),
         );
-        let (ys, rs) = (a.y.all(), a.radius.all());
+        let (ys, rs): (&[f64], &[f64]) = (a.y.part(r.clone()), &a.radius.all()[r.clone()]);
         let (top_shear, bottom_shear) =
             (a.top_shear.part(r.clone()), a.bottom_shear.part(r.clone()));
         for (k, ch) in chunks.clone().enumerate() {
@@ -317,12 +332,12 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim) {
             sums[k] = bar_contacts(
                 &bars,
                 BarGrains {
-                    y: &ys[cr.clone()],
+                    y: &ys[local.clone()],
                     vx: &vx[local.clone()],
                     vy: &vy[local.clone()],
                     omega: &omega[local.clone()],
-                    radius: &rs[cr.clone()],
-                    frozen: fz.map(|f| &f[cr.clone()]),
+                    radius: &rs[local.clone()],
+                    frozen: fz.map(|f| &f[local.clone()]),
                     top_shear: &mut top_shear[local.clone()],
                     bottom_shear: &mut bottom_shear[local.clone()],
                 },
@@ -344,7 +359,7 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim) {
             p.dt,
             &s.substrate(),
             &c,
-            fz.map(|f| &f[r.clone()]),
+            fz,
             (fx, fy, tq),
             (vx, vy, a.ax.part(r.clone()), a.ay.part(r.clone()), omega),
             (a.sub_fx.part(r.clone()), a.sub_fy.part(r.clone())),

@@ -66,17 +66,20 @@ pub struct GrainConsts<'a> {
     pub xi_omega: &'a [f64],
 }
 
+crate::multiversion! {
 /// Substrate friction from the contact forces `fx`, `fy` (N) and torques `tq` (N m),
 /// new accelerations, and when `kick` the second half kick, the spin update and the
 /// ξ rule of Eq. 11 (`xi_v2` = ξ_v², m²/s²). Frozen grains (when `kick`) are left as
-/// they are. Returns the substrate's dissipated power Σ|f·v|, Σ|T_μ ω| (W).
+/// they are. Each grain's dissipated power |f·v| and |T_μ ω| (W) goes into `pow_t` and
+/// `pow_r` (summed by the caller in a fixed order, so these loops carry no sum and run
+/// as vectors).
 #[allow(clippy::too_many_arguments)]
 pub fn substrate_kick(
     kick: bool,
     dt: f64,
     xi_v2: f64,
     sub: &SubstrateFriction,
-    c: &GrainConsts,
+    c: &GrainConsts<'_>,
     frozen: &[bool],
     fx: &[f64],
     fy: &[f64],
@@ -88,8 +91,11 @@ pub fn substrate_kick(
     omega: &mut [f64],
     sub_fx: &mut [f64],
     sub_fy: &mut [f64],
-) -> (f64, f64) {
+    pow_t: &mut [f64],
+    pow_r: &mut [f64],
+) {
     let n = vx.len();
+    let (pow_t, pow_r) = (&mut pow_t[..n], &mut pow_r[..n]);
     let (fx, fy, tq, vy) = (&fx[..n], &fy[..n], &tq[..n], &mut vy[..n]);
     let (ax, ay, omega) = (&mut ax[..n], &mut ay[..n], &mut omega[..n]);
     let (sub_fx, sub_fy) = (&mut sub_fx[..n], &mut sub_fy[..n]);
@@ -101,19 +107,19 @@ pub fn substrate_kick(
     // (square root, division, kick, test) is long, and short bodies let the processor
     // overlap many more iterations. Frozen grains keep their values (a mask, not a
     // branch).
-    let mut p_t = 0.0;
     for i in 0..n {
         let (f_x, f_y, v_x, v_y) = (fx[i], fy[i], vx[i], vy[i]);
         let (sx, sy) = sub.force_with(f_max[i], f_max2[i], v_x, v_y, f_x, f_y);
         let hold = skip && frozen[i];
-        p_t += keep_or_zero((sx * v_x + sy * v_y).abs(), !hold);
+        pow_t[i] = keep_or_zero((sx * v_x + sy * v_y).abs(), !hold);
         sub_fx[i] = pick(hold, sub_fx[i], sx);
         sub_fy[i] = pick(hold, sub_fy[i], sy);
         ax[i] = pick(hold, ax[i], (f_x + sx) * inv_m[i]);
         ay[i] = pick(hold, ay[i], (f_y + sy) * inv_m[i]);
     }
     if !kick {
-        return (p_t, 0.0);
+        pow_r.fill(0.0);
+        return;
     }
     for i in 0..n {
         let (f_x, f_y) = (fx[i], fy[i]);
@@ -126,15 +132,31 @@ pub fn substrate_kick(
         ax[i] = keep_or_zero(ax[i], keep);
         ay[i] = keep_or_zero(ay[i], keep);
     }
-    let mut p_r = 0.0;
     for i in 0..n {
         let (t, w, t_m) = (tq[i], omega[i], t_max[i]);
         let ts = sub.torque_with(t_m, w, t);
         let hold = skip && frozen[i];
-        p_r += keep_or_zero((ts * w).abs(), !hold);
+        pow_r[i] = keep_or_zero((ts * w).abs(), !hold);
         let w_new = w + dt * (t + ts) * inv_i[i];
         let w_new = keep_or_zero(w_new, !((w_new.abs() < xi_omega[i]) & (t.abs() <= t_m)));
         omega[i] = pick(hold, w, w_new);
     }
-    (p_t, p_r)
+}
+}
+
+/// Σ v in a fixed order that vectorises: four running sums over every fourth element,
+/// then (s0 + s1) + (s2 + s3).
+#[inline(always)]
+pub fn sum4(v: &[f64]) -> f64 {
+    let mut a = [0.0; 4];
+    let mut c = v.chunks_exact(4);
+    for q in &mut c {
+        for l in 0..4 {
+            a[l] += q[l];
+        }
+    }
+    for (l, x) in c.remainder().iter().enumerate() {
+        a[l] += x;
+    }
+    (a[0] + a[1]) + (a[2] + a[3])
 }

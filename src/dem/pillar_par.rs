@@ -8,7 +8,7 @@
 
 use super::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
 use super::pillar::PillarSim;
-use super::pillar_arrays::{SendPtr, Shared, phase_frozen, phase_grains, phase_kick, phase_pairs};
+use super::pillar_arrays::{SendPtr, Shared, phase_grains, phase_kick, phase_pairs};
 use super::pillar_phases::{CHUNK, Reverse};
 use super::verlet::Boundary;
 use std::cell::UnsafeCell;
@@ -83,21 +83,45 @@ impl PillarSim {
         // busy with other work each barrier can cost a scheduler time slice.
         let done = AtomicU64::new(0);
         let fall_back = AtomicBool::new(false);
+        // SAFETY: read before any thread starts.
+        let first = unsafe { (*sim.get()).step };
+        // Three barriers a step: after the kick (then thread 0's serial part: last
+        // step's totals, the list test, this step's views), after the serial part, and
+        // after the pair slots. A thread's grain phase and its next kick touch only its
+        // own grains and the next step's half of the rest flags, so they need none.
         let body = |t: usize| {
             let _poison = PoisonOnPanic(&barrier);
             let mut spin = MAX_SPIN;
-            for _ in 0..steps {
+            let mut completed = 0u64;
+            for k in 0..steps {
+                // Set by thread 0 in a serial part; every thread has passed a barrier
+                // since, so all stop at the same step.
+                if fall_back.load(Ordering::Relaxed) {
+                    break;
+                }
+                let parity = ((first + k + 1) % 2) as usize;
                 // SAFETY: see the module notes; serial sections run on thread 0 while
                 // the others wait at a barrier holding no references.
                 unsafe {
                     let a = *shared.get();
                     let clock = std::time::Instant::now();
-                    let m = phase_kick(&a, t, (*sim.get()).params.dt);
+                    let m = phase_kick(&a, t, (*sim.get()).params.dt, parity);
                     *a.moved2.part(t..t + 1).first_mut().expect("slot") = m;
                     let mut work = clock.elapsed().as_secs_f64();
                     barrier.wait(t, &mut spin);
                     if t == 0 {
                         let s = &mut *sim.get();
+                        if k > 0 {
+                            s.serial_after(true);
+                            if threads > 1
+                                && !s.scratch.no_fallback
+                                && k.is_multiple_of(FALLBACK_WINDOW)
+                                && barrier.long_waits.swap(0, Ordering::Relaxed)
+                                    > FALLBACK_LONG_WAITS
+                            {
+                                fall_back.store(true, Ordering::Relaxed);
+                            }
+                        }
                         s.serial_before();
                         if s.step.is_multiple_of(REBALANCE_EVERY) {
                             s.rebalance();
@@ -108,34 +132,18 @@ impl PillarSim {
                     let a = *shared.get();
                     let s = &*sim.get();
                     let clock = std::time::Instant::now();
-                    phase_frozen(&a, t, s);
+                    phase_pairs(&a, t, s, parity);
                     work += clock.elapsed().as_secs_f64();
                     barrier.wait(t, &mut spin);
                     let clock = std::time::Instant::now();
-                    phase_pairs(&a, t, s);
-                    work += clock.elapsed().as_secs_f64();
-                    barrier.wait(t, &mut spin);
-                    let clock = std::time::Instant::now();
-                    phase_grains(&a, t, s);
+                    phase_grains(&a, t, s, parity);
                     work += clock.elapsed().as_secs_f64();
                     a.busy.part(t..t + 1)[0] += work;
-                    barrier.wait(t, &mut spin);
-                    if t == 0 {
-                        (*sim.get()).serial_after(true);
-                        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                        if threads > 1
-                            && !(*sim.get()).scratch.no_fallback
-                            && d.is_multiple_of(FALLBACK_WINDOW)
-                            && barrier.long_waits.swap(0, Ordering::Relaxed) > FALLBACK_LONG_WAITS
-                        {
-                            fall_back.store(true, Ordering::Relaxed);
-                        }
-                    }
-                    barrier.wait(t, &mut spin);
-                    if fall_back.load(Ordering::Relaxed) {
-                        break;
-                    }
                 }
+                completed += 1;
+            }
+            if t == 0 {
+                done.store(completed, Ordering::Relaxed);
             }
         };
         if threads == 1 {
@@ -151,7 +159,12 @@ impl PillarSim {
                 body(0);
             });
         }
-        let left = steps - done.load(Ordering::Relaxed);
+        // The last step's totals (the next step's serial part would have formed them).
+        let done = done.load(Ordering::Relaxed);
+        if done > 0 {
+            self.serial_after(true);
+        }
+        let left = steps - done;
         if left > 0 {
             self.scratch.fallbacks += 1;
             self.advance_with(left, 1);
@@ -167,8 +180,8 @@ impl PillarSim {
         // SAFETY: one thread; the arrays outlive the calls.
         unsafe {
             let s = &*(self as *const PillarSim);
-            phase_pairs(&a, 0, s);
-            phase_grains(&a, 0, s);
+            phase_pairs(&a, 0, s, 0);
+            phase_grains(&a, 0, s, 0);
         }
         self.serial_after(false);
     }
@@ -181,7 +194,8 @@ impl PillarSim {
             .consts
             .refresh(&self.grains, &sub, self.params.dt);
         let sc = &mut self.scratch;
-        sc.resting.resize(n, false);
+        // Two halves, this step's and the next's (see `advance_with`).
+        sc.resting.resize(2 * n, false);
         sc.frozen.resize(n, false);
         let b = &mut sc.buffers;
         let chunks = n.div_ceil(CHUNK);

@@ -2,18 +2,18 @@
 //! range of grains, or the pair slots those grains own, so threads can share a step
 //! without locks and without the answer depending on how the grains were split:
 //!
-//! 1. kick and drift (per grain);
-//! 2. which grains are frozen (per grain, reading every grain's rest flag);
-//! 3. every pair's contact force into its own slot (per pair, half list);
-//! 4. each grain's sum over its slots in a fixed order (own slots, then the slots where
-//!    it is the partner), the bars, the substrate and the second kick (per grain).
+//! 1. kick and drift (per grain), marking the grains at rest before the move;
+//! 2. every pair's contact force into its own slot (per pair, half list);
+//! 3. which grains are frozen (per grain, reading every grain's rest flag), each
+//!    grain's sum over its slots in a fixed order (own slots, then the slots where it is
+//!    the partner), the bars, the substrate and the second kick (per grain).
 //!
 //! Sums over grains (bar forces, dissipated power) are formed per [`CHUNK`] of grains
 //! and the chunks added in order; threads get whole chunks. So every thread count gives
 //! the same numbers, bit for bit.
 
 use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, TangentialLaw};
-use super::pillar_kernels::{GrainConsts, substrate_kick};
+use super::pillar_kernels::{GrainConsts, substrate_kick, sum4};
 use std::ops::Range;
 
 /// Grains per reduction chunk.
@@ -59,23 +59,23 @@ impl Reverse {
     }
 }
 
-/// Phase 2: grains in `range` frozen this step (at rest, every partner at rest, clear
-/// of both bars by a margin of one step of bar travel); `frozen` holds the range's
-/// flags. Returns how many.
+/// Grains in `range` frozen this step (at rest, every partner at rest, clear of both
+/// bars by a margin of one step of bar travel); `frozen` and `y` hold the range's
+/// values, `resting` and `radius` every grain's. Returns how many.
 #[allow(clippy::too_many_arguments)]
 pub fn mark_frozen(
     range: Range<usize>,
     frozen: &mut [bool],
     resting: &[bool],
     y: &[f64],
-    radius: &[f64],
     (start, js): (&[u32], &[u32]),
     rev: &Reverse,
     (top, bottom, margin): (f64, f64, f64),
+    radius: &[f64],
 ) -> usize {
     let mut count = 0;
-    for (f, i) in frozen.iter_mut().zip(range) {
-        let mut ok = resting[i] && top - y[i] > radius[i] + margin && y[i] - bottom > radius[i];
+    for ((f, i), &yi) in frozen.iter_mut().zip(range).zip(y) {
+        let mut ok = resting[i] && top - yi > radius[i] + margin && yi - bottom > radius[i];
         if ok {
             ok = js[start[i] as usize..start[i + 1] as usize]
                 .iter()
@@ -111,7 +111,11 @@ pub struct SlotRecord<'a> {
 /// force on the owner (N, x and y) and the torque on each grain (N m), Eqs. 4, 7, 8.
 /// Normal along n = r_ij/|r_ij|, tangential along t̂ = ẑ × n from the contact history;
 /// lever arms ½|r_ij|; separated pairs forget their history and hold zeros. A slot
-/// between two `frozen` grains keeps last step's values. Returns the slots skipped.
+/// between two grains `resting` this step (v = a = ω = 0 before the drift, so neither
+/// moves, and no slip adds to the history) keeps last step's values, which are then
+/// exactly what it would compute: the same positions, an unchanged shear spring, and,
+/// without normal damping (the caller's condition), no velocity term. Returns the
+/// slots skipped.
 #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 pub fn pair_slots(
     range: Range<usize>,
@@ -119,7 +123,7 @@ pub fn pair_slots(
     (start, js): (&[u32], &[u32]),
     shear: &mut [f64],
     slot_force: &mut [[f64; 3]],
-    frozen: Option<&[bool]>,
+    resting: Option<&[bool]>,
     (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
     mut rec: Option<SlotRecord>,
 ) -> u64 {
@@ -128,11 +132,11 @@ pub fn pair_slots(
     for i in range {
         let (xi, yi, ri, vxi, vyi, wi) =
             (g.x[i], g.y[i], g.radius[i], g.vx[i], g.vy[i], g.omega[i]);
-        let fi = frozen.is_some_and(|f| f[i]);
+        let fi = resting.is_some_and(|f| f[i]);
         for k in start[i] as usize..start[i + 1] as usize {
             let j = js[k] as usize;
             let s = k - k0;
-            if fi && frozen.is_some_and(|f| f[j]) {
+            if fi && resting.is_some_and(|f| f[j]) {
                 skipped += 1;
                 continue;
             }
@@ -166,7 +170,8 @@ pub fn pair_slots(
 
 /// Phase 4a: each grain's contact force and torque, Σ over its own slots minus Σ over
 /// the slots where it is the partner (the torque T_ij = −½ r_ij × F_t acts alike on
-/// both); `fx`, `fy`, `tq` hold the range. Frozen grains keep last step's sums.
+/// both); `frozen`, `fx`, `fy`, `tq` hold the range's. Frozen grains keep last step's
+/// sums.
 #[allow(clippy::too_many_arguments)]
 pub fn gather(
     range: Range<usize>,
@@ -180,7 +185,7 @@ pub fn gather(
 ) {
     let lo = range.start;
     for i in range {
-        if frozen.is_some_and(|f| f[i]) {
+        if frozen.is_some_and(|f| f[i - lo]) {
             continue;
         }
         let (mut sx, mut sy, mut st) = (0.0, 0.0, 0.0);
@@ -315,7 +320,9 @@ pub fn substrate_chunks(
             t_max: &c.t_max[r.clone()],
             xi_omega: &c.xi_omega[r.clone()],
         };
-        let (p_t, p_r) = substrate_kick(
+        let (mut pow_t, mut pow_r) = ([0.0; CHUNK], [0.0; CHUNK]);
+        let len = r.len();
+        substrate_kick(
             kick,
             dt,
             xi_v2,
@@ -332,7 +339,9 @@ pub fn substrate_chunks(
             &mut omega[r.clone()],
             &mut sub_fx[r.clone()],
             &mut sub_fy[r.clone()],
+            &mut pow_t[..len],
+            &mut pow_r[..len],
         );
-        *p = [p_t, p_r];
+        *p = [sum4(&pow_t[..len]), sum4(&pow_r[..len])];
     }
 }
