@@ -3,13 +3,24 @@
 //! fuses a multiply and an add on its own and vector lanes round as scalars do, so both
 //! versions give the same numbers bit for bit; the AVX2 one does four lanes at a time.
 
+use std::sync::atomic::{AtomicU8, Ordering};
+
+/// 0 not yet detected, 1 AVX2, 2 baseline.
+static STATE: AtomicU8 = AtomicU8::new(0);
+
+/// Use the baseline versions from now on (or AVX2 again where the processor has it):
+/// for tests that the two give the same numbers, and for timing one against the other.
+pub fn use_avx2(enabled: bool) {
+    STATE.store(0, Ordering::Relaxed);
+    let yes = enabled && has_avx2();
+    STATE.store(if yes { 1 } else { 2 }, Ordering::Relaxed);
+}
+
 /// Whether this processor runs the AVX2 versions (detected once).
 #[inline(always)]
 pub fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        use std::sync::atomic::{AtomicU8, Ordering};
-        static STATE: AtomicU8 = AtomicU8::new(0);
         match STATE.load(Ordering::Relaxed) {
             1 => true,
             2 => false,
