@@ -84,8 +84,11 @@ impl SpinBarrier {
             }
         }
         // Sleeping was right only if the others were long in coming (descheduled on a
-        // busy machine); a short sleep means spinning a little longer would have won.
-        let long = slept.is_some_and(|t| t.elapsed() > std::time::Duration::from_micros(200));
+        // busy machine, for a time slice of milliseconds); a shorter sleep means spinning
+        // a little longer would have won. (A 200 µs threshold misfired on an idle VM,
+        // whose wake-ups alone can take that long, and sent 88 of 351 output intervals of
+        // the paper run to one thread.)
+        let long = slept.is_some_and(|t| t.elapsed() > LONG_WAIT);
         *spin = if long {
             self.long_waits.fetch_add(1, Ordering::Relaxed);
             (*spin / 2).max(MIN_SPIN)
@@ -94,6 +97,9 @@ impl SpinBarrier {
         };
     }
 }
+
+/// A wait longer than this after falling asleep counts as the others being descheduled.
+pub const LONG_WAIT: std::time::Duration = std::time::Duration::from_millis(1);
 
 /// Spin budget bounds (iterations of `spin_loop`); a thread starts at the maximum.
 pub const MIN_SPIN: u32 = 64;

@@ -3,7 +3,10 @@
 //!
 //! Safety: each phase writes only its own range of grains or pair slots (disjoint
 //! between threads) and reads only what no thread writes in that phase; the barrier
-//! between phases orders the writes before the reads (release/acquire). Arrays are
+//! between phases orders the writes before the reads (release/acquire). A thread's grain
+//! phase and its next kick have no barrier between them, so both make slices of their
+//! own range only (`part`, `view`) of the arrays a kick writes, and the rest flags are
+//! two halves, one per step parity. Arrays are
 //! reached through raw pointers refreshed by the first thread after any reallocation
 //! (a list rebuild), while the others wait at the barrier.
 
@@ -29,6 +32,16 @@ impl<T> P<T> {
     /// No thread writes any of it for the lifetime of the slice.
     unsafe fn all<'a>(self) -> &'a [T] {
         unsafe { std::slice::from_raw_parts(self.0, self.1) }
+    }
+    /// # Safety
+    /// No thread writes `r` for the lifetime of the slice (others may write elsewhere:
+    /// unlike `all`, the slice covers `r` only).
+    unsafe fn view<'a>(self, r: Range<usize>) -> &'a [T] {
+        assert!(
+            r.start <= r.end && r.end <= self.1,
+            "range within the array"
+        );
+        unsafe { std::slice::from_raw_parts(self.0.add(r.start), r.end - r.start) }
     }
     /// # Safety
     /// No other thread touches `r` for the lifetime of the slice.
@@ -180,7 +193,7 @@ impl PillarSim {
 /// thread ahead in its kick may be writing).
 unsafe fn resting<'a>(a: &Arrays, parity: usize) -> &'a [bool] {
     let n = a.x.1;
-    unsafe { a.resting.part(parity * n..parity * n + n) }
+    unsafe { a.resting.view(parity * n..parity * n + n) }
 }
 
 /// Thread t's grains.
@@ -207,9 +220,9 @@ pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) ->
             a.theta.part(r.clone()),
             a.vx.part(r.clone()),
             a.vy.part(r.clone()),
-            &a.ax.all()[r.clone()],
-            &a.ay.all()[r.clone()],
-            &a.omega.all()[r.clone()],
+            a.ax.view(r.clone()),
+            a.ay.view(r.clone()),
+            a.omega.view(r.clone()),
             a.resting.part(parity * n + r.start..parity * n + r.end),
             xr,
             yr,

@@ -151,7 +151,9 @@ pub fn read_numeric_csv_chunked(
         .par_iter()
         .zip(per_chunk.par_iter_mut())
         .map(|(&(a, b), out)| {
-            let ok = layout.parse(&bytes[a..b], out);
+            // A quote can hide a comma or a newline inside a field.
+            let chunk = &bytes[a..b];
+            let ok = memchr::memchr(b'"', chunk).is_none() && layout.parse(chunk, out);
             // SAFETY: a read-only file map; dropped pages are read again from the page
             // cache if touched, and this chunk is not touched again.
             let _ = unsafe { map.unchecked_advise_range(UncheckedAdvice::DontNeed, a, b - a) };
@@ -186,11 +188,11 @@ impl Layout {
         if !line.is_ascii() || line.contains(&b'"') {
             return None;
         }
-        let header: Vec<&str> = std::str::from_utf8(line)
-            .ok()?
-            .split(',')
-            .map(str::trim)
-            .collect();
+        let header: Vec<&str> = std::str::from_utf8(line).ok()?.split(',').collect();
+        // polars matches names as written; a padded name is the slow path's to judge.
+        if header.iter().any(|h| h.trim() != *h) {
+            return None;
+        }
         let mut slot = vec![usize::MAX; header.len()];
         let (mut names, mut kinds) = (Vec::new(), Vec::new());
         for &(name, kind) in expect {
@@ -559,6 +561,14 @@ mod tests {
             ("empty value", format!("{head}1,,3,0,1\n")),
             ("integer written as float", format!("{head}1,2,3,0.0,1\n")),
             ("space in a value", format!("{head}1, 2,3,0,1\n")),
+            (
+                "padded header name",
+                "y, x,size,frame,particle\n1,2,3,0,1\n".to_string(),
+            ),
+            (
+                "quoted field with a newline",
+                "y,x,size,frame,particle,note\n1,2,3,0,1,\"a\n4,5,6,1,2,b\"\n".to_string(),
+            ),
             ("header only", head.to_string()),
             (
                 "repeated column",
