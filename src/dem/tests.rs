@@ -150,22 +150,26 @@ fn frictionless_collision_conserves_momentum_and_energy() {
     assert!(s.grains.vy[0] != 0.0, "an oblique collision deflects");
 }
 
-/// A small pillar from the packing protocol (fast preset), compressed for a while.
-fn small_pillar(n: usize, steps: usize, mut each: impl FnMut(&PillarSim)) -> PillarSim {
+/// A pillar of `n` grains from the packing protocol (`seed`), with parameters `p`.
+fn packed_pillar(n: usize, seed: u64, p: PillarParams) -> PillarSim {
     let pk = pack(
         &PackOptions {
             n,
-            seed: 3,
+            seed,
             ..Default::default()
         },
         |_, _| {},
     );
-    let p = PillarParams::fast();
     let d = p.d_large;
     let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
     let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
     let ids: Vec<i64> = (0..n as i64).collect();
-    let mut s = PillarSim::new(p, &x, &y, &pk.species, &ids);
+    PillarSim::new(p, &x, &y, &pk.species, &ids)
+}
+
+/// A small pillar from the packing protocol (fast preset), compressed for a while.
+fn small_pillar(n: usize, steps: usize, mut each: impl FnMut(&PillarSim)) -> PillarSim {
+    let mut s = packed_pillar(n, 3, PillarParams::fast());
     // Speed the bar up so a short test compresses noticeably.
     s.params.bar_speed *= 20.0;
     for _ in 0..steps {
@@ -278,20 +282,7 @@ fn checkpoint_round_trip_is_bit_exact() {
 
 #[test]
 fn skipping_frozen_grains_gives_exactly_the_same_run() {
-    let pk = pack(
-        &PackOptions {
-            n: 150,
-            seed: 5,
-            ..Default::default()
-        },
-        |_, _| {},
-    );
-    let p = PillarParams::fast();
-    let d = p.d_large;
-    let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
-    let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
-    let ids: Vec<i64> = (0..150).collect();
-    let mut a = PillarSim::new(p.clone(), &x, &y, &pk.species, &ids);
+    let mut a = packed_pillar(150, 5, PillarParams::fast());
     a.scratch.skip_frozen = true;
     let mut b = a.clone();
     b.scratch.skip_frozen = false;
@@ -315,21 +306,9 @@ fn skipping_frozen_grains_gives_exactly_the_same_run() {
 
 #[test]
 fn any_thread_count_gives_the_same_run_bit_for_bit() {
-    let pk = pack(
-        &PackOptions {
-            n: 400,
-            seed: 9,
-            ..Default::default()
-        },
-        |_, _| {},
-    );
     let mut p = PillarParams::fast();
     p.bar_speed *= 5.0; // enough motion for list rebuilds within the test
-    let d = p.d_large;
-    let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
-    let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
-    let ids: Vec<i64> = (0..400).collect();
-    let start = PillarSim::new(p, &x, &y, &pk.species, &ids);
+    let start = packed_pillar(400, 9, p);
     let run = |threads: usize| {
         let mut s = start.clone();
         s.scratch.no_fallback = true; // really split, however busy the machine
@@ -377,22 +356,15 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
 
 #[test]
 fn baseline_and_avx2_kernels_give_the_same_run_bit_for_bit() {
-    let pk = pack(
-        &PackOptions {
-            n: 200,
-            seed: 11,
-            ..Default::default()
-        },
-        |_, _| {},
-    );
-    let p = PillarParams::fast();
-    let d = p.d_large;
-    let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
-    let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
-    let ids: Vec<i64> = (0..200).collect();
-    let start = PillarSim::new(p, &x, &y, &pk.species, &ids);
+    let start = packed_pillar(200, 11, PillarParams::fast());
     let run = |avx2: bool| {
         crate::dem::simd::use_avx2(avx2);
+        // The switch really selects the version (else the comparison below is vacuous).
+        #[cfg(target_arch = "x86_64")]
+        assert_eq!(
+            crate::dem::simd::has_avx2(),
+            avx2 && std::is_x86_feature_detected!("avx2")
+        );
         let mut s = start.clone();
         s.advance_with(5_000, 1);
         s

@@ -58,8 +58,11 @@ where
 
 /// Atomically write a string (JSON, HTML, ...).
 pub fn atomic_write_str(path: &Path, text: &str) -> Result<()> {
+    atomic_write_bytes(path, text.as_bytes())
+}
+
+/// Atomically write bytes (a checkpoint, ...).
+pub fn atomic_write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
-    atomic_write(path, |f| {
-        f.write_all(text.as_bytes()).map_err(|e| Error::io(path, e))
-    })
+    atomic_write(path, |f| f.write_all(bytes).map_err(|e| Error::io(path, e)))
 }

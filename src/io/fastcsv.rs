@@ -35,7 +35,7 @@ impl FastTable {
     pub fn take_f64(&mut self, name: &str) -> Option<Vec<f64>> {
         match self.columns.remove(name)? {
             FastColumn::Float(v) => Some(v),
-            FastColumn::Int(v) => Some(v.into_iter().map(|x| x as f64).collect()),
+            FastColumn::Int(_) => None,
         }
     }
     /// Move an integer column out.
@@ -395,14 +395,7 @@ fn parse_i64(b: &[u8]) -> Option<(i64, usize)> {
 mod tests {
     use super::*;
     use crate::io::table::read_table_columns;
-
-    const EXPECT: &[(&str, Expect)] = &[
-        ("x", Expect::Float),
-        ("y", Expect::Float),
-        ("frame", Expect::Int),
-        ("particle", Expect::Int),
-        ("size", Expect::Float),
-    ];
+    use crate::io::trackpy::EXPECT;
 
     fn tmp(name: &str, text: &[u8]) -> std::path::PathBuf {
         let dir = std::env::temp_dir().join(format!("pp-fastcsv-{}", std::process::id()));

@@ -41,7 +41,8 @@ pub struct SpeciesSplit {
     pub radii_source: String,
 }
 
-const EXPECT: &[(&str, Expect)] = &[
+/// The columns trackpy ingest reads, and how each parses.
+pub(crate) const EXPECT: &[(&str, Expect)] = &[
     ("x", Expect::Float),
     ("y", Expect::Float),
     ("frame", Expect::Int),

@@ -15,6 +15,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// One row of the scatter table.
+#[derive(Default)]
 pub(crate) struct ScatterRows {
     pub(crate) start: Vec<i64>,
     pub(crate) end: Vec<i64>,
@@ -134,14 +135,7 @@ pub(crate) fn from_tracks(
         convention: Convention::Paper,
     };
     let mut s = Samples::default();
-    let mut rows = ScatterRows {
-        start: vec![],
-        end: vec![],
-        particle: vec![],
-        species: vec![],
-        eta_s: vec![],
-        y: vec![],
-    };
+    let mut rows = ScatterRows::default();
     let bar = super::progress(
         (start_frames.len() * lags_frames.len()) as u64,
         "fit sampling",
@@ -258,14 +252,7 @@ pub(crate) fn from_kinematics(
     };
     let mut groups: BTreeMap<i64, u32> = BTreeMap::new();
     let mut s = Samples::default();
-    let mut rows = ScatterRows {
-        start: vec![],
-        end: vec![],
-        particle: vec![],
-        species: vec![],
-        eta_s: vec![],
-        y: vec![],
-    };
+    let mut rows = ScatterRows::default();
     let mut lags: Vec<i64> = Vec::new();
     let (mut two_neighbours, mut at_rest) = (0usize, 0usize);
     for k in 0..start.len() {

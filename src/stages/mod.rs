@@ -44,3 +44,20 @@ pub mod sim_setup;
 pub mod sim_tables;
 pub mod simulate;
 pub mod sweep;
+
+/// Write a simulation checkpoint atomically; with `halt_after` (tests of resuming) stop
+/// the run with an error once `step` has reached it.
+pub(crate) fn write_checkpoint(
+    path: &std::path::Path,
+    bytes: &[u8],
+    step: u64,
+    halt_after: Option<u64>,
+) -> crate::error::Result<()> {
+    crate::io::atomic_write_bytes(path, bytes)?;
+    if halt_after.is_some_and(|h| step >= h) {
+        return Err(crate::error::Error::Other(format!(
+            "halted after the checkpoint at step {step} (testing)"
+        )));
+    }
+    Ok(())
+}

@@ -13,7 +13,7 @@ use crate::dem::checkpoint::{Dec, Enc};
 use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
-use crate::io::{atomic_write, atomic_write_str, sidecar_path};
+use crate::io::{atomic_write_str, sidecar_path};
 use crate::tracks::{Provenance, TracksMeta};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -292,16 +292,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             );
             e.f64s(&tracks.meta.boxes.iter().map(|b| b.xy).collect::<Vec<_>>());
             let bytes = sim.save(&e.0);
-            atomic_write(&ckpt, |f| {
-                use std::io::Write;
-                f.write_all(&bytes).map_err(|e| Error::io(&ckpt, e))
-            })?;
-            if opt.halt_after.is_some_and(|h| sim.step >= h) {
-                return Err(Error::Other(format!(
-                    "halted after the checkpoint at step {} (testing)",
-                    sim.step
-                )));
-            }
+            super::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
         }
         fresh = true;
         if sim.step >= total {

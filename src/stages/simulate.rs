@@ -9,7 +9,7 @@ use crate::dem::forces::ContactRecord;
 use crate::dem::params::PillarParams;
 use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};
-use crate::io::{atomic_write, atomic_write_str, sidecar_path};
+use crate::io::{atomic_write_str, sidecar_path};
 use crate::tracks::TracksMeta;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -319,16 +319,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
             prog.elapsed_before += t0.elapsed().as_secs_f64();
             let bytes = sim.save(&prog.encode());
             prog.elapsed_before = saved;
-            atomic_write(&ckpt, |f| {
-                use std::io::Write;
-                f.write_all(&bytes).map_err(|e| Error::io(&ckpt, e))
-            })?;
-            if opt.halt_after.is_some_and(|h| sim.step >= h) {
-                return Err(Error::Other(format!(
-                    "halted after the checkpoint at step {} (testing)",
-                    sim.step
-                )));
-            }
+            super::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
         }
     }
     bar.finish_and_clear();
