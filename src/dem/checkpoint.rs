@@ -160,6 +160,7 @@ pub fn dec_list(d: &mut Dec) -> Result<PairList, String> {
         skin: d.f64()?,
         builds: d.u64()?,
         offset_ref: 0.0,
+        cut: 0.0,
     })
 }
 
@@ -210,7 +211,8 @@ impl PillarSim {
         let params: PillarParams =
             serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
         let g = dec_grains(&mut d)?;
-        let list = dec_list(&mut d)?;
+        let mut list = dec_list(&mut d)?;
+        list.cut = list.reach(&g.radius);
         let (bottom_y, top_y0) = (d.f64()?, d.f64()?);
         let (top_shear, bottom_shear, step) = (d.f64s()?, d.f64s()?, d.u64()?);
         let (fx, fy, tq, sub_fx, sub_fy) = (d.f64s()?, d.f64s()?, d.f64s()?, d.f64s()?, d.f64s()?);

@@ -11,6 +11,7 @@
 use super::grains::{Grains, LARGE, SMALL};
 use super::shear_integrate::{correct, predict};
 use super::shear_pairs::{PairParams, pair_loop};
+use super::shear_slots::{Slots, evaluate};
 use super::verlet::{Boundary, PairList};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
@@ -126,6 +127,21 @@ pub struct ShearSim {
     pub resort_every: u64,
     /// The predicted state of Eq. 22 and the forces f_0 of Eq. 21 (reused buffers).
     pub pred: Predicted,
+    /// The pair list flattened for the force kernel (derived from `list`).
+    pub slots: Slots,
+    /// Which force kernel runs (both give the same numbers bit for bit).
+    pub kernel: ShearKernel,
+}
+
+/// The sheared disks' force kernels: the same numbers, different speed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum ShearKernel {
+    /// Two passes over blocks of flat pair slots, vectorised (`shear_slots`).
+    #[default]
+    Slots,
+    /// One straight loop over the pair list with a branch per contact
+    /// (`shear_pairs::pair_loop`): the reference the tests and `bench shear` compare to.
+    Straight,
 }
 
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -196,6 +212,8 @@ impl ShearSim {
             rotate: true,
             resort_every: super::shear_order::RESORT_EVERY,
             pred: Predicted::default(),
+            slots: Slots::default(),
+            kernel: ShearKernel::default(),
         };
         s.refresh();
         s
@@ -237,6 +255,8 @@ impl ShearSim {
             p,
             virial,
             time,
+            slots,
+            kernel,
             ..
         } = self;
         let st = if predicted {
@@ -274,11 +294,21 @@ impl ShearSim {
         };
         let mut vir = Virial::default();
         let st = (x, y, vx, vy, w, &g.radius[..]);
-        let (start, js, hist) = (&list.start[..], &list.j[..], &mut list.shear[..]);
-        if track {
-            pair_loop::<true>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
+        if *kernel == ShearKernel::Straight {
+            let (start, js, hist) = (&list.start[..], &list.j[..], &mut list.shear[..]);
+            if track {
+                pair_loop::<true>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
+            } else {
+                pair_loop::<false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
+            }
         } else {
-            pair_loop::<false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
+            slots.sync(list, &g.radius);
+            let hist = &mut list.shear[..];
+            if track {
+                evaluate::<true>(st, slots, hist, &pp, fx, fy, tq, coll, &mut vir);
+            } else {
+                evaluate::<false>(st, slots, hist, &pp, fx, fy, tq, coll, &mut vir);
+            }
         }
         if track {
             *virial = vir;

@@ -61,6 +61,7 @@ impl ShearSim {
             serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
         let g = dec_grains(&mut d)?;
         let mut list = dec_list(&mut d)?;
+        list.cut = list.reach(&g.radius);
         list.offset_ref = d.f64()?;
         let (l, time, step) = (d.f64()?, d.f64()?, d.u64()?);
         let (fx, fy, tq) = (d.f64s()?, d.f64s()?, d.f64s()?);
@@ -114,6 +115,8 @@ impl ShearSim {
             rotate,
             resort_every: super::shear_order::RESORT_EVERY,
             pred: Predicted::default(),
+            slots: Default::default(),
+            kernel: Default::default(),
         };
         Ok((sim, extra))
     }

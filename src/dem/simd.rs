@@ -1,45 +1,58 @@
 //! Hot kernels compiled twice: for the baseline x86-64 the binary targets (SSE2, so it
-//! runs anywhere) and for AVX2, picked at run time when the processor has it. Rust never
+//! runs anywhere) and for AVX2, picked at run time by what the processor has. Rust never
 //! fuses a multiply and an add on its own and vector lanes round as scalars do, so both
-//! versions give the same numbers bit for bit; the AVX2 one does four lanes at a time.
+//! versions give the same numbers bit for bit; AVX2 does four lanes at a time.
+//!
+//! No AVX-512 version: LLVM turns the pair kernels' indexed loads into AVX-512 gathers,
+//! which on this project's machines (AMD EPYC, Zen 4) made the sheared-disk step 12–16 %
+//! slower than AVX2's loads and inserts (`bench shear`, N = 1024 and 16,384).
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
-/// 0 not yet detected, 1 AVX2, 2 baseline.
-static STATE: AtomicU8 = AtomicU8::new(0);
-
-/// Use the baseline versions from now on (or AVX2 again where the processor has it):
-/// for tests that the two give the same numbers, and for timing one against the other.
-pub fn use_avx2(enabled: bool) {
-    STATE.store(0, Ordering::Relaxed);
-    let yes = enabled && has_avx2();
-    STATE.store(if yes { 1 } else { 2 }, Ordering::Relaxed);
+/// Instruction sets the kernels are compiled for, narrowest first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Level {
+    Baseline = 1,
+    Avx2 = 2,
 }
 
-/// Whether this processor runs the AVX2 versions (detected once).
-#[inline(always)]
-pub fn has_avx2() -> bool {
+/// 0 not yet detected, else the `Level` in use.
+static STATE: AtomicU8 = AtomicU8::new(0);
+
+/// What this processor supports.
+pub fn detected() -> Level {
     #[cfg(target_arch = "x86_64")]
     {
-        match STATE.load(Ordering::Relaxed) {
-            1 => true,
-            2 => false,
-            _ => {
-                let yes = std::is_x86_feature_detected!("avx2");
-                STATE.store(if yes { 1 } else { 2 }, Ordering::Relaxed);
-                yes
-            }
+        if std::is_x86_feature_detected!("avx2") {
+            return Level::Avx2;
         }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+    Level::Baseline
+}
+
+/// Use at most `max` from now on (the processor's best when it has less): for tests
+/// that the versions give the same numbers, and for timing one against another.
+pub fn use_at_most(max: Level) {
+    STATE.store(max.min(detected()) as u8, Ordering::Relaxed);
+}
+
+/// The level in use (detected once).
+#[inline(always)]
+pub fn level() -> Level {
+    match STATE.load(Ordering::Relaxed) {
+        1 => Level::Baseline,
+        2 => Level::Avx2,
+        _ => {
+            let l = detected();
+            STATE.store(l as u8, Ordering::Relaxed);
+            l
+        }
     }
 }
 
 /// `pub fn name(a: A, …) -> R { body }` defined so that the body is compiled for the
-/// baseline and for AVX2 and the call picks one at run time. Arguments must be plain
-/// identifiers.
+/// baseline and for AVX2, and the call picks one at run time. Arguments must be
+/// plain identifiers.
 #[macro_export]
 macro_rules! multiversion {
     ($(#[$m:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
@@ -55,9 +68,10 @@ macro_rules! multiversion {
                 fn avx2($($arg: $ty),*) $(-> $ret)? {
                     imp($($arg),*)
                 }
-                if $crate::dem::simd::has_avx2() {
-                    // SAFETY: the processor has AVX2 (checked at run time).
-                    return unsafe { avx2($($arg),*) };
+                match $crate::dem::simd::level() {
+                    // SAFETY: the processor has these (checked at run time).
+                    $crate::dem::simd::Level::Avx2 => return unsafe { avx2($($arg),*) },
+                    $crate::dem::simd::Level::Baseline => {}
                 }
             }
             imp($($arg),*)

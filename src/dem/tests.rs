@@ -356,21 +356,18 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
 
 #[test]
 fn baseline_and_avx2_kernels_give_the_same_run_bit_for_bit() {
+    use crate::dem::simd::{Level, detected, level, use_at_most};
     let start = packed_pillar(200, 11, PillarParams::fast());
-    let run = |avx2: bool| {
-        crate::dem::simd::use_avx2(avx2);
-        // The switch really selects the version (else the comparison below is vacuous).
-        #[cfg(target_arch = "x86_64")]
-        assert_eq!(
-            crate::dem::simd::has_avx2(),
-            avx2 && std::is_x86_feature_detected!("avx2")
-        );
+    let run = |max: Level| {
+        use_at_most(max);
+        // The switch really selects the version (else the comparison is vacuous).
+        assert_eq!(level(), max.min(detected()));
         let mut s = start.clone();
         s.advance_with(5_000, 1);
         s
     };
-    let (base, fast) = (run(false), run(true));
-    crate::dem::simd::use_avx2(true);
+    let (base, fast) = (run(Level::Baseline), run(Level::Avx2));
+    use_at_most(Level::Avx2);
     assert_eq!(base.grains, fast.grains);
     assert_eq!(base.interval, fast.interval);
     assert_eq!(

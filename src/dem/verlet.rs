@@ -4,7 +4,9 @@
 //! that contact (`shear`), and a rebuild carries the history of pairs that survive it,
 //! so contact friction does not forget its state when the list is refreshed. Rebuilds
 //! happen only when some grain has moved more than half the skin since the last build,
-//! which in quasistatic loading is rare.
+//! which in quasistatic loading is rare. Under Lees–Edwards shear the displacement that
+//! counts is the one away from the affine flow (see [`PairList::needs_rebuild_sheared`]),
+//! so the flow itself, fast at large L, forces no rebuilds.
 
 /// Where the grains live.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -83,6 +85,9 @@ pub struct PairList {
     pub builds: u64,
     /// Lees–Edwards offset at the last build (m).
     pub offset_ref: f64,
+    /// The build's largest reach 2 R_max + skin (m); 0 before the first build (then
+    /// any check asks for one). Checkpoints restore it with [`PairList::reach`].
+    pub cut: f64,
 }
 
 impl PairList {
@@ -106,29 +111,49 @@ impl PairList {
         self.needs_rebuild_sheared(x, y, 0.0)
     }
 
-    /// As [`PairList::needs_rebuild`] when the Lees–Edwards offset moved by `shift`
-    /// since the build: pairs across the boundary moved apart by that much, so each
-    /// grain may move only (skin − |shift|)/2.
-    pub fn needs_rebuild_sheared(&self, x: &[f64], y: &[f64], shift: f64) -> bool {
-        if self.x_ref.len() != x.len() || shift.abs() >= self.skin {
+    /// As [`PairList::needs_rebuild`] when the box was sheared by `dgamma` since the
+    /// build (Lees–Edwards; positions unwrapped, so a grain's affine displacement is
+    /// Δγ y x̂ at any height). With u_i = Δr_i − Δγ y_i,ref x̂, every image of every
+    /// pair separation d evolves as A d₀ + u_i − u_j with A = [[1, Δγ], [0, 1]], and
+    /// |A d₀| ≥ (1 − |Δγ|) |d₀|: a pair that was not in the list (|d₀| ≥ R_i + R_j +
+    /// skin) cannot touch while 2 max |u| < skin − |Δγ| (2 R_max + skin).
+    pub fn needs_rebuild_sheared(&self, x: &[f64], y: &[f64], dgamma: f64) -> bool {
+        let room = self.skin - dgamma.abs() * self.cut;
+        if self.x_ref.len() != x.len() || !(self.cut > 0.0) || room <= 0.0 {
             return true;
         }
-        let half = 0.5 * (self.skin - shift.abs());
-        let lim = half * half;
-        x.iter()
-            .zip(y)
-            .zip(self.x_ref.iter().zip(&self.y_ref))
-            .any(|((&a, &b), (&c, &d))| (a - c) * (a - c) + (b - d) * (b - d) > lim)
+        let lim = 0.25 * room * room;
+        let n = x.len();
+        let (y, x_ref, y_ref) = (&y[..n], &self.x_ref[..n], &self.y_ref[..n]);
+        // Chunks without early exit vectorise; most checks find nothing.
+        (0..n).step_by(256).any(|c| {
+            let mut far = false;
+            for i in c..(c + 256).min(n) {
+                let ux = x[i] - x_ref[i] - dgamma * y_ref[i];
+                let uy = y[i] - y_ref[i];
+                far |= ux * ux + uy * uy > lim;
+            }
+            far
+        })
     }
 
     /// Rebuild if needed; returns whether it did.
     pub fn update(&mut self, x: &[f64], y: &[f64], r: &[f64], b: Boundary) -> bool {
-        if self.needs_rebuild_sheared(x, y, b.offset() - self.offset_ref) {
+        let dgamma = match b {
+            Boundary::LeesEdwards { ly, offset, .. } => (offset - self.offset_ref) / ly,
+            _ => 0.0,
+        };
+        if self.needs_rebuild_sheared(x, y, dgamma) {
             self.build(x, y, r, b);
             true
         } else {
             false
         }
+    }
+
+    /// The largest pair distance the list holds, 2 R_max + skin (m).
+    pub fn reach(&self, r: &[f64]) -> f64 {
+        2.0 * r.iter().cloned().fold(0.0, f64::max) + self.skin
     }
 
     /// Build the list: all pairs closer than R_i + R_j + skin.
@@ -137,8 +162,8 @@ impl PairList {
         let mut start = Vec::with_capacity(n + 1);
         let mut js: Vec<u32> = Vec::with_capacity(4 * n);
         start.push(0u32);
-        let rmax = r.iter().cloned().fold(0.0, f64::max);
-        let cut = 2.0 * rmax + self.skin;
+        let cut = self.reach(r);
+        self.cut = cut;
         let grid = Grid::new(x, y, cut, b);
         let mut seg: Vec<u32> = Vec::with_capacity(32);
         for i in 0..n {
