@@ -1,16 +1,18 @@
 //! The sheared disks' force evaluation (vagberg-sheared-disks Eqs. 1–7, 12–13) over a
-//! flat list of pair slots, in two passes per block of slots:
+//! flat list of pair slots, block by block of slots:
 //!
-//! - **pass A** computes every slot's force, torques and separation with no branch and
-//!   no store into shared arrays, so slots are independent: the loop vectorises (AVX2 or
-//!   AVX-512 where the processor has them) and nothing waits on a mispredicted contact
-//!   test or on the previous slot's force store;
-//! - **pass B** adds the slot forces into the grains in slot order and keeps the contact
-//!   bookkeeping (history, collision counts, virial).
+//! - **separations**: every slot's minimum-image separation and contact test, branch-free
+//!   and vectorised (AVX2), then the touching slots gathered into a short list;
+//! - **contact forces**: force and torques of the touching slots only, vectorised; the
+//!   square root and the division, which bound this pass, are not spent on the third of
+//!   the slots that hold no contact;
+//! - **sums**: the forces added into the grains, and with tracking the virial and the
+//!   contact history, in slot order.
 //!
-//! Each lane rounds as the scalar straight loop ([`super::shear_pairs::pair_loop`]) does,
-//! and pass B adds in the same order, so the results are the same bit for bit (a test
-//! holds them to it). Non-contact slots contribute +0.0, which leaves every sum as it was.
+//! No pass stores into a grain's array before the sums, so slots are independent and
+//! nothing waits on a mispredicted contact test. Each lane rounds as the scalar straight
+//! loop ([`super::shear_pairs::pair_loop`]) does and the sums add in its order, so the
+//! results are the same bit for bit (a test holds them to it).
 
 use super::shear::{Collisions, Virial, angle_bin};
 use super::shear_pairs::{PairParams, StateSlices};
@@ -78,39 +80,60 @@ impl Slots {
     }
 }
 
-/// Pass A's results for one block of slots.
-struct Block {
+/// One block's separations: per slot (`k`), then the touching slots listed.
+struct Seps {
+    /// Minimum-image separation r_i − r_j and the y image index of j.
+    dx: [f64; BLOCK],
+    dy: [f64; BLOCK],
+    img: [f64; BLOCK],
+    touch: [bool; BLOCK],
+    /// Slot (within the block) of the m-th touching pair; `contacts` of them.
+    slot: [u32; BLOCK],
+    contacts: usize,
+}
+
+/// One block's contact forces, per touching slot (`m`). Kept apart from [`Seps`] so the
+/// kernel's reads and writes are provably disjoint (else it does not vectorise).
+struct Forces {
     /// Total pair force on i (elastic + dissipative), −that on j.
     fx: [f64; BLOCK],
     fy: [f64; BLOCK],
     /// Torques on i and on j (Eq. 7).
     ti: [f64; BLOCK],
     tj: [f64; BLOCK],
-    /// Elastic and dissipative parts (for the virial, Eqs. 12–13), zero off contact.
+    /// Elastic and dissipative parts, for the virial (Eqs. 12–13).
     ex: [f64; BLOCK],
     ey: [f64; BLOCK],
     ddx: [f64; BLOCK],
     ddy: [f64; BLOCK],
-    /// Minimum-image separation r_i − r_j.
-    dx: [f64; BLOCK],
-    dy: [f64; BLOCK],
-    touch: [bool; BLOCK],
 }
 
-impl Block {
-    fn new() -> Box<Block> {
-        Box::new(Block {
-            fx: [0.0; BLOCK],
-            fy: [0.0; BLOCK],
-            ti: [0.0; BLOCK],
-            tj: [0.0; BLOCK],
-            ex: [0.0; BLOCK],
-            ey: [0.0; BLOCK],
-            ddx: [0.0; BLOCK],
-            ddy: [0.0; BLOCK],
-            dx: [0.0; BLOCK],
-            dy: [0.0; BLOCK],
+impl Seps {
+    fn new() -> Box<Seps> {
+        let z = [0.0; BLOCK];
+        Box::new(Seps {
+            dx: z,
+            dy: z,
+            img: z,
             touch: [false; BLOCK],
+            slot: [0; BLOCK],
+            contacts: 0,
+        })
+    }
+}
+
+impl Forces {
+    fn new() -> Box<Forces> {
+        let z = [0.0; BLOCK];
+        Box::new(Forces {
+            fx: z,
+            fy: z,
+            ti: z,
+            tj: z,
+            ex: z,
+            ey: z,
+            ddx: z,
+            ddy: z,
         })
     }
 }
@@ -140,39 +163,75 @@ pub fn evaluate<const TRACK: bool>(
             && hist.len() == slots.len(),
         "state does not match the slot table"
     );
-    let st = (x, y, vx, vy, w, r);
-    let mut blk = Block::new();
+    let (mut sep, mut frc) = (Seps::new(), Forces::new());
     let mut acc = Virial::default();
     let harmonic = pp.alpha == 2.0;
     for b0 in (0..slots.len()).step_by(BLOCK) {
         let b1 = (b0 + BLOCK).min(slots.len());
         let (si, sj) = (&slots.i[b0..b1], &slots.j[b0..b1]);
         let inv = &slots.inv_dij[b0..b1];
+        separations((x, y, r), si, sj, pp, &mut sep);
+        let f = &mut frc;
         match (pp.cdrot, harmonic) {
-            (true, true) => pass_a_cdrot_harmonic(st, si, sj, inv, pp, &mut blk),
-            (false, true) => pass_a_cd_harmonic(st, si, sj, inv, pp, &mut blk),
-            (true, false) => pass_a_cdrot_general(st, si, sj, inv, pp, &mut blk),
-            (false, false) => pass_a_cd_general(st, si, sj, inv, pp, &mut blk),
+            (true, true) => forces_cdrot_harmonic(st, si, sj, inv, pp, &sep, f),
+            (false, true) => forces_cd_harmonic(st, si, sj, inv, pp, &sep, f),
+            (true, false) => forces_cdrot_general(st, si, sj, inv, pp, &sep, f),
+            (false, false) => forces_cd_general(st, si, sj, inv, pp, &sep, f),
         }
-        pass_b::<TRACK>(
-            si,
-            sj,
-            &blk,
-            &mut hist[b0..b1],
-            pp.now,
-            fx,
-            fy,
-            tq,
-            coll,
-            &mut acc,
-        );
+        let hist = &mut hist[b0..b1];
+        sums::<TRACK>(si, sj, &sep, &frc, hist, pp.now, fx, fy, tq, coll, &mut acc);
     }
     if TRACK {
         *vir = acc;
     }
 }
 
-macro_rules! pass_a_variant {
+/// Reads a grain's value without a bounds check.
+///
+/// SAFETY (of every call): `Slots::sync` checked every index against n, and `evaluate`
+/// that every state slice has length n.
+#[inline(always)]
+fn at<T: Copy>(a: &[T], m: usize) -> T {
+    debug_assert!(m < a.len());
+    unsafe { *a.get_unchecked(m) }
+}
+
+crate::multiversion! {
+/// Minimum-image separations (as Boundary::delta_image) and contact tests of one block,
+/// then the touching slots listed in order.
+fn separations(
+    xyr: (&[f64], &[f64], &[f64]),
+    si: &[u32],
+    sj: &[u32],
+    pp: &PairParams,
+    b: &mut Seps,
+) {
+    let (x, y, r) = xyr;
+    let (ll, inv_l, offset) = (pp.ll, pp.inv_l, pp.offset);
+    let len = si.len().min(sj.len()).min(BLOCK);
+    for k in 0..len {
+        let (i, j) = (si[k] as usize, sj[k] as usize);
+        let (dx, dy) = (at(x, i) - at(x, j), at(y, i) - at(y, j));
+        let img = rint(dy * inv_l);
+        let dy = dy - img * ll;
+        let dx = dx - img * offset;
+        let dx = dx - ll * rint(dx * inv_l);
+        let dij = at(r, i) + at(r, j);
+        b.dx[k] = dx;
+        b.dy[k] = dy;
+        b.img[k] = img;
+        b.touch[k] = dx * dx + dy * dy < dij * dij;
+    }
+    let mut m = 0;
+    for k in 0..len {
+        b.slot[m] = k as u32;
+        m += b.touch[k] as usize;
+    }
+    b.contacts = m;
+}
+}
+
+macro_rules! forces_variant {
     ($name:ident, $cdrot:expr, $harmonic:expr) => {
         crate::multiversion! {
             fn $name(
@@ -181,93 +240,86 @@ macro_rules! pass_a_variant {
                 sj: &[u32],
                 inv_dij: &[f64],
                 pp: &PairParams,
-                blk: &mut Block,
+                sep: &Seps,
+                out: &mut Forces,
             ) {
-                pass_a::<{ $cdrot }, { $harmonic }>(st, si, sj, inv_dij, pp, blk)
+                contact_forces::<{ $cdrot }, { $harmonic }>(st, si, sj, inv_dij, pp, sep, out)
             }
         }
     };
 }
-pass_a_variant!(pass_a_cdrot_harmonic, true, true);
-pass_a_variant!(pass_a_cd_harmonic, false, true);
-pass_a_variant!(pass_a_cdrot_general, true, false);
-pass_a_variant!(pass_a_cd_general, false, false);
+forces_variant!(forces_cdrot_harmonic, true, true);
+forces_variant!(forces_cd_harmonic, false, true);
+forces_variant!(forces_cdrot_general, true, false);
+forces_variant!(forces_cd_general, false, false);
 
-/// Pass A over one block: every slot's force, branch-free (contact or not is a select).
+/// Force and torques of each touching slot of one block (Eqs. 2, 3 or 5–7).
 #[inline(always)]
-fn pass_a<const CDROT: bool, const HARMONIC: bool>(
-    (x, y, vx, vy, w, r): StateSlices,
+fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
+    (_, _, vx, vy, w, r): StateSlices,
     si: &[u32],
     sj: &[u32],
     inv_dij: &[f64],
     pp: &PairParams,
-    b: &mut Block,
+    b: &Seps,
+    o: &mut Forces,
 ) {
     let (kd, alpha, shear_v) = (pp.kd, pp.alpha, pp.shear_v);
-    let (ll, inv_l, offset) = (pp.ll, pp.inv_l, pp.offset);
-    let len = si.len().min(sj.len()).min(inv_dij.len()).min(BLOCK);
-    let n = x.len();
-    for k in 0..len {
-        let (i, j) = (si[k] as usize, sj[k] as usize);
-        // SAFETY: `Slots::sync` checked every index against n, and `evaluate` that
-        // every state slice has length n.
-        debug_assert!(i < n && j < n);
-        let at = |a: &[f64], m: usize| unsafe { *a.get_unchecked(m) };
-        // Minimum image, Lees–Edwards (as Boundary::delta_image).
-        let (dx, dy) = (at(x, i) - at(x, j), at(y, i) - at(y, j));
-        let img = rint(dy * inv_l);
-        let dy = dy - img * ll;
-        let dx = dx - img * offset;
-        let dx = dx - ll * rint(dx * inv_l);
-        let (ri, rj) = (at(r, i), at(r, j));
-        let dij = ri + rj;
+    // Every listed slot k < the block's length (`separations` wrote them), and every
+    // slice here holds the block: `at` may skip the bounds checks that would keep this
+    // loop from vectorising.
+    debug_assert!(si.len() <= BLOCK && sj.len() == si.len() && inv_dij.len() == si.len());
+    for m in 0..b.contacts.min(BLOCK) {
+        let k = b.slot[m] as usize % BLOCK;
+        debug_assert!(k < si.len());
+        let (i, j) = (at(si, k) as usize, at(sj, k) as usize);
+        let (dx, dy, img) = (b.dx[k], b.dy[k], b.img[k]);
         let r2 = dx * dx + dy * dy;
-        let touch = r2 < dij * dij;
         let dist = r2.sqrt();
         let inv_dist = 1.0 / dist;
-        let inv_dij = inv_dij[k];
+        let inv_dij = at(inv_dij, k);
         let (nx, ny) = (dx * inv_dist, dy * inv_dist);
         // Eq. 2 with d_ij = R_i + R_j and k_e = 1.
         let overlap = 1.0 - dist * inv_dij;
         let fe = if HARMONIC {
             overlap * inv_dij
         } else {
-            // powf of a negative overlap is NaN; such lanes are masked below.
-            overlap.max(0.0).powf(alpha - 1.0) * inv_dij
+            overlap.powf(alpha - 1.0) * inv_dij
         };
         let (ex, ey) = (fe * nx, fe * ny);
+        // Relative velocity; j's image moves img·γ̇L faster along x.
         let (mut dvx, mut dvy) = (at(vx, i) - at(vx, j) - img * shear_v, at(vy, i) - at(vy, j));
-        let (s_i, s_j) = (ri * inv_dij, rj * inv_dij);
+        // Moment arms s_ji (i to contact) = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
+        let (s_i, s_j) = (at(r, i) * inv_dij, at(r, j) * inv_dij);
         let (six, siy, sjx, sjy) = (-dx * s_i, -dy * s_i, dx * s_j, dy * s_j);
         if CDROT {
+            // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
             let (wi, wj) = (at(w, i), at(w, j));
             dvx += -wi * siy + wj * sjy;
             dvy += wi * six - wj * sjx;
         }
         let (ddx, ddy) = (-kd * dvx, -kd * dvy);
-        let sel = |v: f64| if touch { v } else { 0.0 };
-        b.fx[k] = sel(ex + ddx);
-        b.fy[k] = sel(ey + ddy);
-        b.ti[k] = sel(six * ddy - siy * ddx);
-        b.tj[k] = sel(sjx * (-ddy) - sjy * (-ddx));
-        b.ex[k] = sel(ex);
-        b.ey[k] = sel(ey);
-        b.ddx[k] = sel(ddx);
-        b.ddy[k] = sel(ddy);
-        b.dx[k] = dx;
-        b.dy[k] = dy;
-        b.touch[k] = touch;
+        o.fx[m] = ex + ddx;
+        o.fy[m] = ey + ddy;
+        // Eq. 7: torques of the dissipative force about each centre.
+        o.ti[m] = six * ddy - siy * ddx;
+        o.tj[m] = sjx * (-ddy) - sjy * (-ddx);
+        o.ex[m] = ex;
+        o.ey[m] = ey;
+        o.ddx[m] = ddx;
+        o.ddy[m] = ddy;
     }
 }
 
-/// Pass B over one block: slot forces into the grains in slot order (as the straight
-/// loop adds them), and with `TRACK` the contact bookkeeping and the virial.
+/// The block's contact forces into the grains in slot order (as the straight loop adds
+/// them), and with `TRACK` the virial and the contact bookkeeping.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn pass_b<const TRACK: bool>(
+fn sums<const TRACK: bool>(
     si: &[u32],
     sj: &[u32],
-    b: &Block,
+    b: &Seps,
+    o: &Forces,
     hist: &mut [f64],
     now: f64,
     fx: &mut [f64],
@@ -276,18 +328,50 @@ fn pass_b<const TRACK: bool>(
     coll: &mut Collisions,
     vir: &mut Virial,
 ) {
-    let len = si.len().min(sj.len()).min(hist.len()).min(BLOCK);
-    for k in 0..len {
-        let (i, j) = (si[k] as usize, sj[k] as usize);
-        fx[i] += b.fx[k];
-        fy[i] += b.fy[k];
-        fx[j] -= b.fx[k];
-        fy[j] -= b.fy[k];
-        tq[i] += b.ti[k];
-        tq[j] += b.tj[k];
-        if TRACK {
+    let len = si.len().min(sj.len()).min(hist.len());
+    let nc = b.contacts.min(BLOCK);
+    let pair = |m: usize| {
+        let k = b.slot[m] as usize % BLOCK;
+        debug_assert!(k < len);
+        (at(si, k) as usize, at(sj, k) as usize, k)
+    };
+    // Grain q receives its j-side terms (slots (i', q), i' < q) before its own slots
+    // (q, j) in slot order, so adding all j-side terms of the block first, then all
+    // i-side ones, keeps every grain's order of additions: the same sums. Split, the
+    // i-side additions of a grain's run of slots no longer wait behind j-side stores.
+    for m in 0..nc {
+        let (_, j, _) = pair(m);
+        fx[j] -= o.fx[m];
+        fy[j] -= o.fy[m];
+        tq[j] += o.tj[m];
+    }
+    for m in 0..nc {
+        let (i, _, _) = pair(m);
+        fx[i] += o.fx[m];
+        fy[i] += o.fy[m];
+        tq[i] += o.ti[m];
+    }
+    if TRACK {
+        // f ⊗ r_ij (Eqs. 12–13), per unit area later; each component summed in slot
+        // order, four at a time.
+        let (mut el, mut dis) = (vir.el, vir.dis);
+        for m in 0..nc {
+            let (_, _, k) = pair(m);
+            let (ex, ey, ddx, ddy) = (o.ex[m], o.ey[m], o.ddx[m], o.ddy[m]);
+            let (dx, dy) = (b.dx[k], b.dy[k]);
+            let e = [ex * dx, ex * dy, ey * dx, ey * dy];
+            let d = [ddx * dx, ddx * dy, ddy * dx, ddy * dy];
+            for c in 0..4 {
+                el[c] += e[c];
+                dis[c] += d[c];
+            }
+        }
+        (vir.el, vir.dis) = (el, dis);
+    }
+    if TRACK {
+        vir.contacts += b.contacts;
+        for k in 0..len.min(BLOCK) {
             let touch = b.touch[k];
-            vir.contacts += touch as usize;
             if touch != (hist[k] != 0.0) {
                 let (dx, dy) = (b.dx[k], b.dy[k]);
                 if touch {
@@ -301,16 +385,6 @@ fn pass_b<const TRACK: bool>(
                     hist[k] = 0.0;
                 }
             }
-            let (ex, ey, ddx, ddy) = (b.ex[k], b.ey[k], b.ddx[k], b.ddy[k]);
-            let (dx, dy) = (b.dx[k], b.dy[k]);
-            vir.el[0] += ex * dx;
-            vir.el[1] += ex * dy;
-            vir.el[2] += ey * dx;
-            vir.el[3] += ey * dy;
-            vir.dis[0] += ddx * dx;
-            vir.dis[1] += ddx * dy;
-            vir.dis[2] += ddy * dx;
-            vir.dis[3] += ddy * dy;
         }
     }
 }
