@@ -310,7 +310,7 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
     ShearBench {
         n,
         steps,
-        z: 2.0 * s.virial.contacts as f64 / n as f64,
+        z: 2.0 * s.virial().contacts as f64 / n as f64,
         seconds,
         ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
         list_builds: s.list.builds - b0,

@@ -23,6 +23,8 @@ pub mod pillar_kernels;
 pub mod pillar_par;
 pub mod pillar_phases;
 pub mod shear;
+#[cfg(target_arch = "x86_64")]
+pub mod shear_avx2;
 pub mod shear_checkpoint;
 pub mod shear_integrate;
 pub mod shear_order;

@@ -119,7 +119,6 @@ pub struct ShearSim {
     pub fx: Vec<f64>,
     pub fy: Vec<f64>,
     pub tq: Vec<f64>,
-    pub virial: Virial,
     pub coll: Collisions,
     /// Integrate spins (turning it off is exact for CD: rotation never feeds back).
     pub rotate: bool,
@@ -203,7 +202,6 @@ impl ShearSim {
             fx: vec![0.0; n],
             fy: vec![0.0; n],
             tq: vec![0.0; n],
-            virial: Virial::default(),
             coll: Collisions {
                 angle_making: vec![0; ANGLE_BINS],
                 angle_breaking: vec![0; ANGLE_BINS],
@@ -219,7 +217,7 @@ impl ShearSim {
         s
     }
 
-    /// Forces, virial and contact bookkeeping at the current state.
+    /// Forces and contact bookkeeping at the current state.
     pub fn refresh(&mut self) {
         self.evaluate(false);
     }
@@ -239,8 +237,8 @@ impl ShearSim {
     }
 
     /// Forces and torques at the given state and the current `self.time` into
-    /// `self.fx/fy/tq`; with `track`, also the virial and the contact bookkeeping
-    /// (only for actual states, not the predictor of Eq. 22).
+    /// `self.fx/fy/tq`; with `track`, also the contact bookkeeping (only for actual
+    /// states, not the predictor of Eq. 22).
     fn evaluate(&mut self, predicted: bool) {
         let track = !predicted;
         let b = self.boundary();
@@ -253,7 +251,6 @@ impl ShearSim {
             tq,
             coll,
             p,
-            virial,
             time,
             slots,
             kernel,
@@ -278,41 +275,50 @@ impl ShearSim {
         };
         let (x, y, vx, vy, w) = (st.x, st.y, st.vx, st.vy, st.w);
         list.update(x, y, &g.radius, b);
-        fx.iter_mut()
-            .chain(fy.iter_mut())
-            .chain(tq.iter_mut())
-            .for_each(|v| *v = 0.0);
-        let pp = PairParams {
-            kd: 1.0 / p.q,
-            alpha: p.alpha,
-            shear_v: p.rate * self.l,
-            cdrot: p.model == Dissipation::Cdrot,
-            ll: self.l,
-            inv_l: 1.0 / self.l,
-            offset: b.offset(),
-            now: *time,
-        };
-        let mut vir = Virial::default();
+        let pp = PairParams::new(p, self.l, b.offset(), *time);
         let st = (x, y, vx, vy, w, &g.radius[..]);
         if *kernel == ShearKernel::Straight {
             let (start, js, hist) = (&list.start[..], &list.j[..], &mut list.shear[..]);
+            let mut none = Virial::default();
             if track {
-                pair_loop::<true>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
+                pair_loop::<true, false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut none);
             } else {
-                pair_loop::<false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut vir);
+                pair_loop::<false, false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut none);
             }
         } else {
             slots.sync(list, &g.radius);
             let hist = &mut list.shear[..];
             if track {
-                evaluate::<true>(st, slots, hist, &pp, fx, fy, tq, coll, &mut vir);
+                evaluate::<true>(st, slots, hist, &pp, fx, fy, tq, coll);
             } else {
-                evaluate::<false>(st, slots, hist, &pp, fx, fy, tq, coll, &mut vir);
+                evaluate::<false>(st, slots, hist, &pp, fx, fy, tq, coll);
             }
         }
-        if track {
-            *virial = vir;
-        }
+    }
+
+    /// The virial sums Σ f ⊗ r_ij (Eqs. 12–13) and the contact count of the current
+    /// state, computed when asked: only the states the outputs sample need them, so the
+    /// step does not carry them.
+    pub fn virial(&self) -> Virial {
+        let g = &self.g;
+        let pp = PairParams::new(&self.p, self.l, self.boundary().offset(), self.time);
+        let st = (
+            &g.x[..],
+            &g.y[..],
+            &g.vx[..],
+            &g.vy[..],
+            &g.omega[..],
+            &g.radius[..],
+        );
+        let n = g.len();
+        let (mut fx, mut fy, mut tq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut hist = self.list.shear.clone();
+        let (mut coll, mut vir) = (Collisions::default(), Virial::default());
+        let (start, js) = (&self.list.start[..], &self.list.j[..]);
+        pair_loop::<false, true>(
+            st, start, js, &mut hist, &pp, &mut fx, &mut fy, &mut tq, &mut coll, &mut vir,
+        );
+        vir
     }
 
     /// One step of Eqs. 21–24.
@@ -331,9 +337,14 @@ impl ShearSim {
             pr.inv_m = g.mass.iter().map(|m| 1.0 / m).collect();
             pr.inv_i = g.inertia.iter().map(|i| 1.0 / i).collect();
         }
-        pr.f0x.clone_from(&self.fx);
-        pr.f0y.clone_from(&self.fy);
-        pr.t0.clone_from(&self.tq);
+        // f_0 of Eq. 21 moves to the predictor's buffers; the evaluation below
+        // overwrites every force with f({r̃_1, ṽ_1}).
+        std::mem::swap(&mut pr.f0x, &mut self.fx);
+        std::mem::swap(&mut pr.f0y, &mut self.fy);
+        std::mem::swap(&mut pr.t0, &mut self.tq);
+        for v in [&mut self.fx, &mut self.fy, &mut self.tq] {
+            v.resize(n, 0.0);
+        }
         predict(
             dt,
             rotate,
@@ -371,8 +382,9 @@ impl ShearSim {
     /// [xx, xy, yx, yy] in m/τ_e². The kinetic part uses fluctuations about v_x = γ̇ y.
     pub fn pressure_tensor(&self) -> ([f64; 4], [f64; 4], [f64; 4]) {
         let a = self.l * self.l;
-        let el = self.virial.el.map(|v| v / a);
-        let dis = self.virial.dis.map(|v| v / a);
+        let vir = self.virial();
+        let el = vir.el.map(|v| v / a);
+        let dis = vir.dis.map(|v| v / a);
         let mut kin = [0.0; 4];
         let g = &self.g;
         for i in 0..g.len() {

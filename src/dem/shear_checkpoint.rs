@@ -1,7 +1,7 @@
 //! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
 
 use super::checkpoint::{Dec, Enc, dec_grains, dec_list, enc_grains, enc_list};
-use super::shear::{Collisions, Predicted, ShearParams, ShearSim, Virial};
+use super::shear::{Collisions, Predicted, ShearParams, ShearSim};
 
 const MAGIC: &[u8; 8] = b"PPSHEAR1";
 
@@ -24,9 +24,11 @@ impl ShearSim {
         for v in [&self.fx, &self.fy, &self.tq] {
             e.f64s(v);
         }
-        e.f64s(&self.virial.el);
-        e.f64s(&self.virial.dis);
-        e.u64(self.virial.contacts as u64);
+        // The virial is derived from the state; kept in the format for older readers.
+        let vir = self.virial();
+        e.f64s(&vir.el);
+        e.f64s(&vir.dis);
+        e.u64(vir.contacts as u64);
         e.u64(self.coll.begun);
         e.u64(self.coll.ended);
         e.f64(self.coll.duration_sum);
@@ -69,11 +71,8 @@ impl ShearSim {
             v.try_into()
                 .map_err(|_| "virial needs 4 components".to_string())
         };
-        let virial = Virial {
-            el: arr4(d.f64s()?)?,
-            dis: arr4(d.f64s()?)?,
-            contacts: d.u64()? as usize,
-        };
+        // Derived from the state (see `save`): read past.
+        let _ = (arr4(d.f64s()?)?, arr4(d.f64s()?)?, d.u64()?);
         let (begun, ended, duration_sum) = (d.u64()?, d.u64()?, d.f64()?);
         let to_u = |v: Vec<i64>| v.into_iter().map(|x| x as u64).collect::<Vec<u64>>();
         let (angle_making, angle_breaking) = (to_u(d.i64s()?), to_u(d.i64s()?));
@@ -110,7 +109,6 @@ impl ShearSim {
             fx,
             fy,
             tq,
-            virial,
             coll,
             rotate,
             resort_every: super::shear_order::RESORT_EVERY,

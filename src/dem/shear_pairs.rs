@@ -1,8 +1,8 @@
 //! The sheared disks' pair loop (vagberg-sheared-disks Eqs. 1–7, 12–13) as a free
 //! function over slices: slice arguments cannot alias, so the compiler keeps the array
-//! pointers in registers instead of reloading them after every force store. `TRACK`
-//! compiles two copies: the predictor of Eq. 22 needs forces only; actual states also
-//! keep the virial and the contact bookkeeping.
+//! pointers in registers instead of reloading them after every force store. `HISTORY`:
+//! actual states keep the contact bookkeeping (the predictor of Eq. 22 needs forces
+//! only); `VIRIAL`: the virial, only at the states the outputs sample.
 
 use super::shear::{Collisions, Virial, angle_bin};
 use super::verlet::rint;
@@ -26,6 +26,22 @@ pub struct PairParams {
     pub now: f64,
 }
 
+impl PairParams {
+    /// For `p` in a box of side `l` with Lees–Edwards offset `offset` at time `now`.
+    pub fn new(p: &super::shear::ShearParams, l: f64, offset: f64, now: f64) -> Self {
+        PairParams {
+            kd: 1.0 / p.q,
+            alpha: p.alpha,
+            shear_v: p.rate * l,
+            cdrot: p.model == super::shear::Dissipation::Cdrot,
+            ll: l,
+            inv_l: 1.0 / l,
+            offset,
+            now,
+        }
+    }
+}
+
 /// Positions, velocities, spins and radii of one state: x, y, v_x, v_y, ω, R.
 pub type StateSlices<'a> = (
     &'a [f64],
@@ -36,11 +52,12 @@ pub type StateSlices<'a> = (
     &'a [f64],
 );
 
-/// Forces and torques of the contacts in the half list (`start`, `js`) added into `fx`,
-/// `fy`, `tq`; with `TRACK`, per-pair history `hist` (0, or 1 + start time), the
-/// collision counters and the virial sums Σ f ⊗ r_ij into `vir`.
+/// Forces and torques of the contacts in the half list (`start`, `js`) into `fx`, `fy`,
+/// `tq` (overwritten); with `HISTORY`, per-pair history `hist` (0, or 1 + start time) and
+/// the collision counters; with `VIRIAL`, the contact count and the virial sums
+/// Σ f ⊗ r_ij into `out_vir`.
 #[allow(clippy::too_many_arguments)]
-pub fn pair_loop<const TRACK: bool>(
+pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
     (x, y, vx, vy, w, r): StateSlices,
     start: &[u32],
     js: &[u32],
@@ -52,8 +69,11 @@ pub fn pair_loop<const TRACK: bool>(
     coll: &mut Collisions,
     out_vir: &mut Virial,
 ) {
+    for v in [&mut *fx, &mut *fy, &mut *tq] {
+        v.fill(0.0);
+    }
     let mut vir = Virial::default();
-    let track = TRACK;
+    let track = HISTORY;
     let (kd, alpha, shear_v, cdrot) = (pp.kd, pp.alpha, pp.shear_v, pp.cdrot);
     let (ll, inv_l, offset, now) = (pp.ll, pp.inv_l, pp.offset, pp.now);
     for i in 0..x.len() {
@@ -77,13 +97,13 @@ pub fn pair_loop<const TRACK: bool>(
                 }
                 continue;
             }
-            if track {
+            if VIRIAL {
                 vir.contacts += 1;
-                if hist[k] == 0.0 {
-                    coll.begun += 1;
-                    coll.angle_making[angle_bin(dx, dy)] += 1;
-                    hist[k] = 1.0 + now;
-                }
+            }
+            if track && hist[k] == 0.0 {
+                coll.begun += 1;
+                coll.angle_making[angle_bin(dx, dy)] += 1;
+                hist[k] = 1.0 + now;
             }
             let dist = r2.sqrt();
             let inv_dist = 1.0 / dist;
@@ -115,7 +135,7 @@ pub fn pair_loop<const TRACK: bool>(
             // Eq. 7: torques of the dissipative force about each centre.
             tq[i] += six * ddy - siy * ddx;
             tq[j] += sjx * (-ddy) - sjy * (-ddx);
-            if track {
+            if VIRIAL {
                 // f ⊗ r_ij (Eqs. 12–13), per unit area later.
                 vir.el[0] += ex * dx;
                 vir.el[1] += ex * dy;
@@ -128,7 +148,7 @@ pub fn pair_loop<const TRACK: bool>(
             }
         }
     }
-    if TRACK {
+    if VIRIAL {
         *out_vir = vir;
     }
 }

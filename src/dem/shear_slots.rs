@@ -6,15 +6,15 @@
 //! - **contact forces**: force and torques of the touching slots only, vectorised; the
 //!   square root and the division, which bound this pass, are not spent on the third of
 //!   the slots that hold no contact;
-//! - **sums**: the forces added into the grains, and with tracking the virial and the
-//!   contact history, in slot order.
+//! - **sums**: the forces added into the grains, and with tracking the contact history,
+//!   in slot order.
 //!
 //! No pass stores into a grain's array before the sums, so slots are independent and
 //! nothing waits on a mispredicted contact test. Each lane rounds as the scalar straight
 //! loop ([`super::shear_pairs::pair_loop`]) does and the sums add in its order, so the
 //! results are the same bit for bit (a test holds them to it).
 
-use super::shear::{Collisions, Virial, angle_bin};
+use super::shear::{Collisions, angle_bin};
 use super::shear_pairs::{PairParams, StateSlices};
 use super::verlet::{PairList, rint};
 
@@ -22,19 +22,26 @@ use super::verlet::{PairList, rint};
 const BLOCK: usize = 128;
 
 /// The pair list flattened into (i, j) per slot, in the list's order (so slot k's contact
-/// history is `PairList::shear[k]`), with 1/(R_i + R_j) per slot (radii never change
-/// while a list lives, and a stored quotient spares pass A one of its three divisions).
-/// Indices are checked against `n` once, at build time, which lets the kernels index
-/// without bounds checks.
+/// history is `PairList::shear[k]`), with 1/(R_i + R_j) and (R_i + R_j)² per slot (radii
+/// never change while a list lives, and stored values spare the kernels a division and
+/// two loads per slot). Indices are checked against `n` once, at build time, which lets
+/// the kernels index without bounds checks. The arrays are padded to a multiple of four
+/// slots with pairs that never touch (d_ij² = −1), so the AVX2 kernel has no tail.
 #[derive(Debug, Clone, Default)]
 pub struct Slots {
-    i: Vec<u32>,
-    j: Vec<u32>,
+    pub(crate) i: Vec<u32>,
+    pub(crate) j: Vec<u32>,
     /// 1/d_ij = 1/(R_i + R_j) (1/d_s).
-    inv_dij: Vec<f64>,
-    n: usize,
+    pub(crate) inv_dij: Vec<f64>,
+    /// d_ij² = (R_i + R_j)² (d_s²).
+    pub(crate) dij2: Vec<f64>,
+    /// Real slots (the rest is padding).
+    len: usize,
+    pub(crate) n: usize,
     /// `PairList::builds` this table was made from.
     builds: u64,
+    /// Scratch of the AVX2 kernel.
+    packed: super::shear_avx2::Packed,
 }
 
 /// A cache of the pair list: two simulations never differ by it.
@@ -48,7 +55,7 @@ impl Slots {
     /// Re-flatten when the list was rebuilt since the last call (`r`: radii, d_s).
     pub fn sync(&mut self, list: &PairList, r: &[f64]) {
         let n = r.len();
-        if self.builds == list.builds && self.n == n && self.j.len() == list.j.len() {
+        if self.builds == list.builds && self.n == n && self.len == list.j.len() {
             return;
         }
         self.i.clear();
@@ -58,25 +65,31 @@ impl Slots {
         }
         self.j.clone_from(&list.j);
         assert!(
-            self.i.len() == self.j.len() && self.i.iter().chain(&self.j).all(|&v| (v as usize) < n),
+            n > 0
+                && self.i.len() == self.j.len()
+                && self.i.iter().chain(&self.j).all(|&v| (v as usize) < n),
             "pair list does not match the grains"
         );
-        self.inv_dij.clear();
-        let (si, sj) = (&self.i, &self.j);
-        let inv = si
-            .iter()
-            .zip(sj)
-            .map(|(&a, &b)| 1.0 / (r[a as usize] + r[b as usize]));
-        self.inv_dij.extend(inv);
+        self.len = self.j.len();
+        let dij = |a: u32, b: u32| r[a as usize] + r[b as usize];
+        let pairs = || self.i.iter().zip(&self.j);
+        self.inv_dij = pairs().map(|(&a, &b)| 1.0 / dij(a, b)).collect();
+        self.dij2 = pairs().map(|(&a, &b)| dij(a, b) * dij(a, b)).collect();
+        let padded = self.len.next_multiple_of(4);
+        self.i.resize(padded, 0);
+        self.j.resize(padded, 0);
+        self.inv_dij.resize(padded, 0.0);
+        self.dij2.resize(padded, -1.0);
         self.n = n;
         self.builds = list.builds;
     }
 
+    /// Slots (padding excluded).
     pub fn len(&self) -> usize {
-        self.j.len()
+        self.len
     }
     pub fn is_empty(&self) -> bool {
-        self.j.is_empty()
+        self.len == 0
     }
 }
 
@@ -101,11 +114,6 @@ struct Forces {
     /// Torques on i and on j (Eq. 7).
     ti: [f64; BLOCK],
     tj: [f64; BLOCK],
-    /// Elastic and dissipative parts, for the virial (Eqs. 12–13).
-    ex: [f64; BLOCK],
-    ey: [f64; BLOCK],
-    ddx: [f64; BLOCK],
-    ddy: [f64; BLOCK],
 }
 
 impl Seps {
@@ -130,28 +138,23 @@ impl Forces {
             fy: z,
             ti: z,
             tj: z,
-            ex: z,
-            ey: z,
-            ddx: z,
-            ddy: z,
         })
     }
 }
 
-/// Forces and torques of every slot's contact added into `fx`, `fy`, `tq` (zeroed by
-/// the caller); with `TRACK`, the history `hist` (0, or 1 + start time), the collision
-/// counters and the virial sums Σ f ⊗ r_ij into `vir`. Same numbers as `pair_loop`.
+/// Forces and torques of every slot's contacts into `fx`, `fy`, `tq` (overwritten); with
+/// `TRACK`, the history `hist` (0, or 1 + start time) and the collision counters. Same
+/// numbers as `pair_loop`.
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate<const TRACK: bool>(
     st: StateSlices,
-    slots: &Slots,
+    slots: &mut Slots,
     hist: &mut [f64],
     pp: &PairParams,
     fx: &mut [f64],
     fy: &mut [f64],
     tq: &mut [f64],
     coll: &mut Collisions,
-    vir: &mut Virial,
 ) {
     let n = slots.n;
     let (x, y, vx, vy, w, r) = st;
@@ -163,14 +166,36 @@ pub fn evaluate<const TRACK: bool>(
             && hist.len() == slots.len(),
         "state does not match the slot table"
     );
-    let (mut sep, mut frc) = (Seps::new(), Forces::new());
-    let mut acc = Virial::default();
     let harmonic = pp.alpha == 2.0;
+    #[cfg(target_arch = "x86_64")]
+    if harmonic && super::simd::level() == super::simd::Level::Avx2 {
+        let mut packed = std::mem::take(&mut slots.packed);
+        // SAFETY: the processor has AVX2 (checked at run time).
+        unsafe {
+            super::shear_avx2::evaluate::<TRACK>(
+                st,
+                slots,
+                &mut packed,
+                hist,
+                pp,
+                fx,
+                fy,
+                tq,
+                coll,
+            );
+        }
+        slots.packed = packed;
+        return;
+    }
+    for v in [&mut *fx, &mut *fy, &mut *tq] {
+        v.fill(0.0);
+    }
+    let (mut sep, mut frc) = (Seps::new(), Forces::new());
     for b0 in (0..slots.len()).step_by(BLOCK) {
         let b1 = (b0 + BLOCK).min(slots.len());
         let (si, sj) = (&slots.i[b0..b1], &slots.j[b0..b1]);
-        let inv = &slots.inv_dij[b0..b1];
-        separations((x, y, r), si, sj, pp, &mut sep);
+        let (inv, dij2) = (&slots.inv_dij[b0..b1], &slots.dij2[b0..b1]);
+        separations((x, y), si, sj, dij2, pp, &mut sep);
         let f = &mut frc;
         match (pp.cdrot, harmonic) {
             (true, true) => forces_cdrot_harmonic(st, si, sj, inv, pp, &sep, f),
@@ -179,10 +204,7 @@ pub fn evaluate<const TRACK: bool>(
             (false, false) => forces_cd_general(st, si, sj, inv, pp, &sep, f),
         }
         let hist = &mut hist[b0..b1];
-        sums::<TRACK>(si, sj, &sep, &frc, hist, pp.now, fx, fy, tq, coll, &mut acc);
-    }
-    if TRACK {
-        *vir = acc;
+        sums::<TRACK>(si, sj, &sep, &frc, hist, pp.now, fx, fy, tq, coll);
     }
 }
 
@@ -200,15 +222,16 @@ crate::multiversion! {
 /// Minimum-image separations (as Boundary::delta_image) and contact tests of one block,
 /// then the touching slots listed in order.
 fn separations(
-    xyr: (&[f64], &[f64], &[f64]),
+    xy: (&[f64], &[f64]),
     si: &[u32],
     sj: &[u32],
+    dij2: &[f64],
     pp: &PairParams,
     b: &mut Seps,
 ) {
-    let (x, y, r) = xyr;
+    let (x, y) = xy;
     let (ll, inv_l, offset) = (pp.ll, pp.inv_l, pp.offset);
-    let len = si.len().min(sj.len()).min(BLOCK);
+    let len = si.len().min(sj.len()).min(dij2.len()).min(BLOCK);
     for k in 0..len {
         let (i, j) = (si[k] as usize, sj[k] as usize);
         let (dx, dy) = (at(x, i) - at(x, j), at(y, i) - at(y, j));
@@ -216,11 +239,10 @@ fn separations(
         let dy = dy - img * ll;
         let dx = dx - img * offset;
         let dx = dx - ll * rint(dx * inv_l);
-        let dij = at(r, i) + at(r, j);
         b.dx[k] = dx;
         b.dy[k] = dy;
         b.img[k] = img;
-        b.touch[k] = dx * dx + dy * dy < dij * dij;
+        b.touch[k] = dx * dx + dy * dy < dij2[k];
     }
     let mut m = 0;
     for k in 0..len {
@@ -304,15 +326,11 @@ fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
         // Eq. 7: torques of the dissipative force about each centre.
         o.ti[m] = six * ddy - siy * ddx;
         o.tj[m] = sjx * (-ddy) - sjy * (-ddx);
-        o.ex[m] = ex;
-        o.ey[m] = ey;
-        o.ddx[m] = ddx;
-        o.ddy[m] = ddy;
     }
 }
 
 /// The block's contact forces into the grains in slot order (as the straight loop adds
-/// them), and with `TRACK` the virial and the contact bookkeeping.
+/// them), and with `TRACK` the contact bookkeeping.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn sums<const TRACK: bool>(
@@ -326,7 +344,6 @@ fn sums<const TRACK: bool>(
     fy: &mut [f64],
     tq: &mut [f64],
     coll: &mut Collisions,
-    vir: &mut Virial,
 ) {
     let len = si.len().min(sj.len()).min(hist.len());
     let nc = b.contacts.min(BLOCK);
@@ -352,37 +369,19 @@ fn sums<const TRACK: bool>(
         tq[i] += o.ti[m];
     }
     if TRACK {
-        // f ⊗ r_ij (Eqs. 12–13), per unit area later; each component summed in slot
-        // order, four at a time.
-        let (mut el, mut dis) = (vir.el, vir.dis);
-        for m in 0..nc {
-            let (_, _, k) = pair(m);
-            let (ex, ey, ddx, ddy) = (o.ex[m], o.ey[m], o.ddx[m], o.ddy[m]);
-            let (dx, dy) = (b.dx[k], b.dy[k]);
-            let e = [ex * dx, ex * dy, ey * dx, ey * dy];
-            let d = [ddx * dx, ddx * dy, ddy * dx, ddy * dy];
-            for c in 0..4 {
-                el[c] += e[c];
-                dis[c] += d[c];
-            }
-        }
-        (vir.el, vir.dis) = (el, dis);
-    }
-    if TRACK {
-        vir.contacts += b.contacts;
-        for k in 0..len.min(BLOCK) {
+        for (k, h) in hist.iter_mut().enumerate().take(len.min(BLOCK)) {
             let touch = b.touch[k];
-            if touch != (hist[k] != 0.0) {
+            if touch != (*h != 0.0) {
                 let (dx, dy) = (b.dx[k], b.dy[k]);
                 if touch {
                     coll.begun += 1;
                     coll.angle_making[angle_bin(dx, dy)] += 1;
-                    hist[k] = 1.0 + now;
+                    *h = 1.0 + now;
                 } else {
                     coll.ended += 1;
                     coll.angle_breaking[angle_bin(dx, dy)] += 1;
-                    coll.duration_sum += now - (hist[k] - 1.0);
-                    hist[k] = 0.0;
+                    coll.duration_sum += now - (*h - 1.0);
+                    *h = 0.0;
                 }
             }
         }

@@ -247,7 +247,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 sg(dis),
                 pr(kin),
                 sg(kin),
-                2.0 * sim.virial.contacts as f64 / n,
+                2.0 * sim.virial().contacts as f64 / n,
                 sm,
                 sv,
                 sim.coll.begun as f64,

@@ -1,0 +1,331 @@
+//! The sheared disks' force evaluation (vagberg-sheared-disks Eqs. 1–3, 5–7, 12–13,
+//! harmonic α = 2) written with AVX2 intrinsics, four pair slots at a time.
+//!
+//! Why by hand: per slot the kernel needs twelve numbers of two grains. Compiled from
+//! scalar code they arrive as twelve loads and nine inserts per four slots and field;
+//! here each grain's (x, y) and (v_x, v_y, ω, R) are packed side by side, so one load
+//! fetches a grain's record and a 4 × 4 transpose turns four records into four field
+//! vectors. The forces go back the same way: one vector add per grain and slot into
+//! packed (f_x, f_y, T, 0) records.
+//!
+//! Same forces as the straight loop ([`super::shear_pairs::pair_loop`]) bit for bit, so
+//! the same trajectories: every lane does the scalar code's operations in its order (no
+//! fused multiply-add), masked-off lanes add +0.0, and each grain's force is summed in
+//! slot order. A test holds it to that.
+
+use super::shear::{Collisions, angle_bin};
+use super::shear_pairs::{PairParams, StateSlices};
+use super::shear_slots::Slots;
+use std::arch::x86_64::*;
+
+/// A grain's (x, y) (d_s), one aligned 16-byte load.
+#[repr(C, align(16))]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Pos(pub [f64; 2]);
+
+/// Four numbers of a grain, one aligned 32-byte load: (v_x, v_y, ω, R) in the packed
+/// state, (f_x, f_y, T, 0) in the force sums.
+#[repr(C, align(32))]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Quad(pub [f64; 4]);
+
+/// The packed state and force sums (reused between evaluations).
+#[derive(Debug, Clone, Default)]
+pub struct Packed {
+    pos: Vec<Pos>,
+    vel: Vec<Quad>,
+    acc: Vec<Quad>,
+}
+
+/// As `shear_slots::evaluate` (α = 2 only): forces and torques into `fx`, `fy`, `tq`,
+/// with `TRACK` the history and collision counts.
+///
+/// # Safety
+/// The processor must have AVX2.
+#[allow(clippy::too_many_arguments)]
+#[target_feature(enable = "avx2")]
+pub unsafe fn evaluate<const TRACK: bool>(
+    (x, y, vx, vy, w, r): StateSlices,
+    slots: &Slots,
+    packed: &mut Packed,
+    hist: &mut [f64],
+    pp: &PairParams,
+    fx: &mut [f64],
+    fy: &mut [f64],
+    tq: &mut [f64],
+    coll: &mut Collisions,
+) {
+    let n = slots.n;
+    assert!(
+        [x.len(), y.len(), vx.len(), vy.len(), w.len(), r.len()]
+            .iter()
+            .chain(&[fx.len(), fy.len(), tq.len()])
+            .all(|&l| l == n)
+            && hist.len() == slots.len()
+            && pp.alpha == 2.0,
+        "state does not match the slot table"
+    );
+    let Packed { pos, vel, acc } = packed;
+    pos.clear();
+    pos.extend((0..n).map(|i| Pos([x[i], y[i]])));
+    vel.clear();
+    vel.extend((0..n).map(|i| Quad([vx[i], vy[i], w[i], r[i]])));
+    acc.clear();
+    acc.resize(n, Quad::default());
+    // SAFETY: AVX2 is present (this function's contract); `Slots::sync` checked every
+    // index against n and padded the tables to a multiple of four.
+    unsafe {
+        if pp.cdrot {
+            slots_x4::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll);
+        } else {
+            slots_x4::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll);
+        }
+    }
+    for i in 0..n {
+        let [a, b, c, _] = acc[i].0;
+        (fx[i], fy[i], tq[i]) = (a, b, c);
+    }
+}
+
+/// Nearest integer, as `verlet::rint`, four lanes.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn rint4(v: __m256d) -> __m256d {
+    let m = _mm256_set1_pd(6_755_399_441_055_744.0);
+    _mm256_sub_pd(_mm256_add_pd(v, m), m)
+}
+
+/// Rows (a, b, c, d) to columns: returns ([a0 b0 c0 d0], [a1 …], [a2 …], [a3 …]).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose(
+    a: __m256d,
+    b: __m256d,
+    c: __m256d,
+    d: __m256d,
+) -> (__m256d, __m256d, __m256d, __m256d) {
+    let t0 = _mm256_unpacklo_pd(a, b);
+    let t1 = _mm256_unpackhi_pd(a, b);
+    let t2 = _mm256_unpacklo_pd(c, d);
+    let t3 = _mm256_unpackhi_pd(c, d);
+    (
+        _mm256_permute2f128_pd(t0, t2, 0x20),
+        _mm256_permute2f128_pd(t1, t3, 0x20),
+        _mm256_permute2f128_pd(t0, t2, 0x31),
+        _mm256_permute2f128_pd(t1, t3, 0x31),
+    )
+}
+
+/// −v, four lanes.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn neg(v: __m256d) -> __m256d {
+    _mm256_xor_pd(v, _mm256_set1_pd(-0.0))
+}
+
+/// A grain's packed record.
+///
+/// # Safety
+/// `g` must be in bounds of the array behind `p`.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn load(p: *const Quad, g: usize) -> __m256d {
+    unsafe { _mm256_load_pd((*p.add(g)).0.as_ptr()) }
+}
+
+/// The first stage's results for one group of four slots.
+#[derive(Clone, Copy)]
+struct Stage1 {
+    i: [usize; 4],
+    j: [usize; 4],
+    dx: __m256d,
+    dy: __m256d,
+    img: __m256d,
+    dist: __m256d,
+    inv_dist: __m256d,
+    touch: __m256d,
+    mask: u32,
+}
+
+/// # Safety
+/// AVX2 present; every slot index (padding included) < the arrays' length n.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
+    pos: &[Pos],
+    vel: &[Quad],
+    acc: &mut [Quad],
+    slots: &Slots,
+    hist: &mut [f64],
+    pp: &PairParams,
+    coll: &mut Collisions,
+) {
+    unsafe {
+        let (ll, inv_l) = (_mm256_set1_pd(pp.ll), _mm256_set1_pd(pp.inv_l));
+        let offset = _mm256_set1_pd(pp.offset);
+        let shear_v = _mm256_set1_pd(pp.shear_v);
+        let minus_kd = _mm256_set1_pd(-pp.kd);
+        let one = _mm256_set1_pd(1.0);
+        let zero = _mm256_setzero_pd();
+        let len = slots.len();
+        let (si, sj) = (slots.i.as_ptr(), slots.j.as_ptr());
+        let (inv_dij_p, dij2_p) = (slots.inv_dij.as_ptr(), slots.dij2.as_ptr());
+        let (pos, vel, acc) = (pos.as_ptr(), vel.as_ptr(), acc.as_mut_ptr());
+        let mut dxs = [0.0f64; 4];
+        let mut dys = [0.0f64; 4];
+        // Software-pipelined by one group: the separations, square roots and divisions of
+        // the next four slots are issued before the forces of these four, so the long
+        // latency of the roots overlaps useful work instead of filling the reorder buffer.
+        // Macros, not closures: a closure may stay an out-of-line call taking its vectors
+        // through memory.
+        macro_rules! stage1 {
+            ($k:expr) => {{
+                let k: usize = $k;
+                let i = [0, 1, 2, 3].map(|l| *si.add(k + l) as usize);
+                let j = [0, 1, 2, 3].map(|l| *sj.add(k + l) as usize);
+                // Raw separations r_i − r_j, two lanes per 128-bit subtraction.
+                let d = [0, 1, 2, 3].map(|l| {
+                    let pi = _mm_load_pd((*pos.add(i[l])).0.as_ptr());
+                    let pj = _mm_load_pd((*pos.add(j[l])).0.as_ptr());
+                    _mm_sub_pd(pi, pj)
+                });
+                let d02 = _mm256_set_m128d(d[2], d[0]);
+                let d13 = _mm256_set_m128d(d[3], d[1]);
+                let dx = _mm256_unpacklo_pd(d02, d13);
+                let dy = _mm256_unpackhi_pd(d02, d13);
+                // Minimum image, Lees–Edwards (as Boundary::delta_image).
+                let img = rint4(_mm256_mul_pd(dy, inv_l));
+                let dy = _mm256_sub_pd(dy, _mm256_mul_pd(img, ll));
+                let dx = _mm256_sub_pd(dx, _mm256_mul_pd(img, offset));
+                let dx = _mm256_sub_pd(dx, _mm256_mul_pd(ll, rint4(_mm256_mul_pd(dx, inv_l))));
+                let r2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+                let touch = _mm256_cmp_pd::<_CMP_LT_OQ>(r2, _mm256_loadu_pd(dij2_p.add(k)));
+                let mask = _mm256_movemask_pd(touch) as u32;
+                if TRACK {
+                    // Contacts that began or ended: where the touch mask and the history
+                    // (slot holds a start time) disagree; rare, so tested four at a time.
+                    let held = if k + 4 <= len {
+                        let h = _mm256_loadu_pd(hist.as_ptr().add(k));
+                        _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NEQ_UQ>(h, zero)) as u32
+                    } else {
+                        (k..len).map(|q| ((hist[q] != 0.0) as u32) << (q - k)).sum()
+                    };
+                    if held != mask {
+                        _mm256_storeu_pd(dxs.as_mut_ptr(), dx);
+                        _mm256_storeu_pd(dys.as_mut_ptr(), dy);
+                        for l in 0..4.min(len - k) {
+                            let t = mask >> l & 1 == 1;
+                            let h = &mut hist[k + l];
+                            if t != (*h != 0.0) {
+                                let bin = angle_bin(dxs[l], dys[l]);
+                                if t {
+                                    coll.begun += 1;
+                                    coll.angle_making[bin] += 1;
+                                    *h = 1.0 + pp.now;
+                                } else {
+                                    coll.ended += 1;
+                                    coll.angle_breaking[bin] += 1;
+                                    coll.duration_sum += pp.now - (*h - 1.0);
+                                    *h = 0.0;
+                                }
+                            }
+                        }
+                    }
+                }
+                let dist = _mm256_sqrt_pd(r2);
+                let inv_dist = _mm256_div_pd(one, dist);
+                Stage1 {
+                    i,
+                    j,
+                    dx,
+                    dy,
+                    img,
+                    dist,
+                    inv_dist,
+                    touch,
+                    mask,
+                }
+            }};
+        }
+        macro_rules! stage2 {
+            ($k:expr, $g:expr) => {{
+                let (k, g): (usize, &Stage1) = ($k, $g);
+                let Stage1 {
+                    i,
+                    j,
+                    dx,
+                    dy,
+                    img,
+                    dist,
+                    inv_dist,
+                    touch,
+                    ..
+                } = *g;
+                let inv_dij = _mm256_loadu_pd(inv_dij_p.add(k));
+                let nx = _mm256_mul_pd(dx, inv_dist);
+                let ny = _mm256_mul_pd(dy, inv_dist);
+                // Eq. 2 with d_ij = R_i + R_j and k_e = 1.
+                let overlap = _mm256_sub_pd(one, _mm256_mul_pd(dist, inv_dij));
+                let fe = _mm256_mul_pd(overlap, inv_dij);
+                let (ex, ey) = (_mm256_mul_pd(fe, nx), _mm256_mul_pd(fe, ny));
+                let v = |g: usize| load(vel, g);
+                let (vxi, vyi, wi, ri) = transpose(v(i[0]), v(i[1]), v(i[2]), v(i[3]));
+                let (vxj, vyj, wj, rj) = transpose(v(j[0]), v(j[1]), v(j[2]), v(j[3]));
+                // Relative velocity; j's image moves img·γ̇L faster along x.
+                let mut dvx = _mm256_sub_pd(_mm256_sub_pd(vxi, vxj), _mm256_mul_pd(img, shear_v));
+                let mut dvy = _mm256_sub_pd(vyi, vyj);
+                // Moment arms s_ji = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
+                let (s_i, s_j) = (_mm256_mul_pd(ri, inv_dij), _mm256_mul_pd(rj, inv_dij));
+                let (six, siy) = (_mm256_mul_pd(neg(dx), s_i), _mm256_mul_pd(neg(dy), s_i));
+                let (sjx, sjy) = (_mm256_mul_pd(dx, s_j), _mm256_mul_pd(dy, s_j));
+                if CDROT {
+                    // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
+                    let tx = _mm256_add_pd(_mm256_mul_pd(neg(wi), siy), _mm256_mul_pd(wj, sjy));
+                    let ty = _mm256_sub_pd(_mm256_mul_pd(wi, six), _mm256_mul_pd(wj, sjx));
+                    dvx = _mm256_add_pd(dvx, tx);
+                    dvy = _mm256_add_pd(dvy, ty);
+                }
+                let (ddx, ddy) = (_mm256_mul_pd(minus_kd, dvx), _mm256_mul_pd(minus_kd, dvy));
+                let keep = |v: __m256d| _mm256_and_pd(v, touch);
+                let f_x = keep(_mm256_add_pd(ex, ddx));
+                let f_y = keep(_mm256_add_pd(ey, ddy));
+                // Eq. 7: torques of the dissipative force about each centre.
+                let t_i = keep(_mm256_sub_pd(
+                    _mm256_mul_pd(six, ddy),
+                    _mm256_mul_pd(siy, ddx),
+                ));
+                let t_j = keep(_mm256_sub_pd(
+                    _mm256_mul_pd(sjx, neg(ddy)),
+                    _mm256_mul_pd(sjy, neg(ddx)),
+                ));
+                // Per slot (f_x, f_y, T_i, 0) onto i and (−f_x, −f_y, T_j, 0) onto j, in
+                // slot order (f − g and f + (−g) round the same); lanes without contact
+                // add +0.0, cheaper than a branch that mispredicts.
+                let on_i = transpose(f_x, f_y, t_i, zero);
+                let on_j = transpose(neg(f_x), neg(f_y), t_j, zero);
+                let on_i = [on_i.0, on_i.1, on_i.2, on_i.3];
+                let on_j = [on_j.0, on_j.1, on_j.2, on_j.3];
+                for l in 0..4 {
+                    let a = (*acc.add(i[l])).0.as_mut_ptr();
+                    _mm256_store_pd(a, _mm256_add_pd(_mm256_load_pd(a), on_i[l]));
+                    let b = (*acc.add(j[l])).0.as_mut_ptr();
+                    _mm256_store_pd(b, _mm256_add_pd(_mm256_load_pd(b), on_j[l]));
+                }
+            }};
+        }
+        let padded = len.next_multiple_of(4);
+        if padded > 0 {
+            let mut next = stage1!(0);
+            for k in (0..padded).step_by(4) {
+                let cur = next;
+                if k + 4 < padded {
+                    next = stage1!(k + 4);
+                }
+                if cur.mask != 0 {
+                    stage2!(k, &cur);
+                }
+            }
+        }
+    }
+}
