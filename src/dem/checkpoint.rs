@@ -161,6 +161,7 @@ pub fn dec_list(d: &mut Dec) -> Result<PairList, String> {
         builds: d.u64()?,
         offset_ref: 0.0,
         cut: 0.0,
+        spare: Default::default(),
     })
 }
 

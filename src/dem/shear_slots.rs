@@ -73,8 +73,11 @@ impl Slots {
         self.len = self.j.len();
         let dij = |a: u32, b: u32| r[a as usize] + r[b as usize];
         let pairs = || self.i.iter().zip(&self.j);
-        self.inv_dij = pairs().map(|(&a, &b)| 1.0 / dij(a, b)).collect();
-        self.dij2 = pairs().map(|(&a, &b)| dij(a, b) * dij(a, b)).collect();
+        self.inv_dij.clear();
+        self.inv_dij.extend(pairs().map(|(&a, &b)| 1.0 / dij(a, b)));
+        self.dij2.clear();
+        self.dij2
+            .extend(pairs().map(|(&a, &b)| dij(a, b) * dij(a, b)));
         let padded = self.len.next_multiple_of(4);
         self.i.resize(padded, 0);
         self.j.resize(padded, 0);

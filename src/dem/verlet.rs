@@ -88,6 +88,26 @@ pub struct PairList {
     /// The build's largest reach 2 R_max + skin (m); 0 before the first build (then
     /// any check asks for one). Checkpoints restore it with [`PairList::reach`].
     pub cut: f64,
+    /// The previous build's arrays, reused by the next (fresh memory is slow to touch).
+    pub spare: Spare,
+}
+
+/// Buffers kept between builds; never part of a list's value.
+#[derive(Debug, Clone, Default)]
+pub struct Spare {
+    start: Vec<u32>,
+    j: Vec<u32>,
+    shear: Vec<f64>,
+    /// The cell grid's `head`, `items` and per-grain cell.
+    head: Vec<u32>,
+    items: Vec<u32>,
+    cell: Vec<u32>,
+}
+
+impl PartialEq for Spare {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 impl PairList {
@@ -159,34 +179,79 @@ impl PairList {
     /// Build the list: all pairs closer than R_i + R_j + skin.
     pub fn build(&mut self, x: &[f64], y: &[f64], r: &[f64], b: Boundary) {
         let n = x.len();
-        let mut start = Vec::with_capacity(n + 1);
-        let mut js: Vec<u32> = Vec::with_capacity(4 * n);
+        let Spare {
+            mut start,
+            j: mut js,
+            mut shear,
+            head,
+            items,
+            mut cell,
+        } = std::mem::take(&mut self.spare);
+        start.clear();
+        js.clear();
         start.push(0u32);
         let cut = self.reach(r);
         self.cut = cut;
-        let grid = Grid::new(x, y, cut, b);
-        let mut seg: Vec<u32> = Vec::with_capacity(32);
+        let grid = Grid::new(x, y, cut, b, (head, items), &mut cell);
+        // Minimum image with multiplications (as Boundary::delta, which divides): a pair
+        // at the reach's edge may round either way, and either is right, since the list
+        // only has to hold every pair closer than R_i + R_j + skin.
+        let (lx, ly, off) = match b {
+            Boundary::Open => (0.0, 0.0, 0.0),
+            Boundary::Periodic { lx, ly } => (lx, ly, 0.0),
+            Boundary::LeesEdwards { lx, ly, offset } => (lx, ly, offset),
+        };
+        let wrap = !matches!(b, Boundary::Open);
+        let (inv_lx, inv_ly) = if wrap {
+            (1.0 / lx, 1.0 / ly)
+        } else {
+            (0.0, 0.0)
+        };
+        let delta = |dx: f64, dy: f64| {
+            if !wrap {
+                return (dx, dy);
+            }
+            let img = rint(dy * inv_ly);
+            let (dx, dy) = (dx - img * off, dy - img * ly);
+            (dx - lx * rint(dx * inv_lx), dy)
+        };
+        let mut seg: Vec<u32> = vec![0; 64];
+        let mut cells = [(0, 0); 9];
         for i in 0..n {
-            seg.clear();
-            let mut consider = |j: usize| {
-                if j > i {
-                    let (dx, dy) = b.delta(x[i] - x[j], y[i] - y[j]);
-                    let c = r[i] + r[j] + self.skin;
-                    if dx * dx + dy * dy < c * c {
-                        seg.push(j as u32);
-                    }
+            let count = match &grid {
+                Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
+                None => {
+                    cells[0] = (i as u32 + 1, n as u32);
+                    1
                 }
             };
-            match &grid {
-                Some(g) => g.for_neighbours(x[i], y[i], &mut consider),
-                None => (i + 1..n).for_each(&mut consider),
+            let ranges = &cells[..count];
+            // Every candidate is written and kept only by advancing `m`: whether j > i and
+            // whether it is in reach are coin flips a branch would mispredict.
+            let mut m = 0;
+            for &(a, b) in ranges {
+                for q in a as usize..b as usize {
+                    let j = match &grid {
+                        Some(g) => g.items[q] as usize,
+                        None => q,
+                    };
+                    let (dx, dy) = delta(x[i] - x[j], y[i] - y[j]);
+                    let c = r[i] + r[j] + self.skin;
+                    if m == seg.len() {
+                        seg.push(0);
+                    }
+                    seg[m] = j as u32;
+                    m += ((j > i) & (dx * dx + dy * dy < c * c)) as usize;
+                }
             }
+            let seg = &mut seg[..m];
             seg.sort_unstable();
-            js.extend_from_slice(&seg);
+            js.extend_from_slice(seg);
             start.push(js.len() as u32);
         }
         // Carry the history of surviving pairs (both segments are sorted by j).
-        let mut shear = vec![0.0; js.len()];
+        shear.clear();
+        shear.resize(js.len(), 0.0);
         if self.start.len() == n + 1 {
             for i in 0..n {
                 let (old, new) = (
@@ -204,11 +269,19 @@ impl PairList {
                 }
             }
         }
-        self.start = start;
-        self.j = js;
-        self.shear = shear;
-        self.x_ref = x.to_vec();
-        self.y_ref = y.to_vec();
+        let (head, items) = grid.map(|g| (g.head, g.items)).unwrap_or_default();
+        self.spare = Spare {
+            start: std::mem::replace(&mut self.start, start),
+            j: std::mem::replace(&mut self.j, js),
+            shear: std::mem::replace(&mut self.shear, shear),
+            head,
+            items,
+            cell,
+        };
+        self.x_ref.clear();
+        self.x_ref.extend_from_slice(x);
+        self.y_ref.clear();
+        self.y_ref.extend_from_slice(y);
         self.offset_ref = b.offset();
         self.builds += 1;
     }
@@ -232,7 +305,16 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(x: &[f64], y: &[f64], cut: f64, b: Boundary) -> Option<Grid> {
+    /// The grid of the points, in the buffers `head`, `items` (and `cell`, scratch) of a
+    /// previous grid when given.
+    fn new(
+        x: &[f64],
+        y: &[f64],
+        cut: f64,
+        b: Boundary,
+        (mut head, mut items): (Vec<u32>, Vec<u32>),
+        cell: &mut Vec<u32>,
+    ) -> Option<Grid> {
         let n = x.len();
         let (periodic, x0, y0, w, h) = match b {
             Boundary::Periodic { lx, ly } | Boundary::LeesEdwards { lx, ly, .. } => {
@@ -280,21 +362,32 @@ impl Grid {
             y0,
             cx,
             cy,
-            head: vec![0; ncx * ncy + 1],
-            items: vec![0; n],
+            head: Vec::new(),
+            items: Vec::new(),
         };
-        let cells: Vec<usize> = (0..n).map(|i| g.cell_of_wrapped(x[i], y[i])).collect();
-        for &c in &cells {
-            g.head[c + 1] += 1;
+        head.clear();
+        head.resize(ncx * ncy + 1, 0);
+        items.clear();
+        items.resize(n, 0);
+        cell.clear();
+        cell.extend((0..n).map(|i| g.cell_of_wrapped(x[i], y[i]) as u32));
+        for &c in cell.iter() {
+            head[c as usize + 1] += 1;
         }
         for c in 0..ncx * ncy {
-            g.head[c + 1] += g.head[c];
+            head[c + 1] += head[c];
         }
-        let mut fill = g.head.clone();
-        for (i, &c) in cells.iter().enumerate() {
-            g.items[fill[c] as usize] = i as u32;
-            fill[c] += 1;
+        // Fill each cell from its end (`head[c + 1]` counts down to `head[c]`), in
+        // reverse grain order so each cell lists its grains ascending.
+        for (i, &c) in cell.iter().enumerate().rev() {
+            let c = c as usize + 1;
+            head[c] -= 1;
+            items[head[c] as usize] = i as u32;
         }
+        // Now head[c + 1] == start of cell c: shift back.
+        head.rotate_left(1);
+        head[ncx * ncy] = n as u32;
+        (g.head, g.items) = (head, items);
         Some(g)
     }
 
@@ -328,10 +421,11 @@ impl Grid {
         cy as usize * self.ncx + cx as usize
     }
 
-    /// Every grain in the cells around the point. Rows across the y boundary are seen
-    /// through the Lees–Edwards shift, so their columns are re-centred on the point's
-    /// shifted x.
-    fn for_neighbours(&self, x: f64, y: f64, f: &mut impl FnMut(usize)) {
+    /// The ranges of `items` of the cells around the point (at most 9); returns how
+    /// many. Rows across the y boundary are seen through the Lees–Edwards shift, so their
+    /// columns are re-centred on the point's shifted x.
+    fn neighbour_cells(&self, x: f64, y: f64, out: &mut [(u32, u32); 9]) -> usize {
+        let mut count = 0;
         let (cx, cy) = self.col_row(x, y);
         for dy in -1..=1 {
             let mut ny = cy + dy;
@@ -367,11 +461,11 @@ impl Grid {
                     continue;
                 }
                 let c = ny as usize * self.ncx + nx as usize;
-                for &j in &self.items[self.head[c] as usize..self.head[c + 1] as usize] {
-                    f(j as usize);
-                }
+                out[count] = (self.head[c], self.head[c + 1]);
+                count += 1;
             }
         }
+        count
     }
 
     /// The point mapped into the primary cell (x, y), Lees–Edwards aware.
