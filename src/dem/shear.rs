@@ -9,7 +9,7 @@
 //! by n γ̇ L, which is the Lees–Edwards rule without any remapping of stored state.
 
 use super::grains::{Grains, LARGE, SMALL};
-use super::shear_integrate::{correct, predict};
+use super::shear_integrate::{Packed, correct, predict};
 use super::shear_pairs::{PairParams, pair_loop};
 use super::shear_slots::{Slots, evaluate};
 use super::verlet::{Boundary, PairList};
@@ -130,6 +130,8 @@ pub struct ShearSim {
     pub slots: Slots,
     /// Which force kernel runs (both give the same numbers bit for bit).
     pub kernel: ShearKernel,
+    /// The state to evaluate next, packed for the AVX2 kernel by the integrator.
+    pub packed: Packed,
 }
 
 /// The sheared disks' force kernels: the same numbers, different speed.
@@ -212,6 +214,7 @@ impl ShearSim {
             pred: Predicted::default(),
             slots: Slots::default(),
             kernel: ShearKernel::default(),
+            packed: Packed::default(),
         };
         s.refresh();
         s
@@ -254,6 +257,7 @@ impl ShearSim {
             time,
             slots,
             kernel,
+            packed,
             ..
         } = self;
         let st = if predicted {
@@ -289,11 +293,13 @@ impl ShearSim {
             slots.sync(list, &g.radius);
             let hist = &mut list.shear[..];
             if track {
-                evaluate::<true>(st, slots, hist, &pp, fx, fy, tq, coll);
+                evaluate::<true>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
             } else {
-                evaluate::<false>(st, slots, hist, &pp, fx, fy, tq, coll);
+                evaluate::<false>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
             }
         }
+        // Packed for this evaluation only: anything may change the state before the next.
+        packed.fresh = false;
     }
 
     /// The virial sums Σ f ⊗ r_ij (Eqs. 12–13) and the contact count of the current
@@ -329,6 +335,7 @@ impl ShearSim {
         let dt = self.p.dt;
         let n = self.g.len();
         let rotate = self.rotate;
+        let pack = self.kernel == ShearKernel::Slots && Packed::used_for(&self.p);
         let (g, pr) = (&self.g, &mut self.pred);
         for v in [&mut pr.x, &mut pr.y, &mut pr.vx, &mut pr.vy, &mut pr.w] {
             v.resize(n, 0.0);
@@ -356,6 +363,7 @@ impl ShearSim {
             &mut pr.vx,
             &mut pr.vy,
             &mut pr.w,
+            pack.then_some((&mut self.packed, &g.radius[..])),
         );
         self.step += 1;
         self.time = self.step as f64 * dt;
@@ -374,6 +382,7 @@ impl ShearSim {
             &mut g.vx,
             &mut g.vy,
             &mut g.omega,
+            pack.then_some((&mut self.packed, &g.radius[..])),
         );
         self.evaluate(false);
     }

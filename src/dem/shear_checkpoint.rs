@@ -115,6 +115,7 @@ impl ShearSim {
             pred: Predicted::default(),
             slots: Default::default(),
             kernel: Default::default(),
+            packed: Default::default(),
         };
         Ok((sim, extra))
     }

@@ -2,11 +2,70 @@
 //! (alias-free arguments keep the array pointers in registers; multiplying by stored
 //! 1/m and 1/I instead of dividing saves ten divisions per grain and step).
 
+/// A grain's (x, y) (d_s), one aligned 16-byte load.
+#[repr(C, align(16))]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Pos(pub [f64; 2]);
+
+/// Four numbers of a grain, one aligned 32-byte load: (v_x, v_y, ω, R) in the packed
+/// state, (f_x, f_y, T, 0) in force sums.
+#[repr(C, align(32))]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Quad(pub [f64; 4]);
+
+/// A state packed grain by grain for the AVX2 force kernel. The integrator writes it
+/// while it writes the state (`fresh`), which spares the kernel a pass over the arrays.
+/// A cache: never part of a simulation's value.
+#[derive(Debug, Clone, Default)]
+pub struct Packed {
+    pub pos: Vec<Pos>,
+    pub vel: Vec<Quad>,
+    /// Holds the state the next force evaluation is for.
+    pub fresh: bool,
+}
+
+impl PartialEq for Packed {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl Packed {
+    /// Whether the force evaluations of `p` use the AVX2 kernel (and so read this).
+    pub fn used_for(p: &super::shear::ShearParams) -> bool {
+        cfg!(target_arch = "x86_64")
+            && p.alpha == 2.0
+            && super::simd::level() == super::simd::Level::Avx2
+    }
+
+    /// Pack the state (x, y, v_x, v_y, ω, R) unless the integrator already did.
+    pub fn fill(&mut self, (x, y, vx, vy, w, r): super::shear_pairs::StateSlices) {
+        if std::mem::take(&mut self.fresh) && self.pos.len() == x.len() {
+            return;
+        }
+        self.pos.clear();
+        self.pos.extend(x.iter().zip(y).map(|(&a, &b)| Pos([a, b])));
+        self.vel.clear();
+        let n = x.len();
+        self.vel
+            .extend((0..n).map(|i| Quad([vx[i], vy[i], w[i], r[i]])));
+    }
+
+    /// Room for n grains, to be written by index.
+    fn reserve(&mut self, n: usize) -> (&mut [Pos], &mut [Quad]) {
+        self.pos.resize(n, Pos::default());
+        self.vel.resize(n, Quad::default());
+        self.fresh = true;
+        (&mut self.pos[..n], &mut self.vel[..n])
+    }
+}
+
 /// Positions x, y, velocities v_x, v_y and spins ω of one state.
 pub type Slices5<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [f64], &'a [f64]);
 
 /// Eqs. 21–22 (and the spin analogue of 21): the predicted state (p*) from the state
-/// at t and its forces f0 (units d_s = m = τ_e = 1). Spins stay 0 when `!rotate`.
+/// at t and its forces f0 (units d_s = m = τ_e = 1). Spins stay 0 when `!rotate`. With
+/// `pack` (and the radii), the predicted state also goes out packed for the kernel.
 #[allow(clippy::too_many_arguments)]
 pub fn predict(
     dt: f64,
@@ -19,6 +78,7 @@ pub fn predict(
     pvx: &mut [f64],
     pvy: &mut [f64],
     pw: &mut [f64],
+    pack: Option<(&mut Packed, &[f64])>,
 ) {
     let n = x.len();
     let (y, vx, vy, w) = (&y[..n], &vx[..n], &vy[..n], &w[..n]);
@@ -30,6 +90,10 @@ pub fn predict(
         &mut pvy[..n],
         &mut pw[..n],
     );
+    let mut pk = pack.map(|(pk, r)| {
+        let (pos, vel) = pk.reserve(n);
+        (pos, vel, &r[..n])
+    });
     for i in 0..n {
         pvx[i] = vx[i] + f0x[i] * dt * inv_m[i];
         pvy[i] = vy[i] + f0y[i] * dt * inv_m[i];
@@ -40,11 +104,15 @@ pub fn predict(
         } else {
             0.0
         };
+        if let Some((pos, vel, r)) = &mut pk {
+            pos[i] = Pos([px[i], py[i]]);
+            vel[i] = Quad([pvx[i], pvy[i], pw[i], r[i]]);
+        }
     }
 }
 
 /// Eqs. 23–24 (and their spin analogues): the state at t + Δt from the forces at t
-/// (f0) and at the predicted state (f1).
+/// (f0) and at the predicted state (f1); with `pack`, also packed for the force kernel.
 #[allow(clippy::too_many_arguments)]
 pub fn correct(
     dt: f64,
@@ -58,6 +126,7 @@ pub fn correct(
     vx: &mut [f64],
     vy: &mut [f64],
     w: &mut [f64],
+    pack: Option<(&mut Packed, &[f64])>,
 ) {
     let n = x.len();
     let (y, theta, vx, vy, w) = (
@@ -81,6 +150,14 @@ pub fn correct(
             let w0 = w[i];
             w[i] = w0 + (t0[i] + t1[i]) * dt * (0.5 * inv_i[i]);
             theta[i] += (w0 + w[i]) * dt * 0.5;
+        }
+    }
+    if let Some((pk, r)) = pack {
+        let (pos, vel) = pk.reserve(n);
+        let r = &r[..n];
+        for i in 0..n {
+            pos[i] = Pos([x[i], y[i]]);
+            vel[i] = Quad([vx[i], vy[i], w[i], r[i]]);
         }
     }
 }

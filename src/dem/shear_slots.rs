@@ -40,8 +40,8 @@ pub struct Slots {
     pub(crate) n: usize,
     /// `PairList::builds` this table was made from.
     builds: u64,
-    /// Scratch of the AVX2 kernel.
-    packed: super::shear_avx2::Packed,
+    /// Force sums of the AVX2 kernel (scratch).
+    acc: Vec<super::shear_integrate::Quad>,
 }
 
 /// A cache of the pair list: two simulations never differ by it.
@@ -152,6 +152,7 @@ impl Forces {
 pub fn evaluate<const TRACK: bool>(
     st: StateSlices,
     slots: &mut Slots,
+    packed: &mut super::shear_integrate::Packed,
     hist: &mut [f64],
     pp: &PairParams,
     fx: &mut [f64],
@@ -172,22 +173,14 @@ pub fn evaluate<const TRACK: bool>(
     let harmonic = pp.alpha == 2.0;
     #[cfg(target_arch = "x86_64")]
     if harmonic && super::simd::level() == super::simd::Level::Avx2 {
-        let mut packed = std::mem::take(&mut slots.packed);
+        let mut acc = std::mem::take(&mut slots.acc);
         // SAFETY: the processor has AVX2 (checked at run time).
         unsafe {
             super::shear_avx2::evaluate::<TRACK>(
-                st,
-                slots,
-                &mut packed,
-                hist,
-                pp,
-                fx,
-                fy,
-                tq,
-                coll,
+                st, slots, packed, &mut acc, hist, pp, fx, fy, tq, coll,
             );
         }
-        slots.packed = packed;
+        slots.acc = acc;
         return;
     }
     for v in [&mut *fx, &mut *fy, &mut *tq] {
