@@ -63,6 +63,7 @@ impl Packed {
 /// Positions x, y, velocities v_x, v_y and spins ω of one state.
 pub type Slices5<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [f64], &'a [f64]);
 
+crate::multiversion! {
 /// Eqs. 21–22 (and the spin analogue of 21): the predicted state (p*) from the state
 /// at t and its forces f0 (units d_s = m = τ_e = 1). Spins stay 0 when `!rotate`. With
 /// `pack` (and the radii), the predicted state also goes out packed for the kernel.
@@ -70,9 +71,9 @@ pub type Slices5<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [f64], &'a [f64]);
 pub fn predict(
     dt: f64,
     rotate: bool,
-    (x, y, vx, vy, w): Slices5,
-    (inv_m, inv_i): (&[f64], &[f64]),
-    (f0x, f0y, t0): (&[f64], &[f64], &[f64]),
+    state: Slices5,
+    inv: (&[f64], &[f64]),
+    f0: (&[f64], &[f64], &[f64]),
     px: &mut [f64],
     py: &mut [f64],
     pvx: &mut [f64],
@@ -80,6 +81,7 @@ pub fn predict(
     pw: &mut [f64],
     pack: Option<(&mut Packed, &[f64])>,
 ) {
+    let ((x, y, vx, vy, w), (inv_m, inv_i), (f0x, f0y, t0)) = (state, inv, f0);
     let n = x.len();
     let (y, vx, vy, w) = (&y[..n], &vx[..n], &vy[..n], &w[..n]);
     let (inv_m, inv_i, f0x, f0y, t0) = (&inv_m[..n], &inv_i[..n], &f0x[..n], &f0y[..n], &t0[..n]);
@@ -110,16 +112,18 @@ pub fn predict(
         }
     }
 }
+}
 
+crate::multiversion! {
 /// Eqs. 23–24 (and their spin analogues): the state at t + Δt from the forces at t
 /// (f0) and at the predicted state (f1); with `pack`, also packed for the force kernel.
 #[allow(clippy::too_many_arguments)]
 pub fn correct(
     dt: f64,
     rotate: bool,
-    (inv_m, inv_i): (&[f64], &[f64]),
-    (f0x, f0y, t0): (&[f64], &[f64], &[f64]),
-    (f1x, f1y, t1): (&[f64], &[f64], &[f64]),
+    inv: (&[f64], &[f64]),
+    f0: (&[f64], &[f64], &[f64]),
+    f1: (&[f64], &[f64], &[f64]),
     x: &mut [f64],
     y: &mut [f64],
     theta: &mut [f64],
@@ -128,6 +132,7 @@ pub fn correct(
     w: &mut [f64],
     pack: Option<(&mut Packed, &[f64])>,
 ) {
+    let ((inv_m, inv_i), (f0x, f0y, t0), (f1x, f1y, t1)) = (inv, f0, f1);
     let n = x.len();
     let (y, theta, vx, vy, w) = (
         &mut y[..n],
@@ -160,4 +165,5 @@ pub fn correct(
             vel[i] = Quad([vx[i], vy[i], w[i], r[i]]);
         }
     }
+}
 }

@@ -8,6 +8,25 @@
 //! counts is the one away from the affine flow (see [`PairList::needs_rebuild_sheared`]),
 //! so the flow itself, fast at large L, forces no rebuilds.
 
+crate::multiversion! {
+/// Whether some grain strayed more than √lim from its reference position, counting
+/// displacement along the affine flow Δγ y x̂ as none.
+fn strays(x: &[f64], y: &[f64], x_ref: &[f64], y_ref: &[f64], dgamma: f64, lim: f64) -> bool {
+    let n = x.len();
+    let (y, x_ref, y_ref) = (&y[..n], &x_ref[..n], &y_ref[..n]);
+    // Chunks without early exit vectorise; most checks find nothing.
+    (0..n).step_by(256).any(|c| {
+        let mut far = false;
+        for i in c..(c + 256).min(n) {
+            let ux = x[i] - x_ref[i] - dgamma * y_ref[i];
+            let uy = y[i] - y_ref[i];
+            far |= ux * ux + uy * uy > lim;
+        }
+        far
+    })
+}
+}
+
 /// Where the grains live.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Boundary {
@@ -143,18 +162,7 @@ impl PairList {
             return true;
         }
         let lim = 0.25 * room * room;
-        let n = x.len();
-        let (y, x_ref, y_ref) = (&y[..n], &self.x_ref[..n], &self.y_ref[..n]);
-        // Chunks without early exit vectorise; most checks find nothing.
-        (0..n).step_by(256).any(|c| {
-            let mut far = false;
-            for i in c..(c + 256).min(n) {
-                let ux = x[i] - x_ref[i] - dgamma * y_ref[i];
-                let uy = y[i] - y_ref[i];
-                far |= ux * ux + uy * uy > lim;
-            }
-            far
-        })
+        strays(x, y, &self.x_ref, &self.y_ref, dgamma, lim)
     }
 
     /// Rebuild if needed; returns whether it did.
