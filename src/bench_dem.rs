@@ -271,6 +271,8 @@ pub struct ShearBench {
     /// Per step of Eqs. 21–24 (two force evaluations).
     pub ns_per_particle_step: f64,
     pub list_builds: u64,
+    /// Re-selections of the near list (`shear_near`) in the timed steps.
+    pub near_selections: u64,
     /// Same steps from the same state without re-sorting into cell order (same run).
     pub ns_per_particle_step_unsorted: f64,
 }
@@ -301,7 +303,7 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
     let seconds_unsorted = t.elapsed().as_secs_f64();
     // Time from the first re-sort on, as a long run sees it.
     s.resort();
-    let b0 = s.list.builds;
+    let (b0, s0) = (s.list.builds, s.slots.selections);
     let t = Instant::now();
     for _ in 0..steps {
         s.step();
@@ -314,6 +316,7 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         seconds,
         ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
         list_builds: s.list.builds - b0,
+        near_selections: s.slots.selections - s0,
         ns_per_particle_step_unsorted: seconds_unsorted / (n as f64 * steps as f64) * 1e9,
     }
 }

@@ -104,13 +104,14 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                     println!("{}", serde_json::to_string(&b)?);
                 } else {
                     println!(
-                        "shear n={:>6} Z={:.2} {} steps {:.2} s  {:.1} ns/particle-step (Eqs. 21–24: two force evaluations per step; {} list builds); without re-sorting {:.1}",
+                        "shear n={:>6} Z={:.2} {} steps {:.2} s  {:.1} ns/particle-step (Eqs. 21–24: two force evaluations per step; {} list builds, {} near-list selections); without re-sorting {:.1}",
                         b.n,
                         b.z,
                         b.steps,
                         b.seconds,
                         b.ns_per_particle_step,
                         b.list_builds,
+                        b.near_selections,
                         b.ns_per_particle_step_unsorted
                     );
                 }

@@ -639,6 +639,12 @@ fn slot_kernel_gives_the_straight_loops_run_bit_for_bit() {
                 fast.step();
             }
             let what = format!("{model:?} α = {alpha} {max:?}");
+            // The near list was re-selected often, not only with the Verlet list.
+            let builds = fast.list.builds;
+            assert!(
+                fast.slots.selections > 2 * builds,
+                "{what}: {builds} builds"
+            );
             for (a, b) in [
                 (&fast.g.x, &straight.g.x),
                 (&fast.g.vy, &straight.g.vy),

@@ -27,6 +27,7 @@ pub mod shear;
 pub mod shear_avx2;
 pub mod shear_checkpoint;
 pub mod shear_integrate;
+pub mod shear_near;
 pub mod shear_order;
 pub mod shear_pairs;
 pub mod shear_slots;

@@ -10,8 +10,9 @@
 
 use super::grains::{Grains, LARGE, SMALL};
 use super::shear_integrate::{Packed, correct, predict};
+use super::shear_near::Slots;
 use super::shear_pairs::{PairParams, pair_loop};
-use super::shear_slots::{Slots, evaluate};
+use super::shear_slots::evaluate;
 use super::verlet::{Boundary, PairList};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
@@ -282,6 +283,7 @@ impl ShearSim {
         let pp = PairParams::new(p, self.l, b.offset(), *time);
         let st = (x, y, vx, vy, w, &g.radius[..]);
         if *kernel == ShearKernel::Straight {
+            slots.invalidate();
             let (start, js, hist) = (&list.start[..], &list.j[..], &mut list.shear[..]);
             let mut none = Virial::default();
             if track {
@@ -290,12 +292,12 @@ impl ShearSim {
                 pair_loop::<false, false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut none);
             }
         } else {
-            slots.sync(list, &g.radius);
-            let hist = &mut list.shear[..];
+            slots.sync(list, &g.radius, (x, y), b);
             if track {
-                evaluate::<true>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
+                evaluate::<true>(st, slots, packed, &pp, fx, fy, tq, coll);
+                slots.write_back(&mut list.shear);
             } else {
-                evaluate::<false>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
+                evaluate::<false>(st, slots, packed, &pp, fx, fy, tq, coll);
             }
         }
         // Packed for this evaluation only: anything may change the state before the next.

@@ -15,86 +15,12 @@
 //! results are the same bit for bit (a test holds them to it).
 
 use super::shear::{Collisions, angle_bin};
+use super::shear_near::Slots;
 use super::shear_pairs::{PairParams, StateSlices};
-use super::verlet::{PairList, rint};
+use super::verlet::rint;
 
 /// Slots per block: pass A's results for one block stay in L1 for pass B.
 const BLOCK: usize = 128;
-
-/// The pair list flattened into (i, j) per slot, in the list's order (so slot k's contact
-/// history is `PairList::shear[k]`), with 1/(R_i + R_j) and (R_i + R_j)² per slot (radii
-/// never change while a list lives, and stored values spare the kernels a division and
-/// two loads per slot). Indices are checked against `n` once, at build time, which lets
-/// the kernels index without bounds checks. The arrays are padded to a multiple of four
-/// slots with pairs that never touch (d_ij² = −1), so the AVX2 kernel has no tail.
-#[derive(Debug, Clone, Default)]
-pub struct Slots {
-    pub(crate) i: Vec<u32>,
-    pub(crate) j: Vec<u32>,
-    /// 1/d_ij = 1/(R_i + R_j) (1/d_s).
-    pub(crate) inv_dij: Vec<f64>,
-    /// d_ij² = (R_i + R_j)² (d_s²).
-    pub(crate) dij2: Vec<f64>,
-    /// Real slots (the rest is padding).
-    len: usize,
-    pub(crate) n: usize,
-    /// `PairList::builds` this table was made from.
-    builds: u64,
-    /// Force sums of the AVX2 kernel (scratch).
-    acc: Vec<super::shear_integrate::Quad>,
-}
-
-/// A cache of the pair list: two simulations never differ by it.
-impl PartialEq for Slots {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-impl Slots {
-    /// Re-flatten when the list was rebuilt since the last call (`r`: radii, d_s).
-    pub fn sync(&mut self, list: &PairList, r: &[f64]) {
-        let n = r.len();
-        if self.builds == list.builds && self.n == n && self.len == list.j.len() {
-            return;
-        }
-        self.i.clear();
-        for a in 0..list.start.len().saturating_sub(1) {
-            let len = list.start[a + 1] - list.start[a];
-            self.i.extend(std::iter::repeat_n(a as u32, len as usize));
-        }
-        self.j.clone_from(&list.j);
-        assert!(
-            n > 0
-                && self.i.len() == self.j.len()
-                && self.i.iter().chain(&self.j).all(|&v| (v as usize) < n),
-            "pair list does not match the grains"
-        );
-        self.len = self.j.len();
-        let dij = |a: u32, b: u32| r[a as usize] + r[b as usize];
-        let pairs = || self.i.iter().zip(&self.j);
-        self.inv_dij.clear();
-        self.inv_dij.extend(pairs().map(|(&a, &b)| 1.0 / dij(a, b)));
-        self.dij2.clear();
-        self.dij2
-            .extend(pairs().map(|(&a, &b)| dij(a, b) * dij(a, b)));
-        let padded = self.len.next_multiple_of(4);
-        self.i.resize(padded, 0);
-        self.j.resize(padded, 0);
-        self.inv_dij.resize(padded, 0.0);
-        self.dij2.resize(padded, -1.0);
-        self.n = n;
-        self.builds = list.builds;
-    }
-
-    /// Slots (padding excluded).
-    pub fn len(&self) -> usize {
-        self.len
-    }
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-}
 
 /// One block's separations: per slot (`k`), then the touching slots listed.
 struct Seps {
@@ -146,14 +72,13 @@ impl Forces {
 }
 
 /// Forces and torques of every slot's contacts into `fx`, `fy`, `tq` (overwritten); with
-/// `TRACK`, the history `hist` (0, or 1 + start time) and the collision counters. Same
+/// `TRACK`, the near list's contact history and the collision counters. Same
 /// numbers as `pair_loop`.
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate<const TRACK: bool>(
     st: StateSlices,
     slots: &mut Slots,
     packed: &mut super::shear_integrate::Packed,
-    hist: &mut [f64],
     pp: &PairParams,
     fx: &mut [f64],
     fy: &mut [f64],
@@ -167,26 +92,29 @@ pub fn evaluate<const TRACK: bool>(
             .iter()
             .chain(&[fx.len(), fy.len(), tq.len()])
             .all(|&l| l == n)
-            && hist.len() == slots.len(),
+            && slots.hist.len() >= slots.len(),
         "state does not match the slot table"
     );
     let harmonic = pp.alpha == 2.0;
     #[cfg(target_arch = "x86_64")]
     if harmonic && super::simd::level() == super::simd::Level::Avx2 {
         let mut acc = std::mem::take(&mut slots.acc);
+        let mut hist = std::mem::take(&mut slots.hist);
         // SAFETY: the processor has AVX2 (checked at run time).
         unsafe {
             super::shear_avx2::evaluate::<TRACK>(
-                st, slots, packed, &mut acc, hist, pp, fx, fy, tq, coll,
+                st, slots, packed, &mut acc, &mut hist, pp, fx, fy, tq, coll,
             );
         }
         slots.acc = acc;
+        slots.hist = hist;
         return;
     }
     for v in [&mut *fx, &mut *fy, &mut *tq] {
         v.fill(0.0);
     }
     let (mut sep, mut frc) = (Seps::new(), Forces::new());
+    let mut hist = std::mem::take(&mut slots.hist);
     for b0 in (0..slots.len()).step_by(BLOCK) {
         let b1 = (b0 + BLOCK).min(slots.len());
         let (si, sj) = (&slots.i[b0..b1], &slots.j[b0..b1]);
@@ -202,6 +130,7 @@ pub fn evaluate<const TRACK: bool>(
         let hist = &mut hist[b0..b1];
         sums::<TRACK>(si, sj, &sep, &frc, hist, pp.now, fx, fy, tq, coll);
     }
+    slots.hist = hist;
 }
 
 /// Reads a grain's value without a bounds check.

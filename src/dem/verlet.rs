@@ -11,7 +11,7 @@
 crate::multiversion! {
 /// Whether some grain strayed more than √lim from its reference position, counting
 /// displacement along the affine flow Δγ y x̂ as none.
-fn strays(x: &[f64], y: &[f64], x_ref: &[f64], y_ref: &[f64], dgamma: f64, lim: f64) -> bool {
+pub(crate) fn strays(x: &[f64], y: &[f64], x_ref: &[f64], y_ref: &[f64], dgamma: f64, lim: f64) -> bool {
     let n = x.len();
     let (y, x_ref, y_ref) = (&y[..n], &x_ref[..n], &y_ref[..n]);
     // Chunks without early exit vectorise; most checks find nothing. (Plain loops: an

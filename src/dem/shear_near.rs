@@ -1,0 +1,191 @@
+//! The sheared disks' near list: the pairs of the Verlet list ([`PairList`], skin 0.3
+//! d_s) that are within a much thinner skin ([`NEAR_SKIN`]), flattened for the force
+//! kernels. Rebuilding the Verlet list needs the cell grid; re-selecting from it is one
+//! pass over its slots, so the near list can afford a skin a sixth as thick and be
+//! re-selected often, and the kernels then test about 1.9 pairs per grain instead of 2.6.
+//!
+//! Exact: the near list keeps the Verlet list's order, holds every pair that can touch
+//! before the next re-selection (the same displacement bound as the Verlet list, with
+//! the thin skin) and every pair with contact history, so the forces, their order of
+//! summation and the contact bookkeeping are those of the whole list.
+
+use super::verlet::{Boundary, PairList, rint, strays};
+
+/// Extra distance beyond contact kept in the near list (d_s).
+pub const NEAR_SKIN: f64 = 0.05;
+
+/// The near list: slot k is the Verlet list's slot `sel[k]`, with its (i, j), 1/d_ij,
+/// d_ij² and contact history (0, or 1 + start time; written back to the Verlet list's
+/// `shear` after every tracked evaluation). Indices are checked against `n` when
+/// selected, which lets the kernels index without bounds checks. The arrays are padded
+/// to a multiple of four slots with pairs that never touch (d_ij² = −1), so the AVX2
+/// kernel has no tail.
+#[derive(Debug, Clone, Default)]
+pub struct Slots {
+    pub(crate) i: Vec<u32>,
+    pub(crate) j: Vec<u32>,
+    /// 1/d_ij = 1/(R_i + R_j) (1/d_s).
+    pub(crate) inv_dij: Vec<f64>,
+    /// d_ij² = (R_i + R_j)² (d_s²).
+    pub(crate) dij2: Vec<f64>,
+    pub(crate) hist: Vec<f64>,
+    /// The Verlet-list slot of each near slot.
+    sel: Vec<u32>,
+    /// Real slots (the rest is padding).
+    len: usize,
+    pub(crate) n: usize,
+    /// The Verlet list (`PairList::builds`) this selection came from; none when 0.
+    builds: u64,
+    /// Positions and Lees–Edwards offset at the selection, and its reach
+    /// 2 R_max + NEAR_SKIN (d_s).
+    x_ref: Vec<f64>,
+    y_ref: Vec<f64>,
+    offset_ref: f64,
+    reach: f64,
+    /// How many times the near list was selected.
+    pub selections: u64,
+    /// Force sums of the AVX2 kernel (scratch).
+    pub(crate) acc: Vec<super::shear_integrate::Quad>,
+    /// The Verlet list flattened: i, 1/d_ij and d_ij per slot (d_s).
+    all_i: Vec<u32>,
+    all_inv_dij: Vec<f64>,
+    all_dij: Vec<f64>,
+}
+
+/// A cache of the pair list: two simulations never differ by it.
+impl PartialEq for Slots {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl Slots {
+    /// Make the near list valid for the state (x, y) (d_s) in boundary `b`: re-select
+    /// when the Verlet list was rebuilt, when forced by [`Slots::invalidate`], or when
+    /// some grain strayed more than NEAR_SKIN/2 from the affine flow since the last
+    /// selection (as [`PairList::needs_rebuild_sheared`]).
+    pub fn sync(&mut self, list: &PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
+        let n = r.len();
+        let (ly, offset) = match b {
+            Boundary::LeesEdwards { ly, offset, .. } => (ly, offset),
+            Boundary::Periodic { ly, .. } => (ly, 0.0),
+            Boundary::Open => (1.0, 0.0),
+        };
+        let dgamma = (offset - self.offset_ref) / ly;
+        let room = NEAR_SKIN - dgamma.abs() * self.reach;
+        let current = self.builds == list.builds
+            && self.builds != 0
+            && self.n == n
+            && self.x_ref.len() == n
+            && room > 0.0
+            && !strays(x, y, &self.x_ref, &self.y_ref, dgamma, 0.25 * room * room);
+        if !current {
+            self.select(list, r, (x, y), b);
+        }
+    }
+
+    /// Forget the selection (the Verlet list's history was changed behind its back).
+    pub fn invalidate(&mut self) {
+        self.builds = 0;
+    }
+
+    fn select(&mut self, list: &PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
+        let n = r.len();
+        let total = list.j.len();
+        if self.builds != list.builds || self.n != n || self.all_i.len() != total {
+            assert!(
+                n > 0
+                    && list.start.len() == n + 1
+                    && list.shear.len() == total
+                    && list.j.iter().all(|&v| (v as usize) < n),
+                "pair list does not match the grains"
+            );
+            self.all_i.clear();
+            for a in 0..n {
+                let len = (list.start[a + 1] - list.start[a]) as usize;
+                self.all_i.extend(std::iter::repeat_n(a as u32, len));
+            }
+            let pairs = || self.all_i.iter().zip(&list.j);
+            let dij = |(&a, &c): (&u32, &u32)| r[a as usize] + r[c as usize];
+            self.all_dij.clear();
+            self.all_dij.extend(pairs().map(dij));
+            self.all_inv_dij.clear();
+            self.all_inv_dij
+                .extend(self.all_dij.iter().map(|d| 1.0 / d));
+        }
+        let padded = total.next_multiple_of(4);
+        for v in [&mut self.i, &mut self.j, &mut self.sel] {
+            v.resize(padded, 0);
+        }
+        for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
+            v.resize(padded, 0.0);
+        }
+        let (lx, ly, off) = match b {
+            Boundary::Open => (0.0, 0.0, 0.0),
+            Boundary::Periodic { lx, ly } => (lx, ly, 0.0),
+            Boundary::LeesEdwards { lx, ly, offset } => (lx, ly, offset),
+        };
+        let wrap = !matches!(b, Boundary::Open);
+        let (inv_lx, inv_ly) = if wrap {
+            (1.0 / lx, 1.0 / ly)
+        } else {
+            (0.0, 0.0)
+        };
+        // Every Verlet slot is written at m and kept by advancing m: whether it is near
+        // is a coin flip a branch would mispredict.
+        let mut m = 0;
+        for k in 0..total {
+            let (a, c) = (self.all_i[k] as usize, list.j[k] as usize);
+            // Minimum image by multiplication: a pair at the edge may round either way,
+            // and either is right (the list need only hold every pair that can touch).
+            let (dx, dy) = (x[a] - x[c], y[a] - y[c]);
+            let img = rint(dy * inv_ly);
+            let (dx, dy) = (dx - img * off, dy - img * ly);
+            let dx = dx - lx * rint(dx * inv_lx);
+            let dij = self.all_dij[k];
+            let reach = dij + NEAR_SKIN;
+            let h = list.shear[k];
+            // Pairs with history stay, however far: their contact ends here.
+            let keep = (dx * dx + dy * dy < reach * reach) | (h != 0.0);
+            self.i[m] = a as u32;
+            self.j[m] = c as u32;
+            self.inv_dij[m] = self.all_inv_dij[k];
+            self.dij2[m] = dij * dij;
+            self.hist[m] = h;
+            self.sel[m] = k as u32;
+            m += keep as usize;
+        }
+        self.len = m;
+        let padded = m.next_multiple_of(4);
+        for v in [&mut self.i, &mut self.j, &mut self.sel] {
+            v[m..padded].fill(0);
+        }
+        self.inv_dij[m..padded].fill(0.0);
+        self.dij2[m..padded].fill(-1.0);
+        self.hist[m..padded].fill(0.0);
+        self.x_ref.clear();
+        self.x_ref.extend_from_slice(x);
+        self.y_ref.clear();
+        self.y_ref.extend_from_slice(y);
+        self.offset_ref = b.offset();
+        self.reach = 2.0 * r.iter().cloned().fold(0.0, f64::max) + NEAR_SKIN;
+        self.n = n;
+        self.builds = list.builds;
+        self.selections += 1;
+    }
+
+    /// The contact history back into the Verlet list (after a tracked evaluation).
+    pub fn write_back(&self, shear: &mut [f64]) {
+        for (&k, &h) in self.sel.iter().zip(&self.hist[..self.len]) {
+            shear[k as usize] = h;
+        }
+    }
+
+    /// Slots (padding excluded).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
