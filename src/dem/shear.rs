@@ -293,11 +293,11 @@ impl ShearSim {
             }
         } else {
             slots.sync(list, &g.radius, (x, y), b);
+            let hist = &mut list.shear[..];
             if track {
-                evaluate::<true>(st, slots, packed, &pp, fx, fy, tq, coll);
-                slots.write_back(&mut list.shear);
+                evaluate::<true>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
             } else {
-                evaluate::<false>(st, slots, packed, &pp, fx, fy, tq, coll);
+                evaluate::<false>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
             }
         }
         // Packed for this evaluation only: anything may change the state before the next.

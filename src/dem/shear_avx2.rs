@@ -13,9 +13,9 @@
 //! fused multiply-add), masked-off lanes add +0.0, and each grain's force is summed in
 //! slot order. A test holds it to that.
 
-use super::shear::{Collisions, angle_bin};
+use super::shear::Collisions;
 use super::shear_integrate::{Packed, Pos, Quad};
-use super::shear_near::Slots;
+use super::shear_near::{History, Slots};
 use super::shear_pairs::{PairParams, StateSlices};
 use std::arch::x86_64::*;
 
@@ -31,7 +31,7 @@ pub unsafe fn evaluate<const TRACK: bool>(
     slots: &Slots,
     packed: &mut Packed,
     acc: &mut Vec<Quad>,
-    hist: &mut [f64],
+    hist: &mut History,
     pp: &PairParams,
     fx: &mut [f64],
     fy: &mut [f64],
@@ -45,7 +45,7 @@ pub unsafe fn evaluate<const TRACK: bool>(
             .iter()
             .chain(&[fx.len(), fy.len(), tq.len()])
             .all(|&l| l == n)
-            && hist.len() >= slots.len()
+            && hist.near.len() >= slots.len()
             && pp.alpha == 2.0,
         "state does not match the slot table"
     );
@@ -68,33 +68,21 @@ pub unsafe fn evaluate<const TRACK: bool>(
     }
 }
 
-/// Contacts of four slots that began (`touch` bit set, no history) or ended (history,
-/// no bit): their start times, collision counts and angles. Out of line: rare, and
-/// inlined it would crowd the hot loop's registers.
+/// Contact events of the four slots from k on (`touch` bits; see `History::update`).
+/// Out of line: rare, and inlined it would crowd the hot loop's registers.
 #[cold]
 #[inline(never)]
 fn contact_events(
+    k: usize,
+    count: usize,
     touch: u32,
     (dx, dy): (&[f64; 4], &[f64; 4]),
-    hist: &mut [f64],
+    hist: &mut History,
     now: f64,
     coll: &mut Collisions,
 ) {
-    for (l, h) in hist.iter_mut().enumerate() {
-        let t = touch >> l & 1 == 1;
-        if t != (*h != 0.0) {
-            let bin = angle_bin(dx[l], dy[l]);
-            if t {
-                coll.begun += 1;
-                coll.angle_making[bin] += 1;
-                *h = 1.0 + now;
-            } else {
-                coll.ended += 1;
-                coll.angle_breaking[bin] += 1;
-                coll.duration_sum += now - (*h - 1.0);
-                *h = 0.0;
-            }
-        }
+    for l in 0..count {
+        hist.update(k + l, touch >> l & 1 == 1, (dx[l], dy[l]), now, coll);
     }
 }
 
@@ -184,7 +172,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
     vel: &[Quad],
     acc: &mut [Quad],
     slots: &Slots,
-    hist: &mut [f64],
+    hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
 ) {
@@ -232,16 +220,18 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                     // Contacts that began or ended: where the touch mask and the history
                     // (slot holds a start time) disagree; rare, so tested four at a time.
                     let held = if k + 4 <= len {
-                        let h = _mm256_loadu_pd(hist.as_ptr().add(k));
+                        let h = _mm256_loadu_pd(hist.near.as_ptr().add(k));
                         _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NEQ_UQ>(h, zero)) as u32
                     } else {
-                        (k..len).map(|q| ((hist[q] != 0.0) as u32) << (q - k)).sum()
+                        (k..len)
+                            .map(|q| ((hist.near[q] != 0.0) as u32) << (q - k))
+                            .sum()
                     };
                     if held != mask {
                         _mm256_storeu_pd(dxs.as_mut_ptr(), dx);
                         _mm256_storeu_pd(dys.as_mut_ptr(), dy);
-                        let hist = &mut hist[k..len.min(k + 4)];
-                        contact_events(mask, (&dxs, &dys), hist, pp.now, coll);
+                        let count = (len - k).min(4);
+                        contact_events(k, count, mask, (&dxs, &dys), hist, pp.now, coll);
                     }
                 }
                 let dist = _mm256_sqrt_pd(r2);

@@ -9,14 +9,14 @@
 //! the thin skin) and every pair with contact history, so the forces, their order of
 //! summation and the contact bookkeeping are those of the whole list.
 
+use super::shear::{Collisions, angle_bin};
 use super::verlet::{Boundary, PairList, rint, strays};
 
 /// Extra distance beyond contact kept in the near list (d_s).
 pub const NEAR_SKIN: f64 = 0.05;
 
 /// The near list: slot k is the Verlet list's slot `sel[k]`, with its (i, j), 1/d_ij,
-/// d_ij² and contact history (0, or 1 + start time; written back to the Verlet list's
-/// `shear` after every tracked evaluation). Indices are checked against `n` when
+/// d_ij² and contact history (see [`History`]). Indices are checked against `n` when
 /// selected, which lets the kernels index without bounds checks. The arrays are padded
 /// to a multiple of four slots with pairs that never touch (d_ij² = −1), so the AVX2
 /// kernel has no tail.
@@ -174,11 +174,25 @@ impl Slots {
         self.selections += 1;
     }
 
-    /// The contact history back into the Verlet list (after a tracked evaluation).
-    pub fn write_back(&self, shear: &mut [f64]) {
-        for (&k, &h) in self.sel.iter().zip(&self.hist[..self.len]) {
-            shear[k as usize] = h;
-        }
+    /// Run `f` with the near list's contact history, written through to the Verlet
+    /// list's `all` (its `shear`).
+    pub fn with_history<R>(
+        &mut self,
+        all: &mut [f64],
+        f: impl FnOnce(&mut Self, &mut History) -> R,
+    ) -> R {
+        let mut near = std::mem::take(&mut self.hist);
+        let sel = std::mem::take(&mut self.sel);
+        let r = f(
+            self,
+            &mut History {
+                near: &mut near,
+                sel: &sel,
+                all,
+            },
+        );
+        (self.hist, self.sel) = (near, sel);
+        r
     }
 
     /// Slots (padding excluded).
@@ -187,5 +201,46 @@ impl Slots {
     }
     pub fn is_empty(&self) -> bool {
         self.len == 0
+    }
+}
+
+/// The contact history of the near slots (0, or 1 + the time the contact began), each
+/// change written through to the Verlet list's (so that list is always current).
+pub struct History<'a> {
+    pub near: &'a mut [f64],
+    sel: &'a [u32],
+    all: &'a mut [f64],
+}
+
+impl History<'_> {
+    /// Near slot k at time `now` (τ_e), whose pair touches or not (separation (dx, dy),
+    /// d_s): a contact that begins gets its start time, one that ends adds its duration;
+    /// both count, and their direction goes into the collision-angle histograms.
+    #[inline]
+    pub fn update(
+        &mut self,
+        k: usize,
+        touch: bool,
+        (dx, dy): (f64, f64),
+        now: f64,
+        coll: &mut Collisions,
+    ) {
+        let h = self.near[k];
+        if touch == (h != 0.0) {
+            return;
+        }
+        let bin = angle_bin(dx, dy);
+        let new = if touch {
+            coll.begun += 1;
+            coll.angle_making[bin] += 1;
+            1.0 + now
+        } else {
+            coll.ended += 1;
+            coll.angle_breaking[bin] += 1;
+            coll.duration_sum += now - (h - 1.0);
+            0.0
+        };
+        self.near[k] = new;
+        self.all[self.sel[k] as usize] = new;
     }
 }

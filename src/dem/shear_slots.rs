@@ -14,8 +14,8 @@
 //! loop ([`super::shear_pairs::pair_loop`]) does and the sums add in its order, so the
 //! results are the same bit for bit (a test holds them to it).
 
-use super::shear::{Collisions, angle_bin};
-use super::shear_near::Slots;
+use super::shear::Collisions;
+use super::shear_near::{History, Slots};
 use super::shear_pairs::{PairParams, StateSlices};
 use super::verlet::rint;
 
@@ -79,6 +79,7 @@ pub fn evaluate<const TRACK: bool>(
     st: StateSlices,
     slots: &mut Slots,
     packed: &mut super::shear_integrate::Packed,
+    all_hist: &mut [f64],
     pp: &PairParams,
     fx: &mut [f64],
     fy: &mut [f64],
@@ -92,45 +93,43 @@ pub fn evaluate<const TRACK: bool>(
             .iter()
             .chain(&[fx.len(), fy.len(), tq.len()])
             .all(|&l| l == n)
-            && slots.hist.len() >= slots.len(),
+            && slots.hist.len() >= slots.len()
+            && all_hist.len() >= slots.len(),
         "state does not match the slot table"
     );
     let harmonic = pp.alpha == 2.0;
     #[cfg(target_arch = "x86_64")]
     if harmonic && super::simd::level() == super::simd::Level::Avx2 {
         let mut acc = std::mem::take(&mut slots.acc);
-        let mut hist = std::mem::take(&mut slots.hist);
         // SAFETY: the processor has AVX2 (checked at run time).
-        unsafe {
+        slots.with_history(all_hist, |slots, hist| unsafe {
             super::shear_avx2::evaluate::<TRACK>(
-                st, slots, packed, &mut acc, &mut hist, pp, fx, fy, tq, coll,
+                st, slots, packed, &mut acc, hist, pp, fx, fy, tq, coll,
             );
-        }
+        });
         slots.acc = acc;
-        slots.hist = hist;
         return;
     }
     for v in [&mut *fx, &mut *fy, &mut *tq] {
         v.fill(0.0);
     }
     let (mut sep, mut frc) = (Seps::new(), Forces::new());
-    let mut hist = std::mem::take(&mut slots.hist);
-    for b0 in (0..slots.len()).step_by(BLOCK) {
-        let b1 = (b0 + BLOCK).min(slots.len());
-        let (si, sj) = (&slots.i[b0..b1], &slots.j[b0..b1]);
-        let (inv, dij2) = (&slots.inv_dij[b0..b1], &slots.dij2[b0..b1]);
-        separations((x, y), si, sj, dij2, pp, &mut sep);
-        let f = &mut frc;
-        match (pp.cdrot, harmonic) {
-            (true, true) => forces_cdrot_harmonic(st, si, sj, inv, pp, &sep, f),
-            (false, true) => forces_cd_harmonic(st, si, sj, inv, pp, &sep, f),
-            (true, false) => forces_cdrot_general(st, si, sj, inv, pp, &sep, f),
-            (false, false) => forces_cd_general(st, si, sj, inv, pp, &sep, f),
+    slots.with_history(all_hist, |slots, hist| {
+        for b0 in (0..slots.len()).step_by(BLOCK) {
+            let b1 = (b0 + BLOCK).min(slots.len());
+            let (si, sj) = (&slots.i[b0..b1], &slots.j[b0..b1]);
+            let (inv, dij2) = (&slots.inv_dij[b0..b1], &slots.dij2[b0..b1]);
+            separations((x, y), si, sj, dij2, pp, &mut sep);
+            let f = &mut frc;
+            match (pp.cdrot, harmonic) {
+                (true, true) => forces_cdrot_harmonic(st, si, sj, inv, pp, &sep, f),
+                (false, true) => forces_cd_harmonic(st, si, sj, inv, pp, &sep, f),
+                (true, false) => forces_cdrot_general(st, si, sj, inv, pp, &sep, f),
+                (false, false) => forces_cd_general(st, si, sj, inv, pp, &sep, f),
+            }
+            sums::<TRACK>(si, sj, &sep, &frc, (hist, b0), pp.now, fx, fy, tq, coll);
         }
-        let hist = &mut hist[b0..b1];
-        sums::<TRACK>(si, sj, &sep, &frc, hist, pp.now, fx, fy, tq, coll);
-    }
-    slots.hist = hist;
+    });
 }
 
 /// Reads a grain's value without a bounds check.
@@ -263,14 +262,14 @@ fn sums<const TRACK: bool>(
     sj: &[u32],
     b: &Seps,
     o: &Forces,
-    hist: &mut [f64],
+    (hist, b0): (&mut History, usize),
     now: f64,
     fx: &mut [f64],
     fy: &mut [f64],
     tq: &mut [f64],
     coll: &mut Collisions,
 ) {
-    let len = si.len().min(sj.len()).min(hist.len());
+    let len = si.len().min(sj.len());
     let nc = b.contacts.min(BLOCK);
     let pair = |m: usize| {
         let k = b.slot[m] as usize % BLOCK;
@@ -294,21 +293,8 @@ fn sums<const TRACK: bool>(
         tq[i] += o.ti[m];
     }
     if TRACK {
-        for (k, h) in hist.iter_mut().enumerate().take(len.min(BLOCK)) {
-            let touch = b.touch[k];
-            if touch != (*h != 0.0) {
-                let (dx, dy) = (b.dx[k], b.dy[k]);
-                if touch {
-                    coll.begun += 1;
-                    coll.angle_making[angle_bin(dx, dy)] += 1;
-                    *h = 1.0 + now;
-                } else {
-                    coll.ended += 1;
-                    coll.angle_breaking[angle_bin(dx, dy)] += 1;
-                    coll.duration_sum += now - (*h - 1.0);
-                    *h = 0.0;
-                }
-            }
+        for k in 0..len.min(BLOCK) {
+            hist.update(b0 + k, b.touch[k], (b.dx[k], b.dy[k]), now, coll);
         }
     }
 }
