@@ -279,10 +279,10 @@ impl ShearSim {
             }
         };
         let (x, y, vx, vy, w) = (st.x, st.y, st.vx, st.vy, st.w);
-        list.update(x, y, &g.radius, b);
         let pp = PairParams::new(p, self.l, b.offset(), *time);
         let st = (x, y, vx, vy, w, &g.radius[..]);
         if *kernel == ShearKernel::Straight {
+            list.update(x, y, &g.radius, b);
             slots.invalidate();
             let (start, js, hist) = (&list.start[..], &list.j[..], &mut list.shear[..]);
             let mut none = Virial::default();
@@ -292,6 +292,7 @@ impl ShearSim {
                 pair_loop::<false, false>(st, start, js, hist, &pp, fx, fy, tq, coll, &mut none);
             }
         } else {
+            // Checks (and rebuilds) the Verlet list too, when it re-selects.
             slots.sync(list, &g.radius, (x, y), b);
             let hist = &mut list.shear[..];
             if track {

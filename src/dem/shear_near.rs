@@ -63,8 +63,11 @@ impl Slots {
     /// Make the near list valid for the state (x, y) (d_s) in boundary `b`: re-select
     /// when the Verlet list was rebuilt, when forced by [`Slots::invalidate`], or when
     /// some grain strayed more than NEAR_SKIN/2 from the affine flow since the last
-    /// selection (as [`PairList::needs_rebuild_sheared`]).
-    pub fn sync(&mut self, list: &PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
+    /// selection (as [`PairList::needs_rebuild_sheared`]). The Verlet list itself is
+    /// checked (and rebuilt if need be) only then: between selections the kernels read
+    /// the near list alone, and at a selection the Verlet list must hold every pair
+    /// within R_i + R_j + NEAR_SKIN, a stricter test than its own.
+    pub fn sync(&mut self, list: &mut PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
         let n = r.len();
         let (ly, offset) = match b {
             Boundary::LeesEdwards { ly, offset, .. } => (ly, offset),
@@ -80,6 +83,7 @@ impl Slots {
             && room > 0.0
             && !strays(x, y, &self.x_ref, &self.y_ref, dgamma, 0.25 * room * room);
         if !current {
+            list.update_within(x, y, r, b, NEAR_SKIN);
             self.select(list, r, (x, y), b);
         }
     }
@@ -193,6 +197,14 @@ impl Slots {
         );
         (self.hist, self.sel) = (near, sel);
         r
+    }
+
+    /// The pairs (i, j) of the near list, in order.
+    pub fn pairs(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        self.i[..self.len]
+            .iter()
+            .copied()
+            .zip(self.j[..self.len].iter().copied())
     }
 
     /// Slots (padding excluded).

@@ -163,7 +163,13 @@ impl PairList {
     /// |A d₀| ≥ (1 − |Δγ|) |d₀|: a pair that was not in the list (|d₀| ≥ R_i + R_j +
     /// skin) cannot touch while 2 max |u| < skin − |Δγ| (2 R_max + skin).
     pub fn needs_rebuild_sheared(&self, x: &[f64], y: &[f64], dgamma: f64) -> bool {
-        let room = self.skin - dgamma.abs() * self.cut;
+        self.needs_rebuild_within(x, y, dgamma, 0.0)
+    }
+
+    /// As [`PairList::needs_rebuild_sheared`], for a list that must also hold every
+    /// pair closer than R_i + R_j + `margin` (m): the skin left for motion is less.
+    pub fn needs_rebuild_within(&self, x: &[f64], y: &[f64], dgamma: f64, margin: f64) -> bool {
+        let room = self.skin - margin - dgamma.abs() * self.cut;
         if self.x_ref.len() != x.len() || !(self.cut > 0.0) || room <= 0.0 {
             return true;
         }
@@ -173,11 +179,24 @@ impl PairList {
 
     /// Rebuild if needed; returns whether it did.
     pub fn update(&mut self, x: &[f64], y: &[f64], r: &[f64], b: Boundary) -> bool {
+        self.update_within(x, y, r, b, 0.0)
+    }
+
+    /// Rebuild unless the list holds every pair closer than R_i + R_j + `margin` (m);
+    /// returns whether it did.
+    pub fn update_within(
+        &mut self,
+        x: &[f64],
+        y: &[f64],
+        r: &[f64],
+        b: Boundary,
+        margin: f64,
+    ) -> bool {
         let dgamma = match b {
             Boundary::LeesEdwards { ly, offset, .. } => (offset - self.offset_ref) / ly,
             _ => 0.0,
         };
-        if self.needs_rebuild_sheared(x, y, dgamma) {
+        if self.needs_rebuild_within(x, y, dgamma, margin) {
             self.build(x, y, r, b);
             true
         } else {
