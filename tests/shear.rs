@@ -55,7 +55,7 @@ fn pair(image: bool, model: Dissipation) -> ShearSim {
 #[test]
 fn a_pair_across_the_lees_edwards_boundary_feels_the_unwrapped_force() {
     for model in [Dissipation::Cd, Dissipation::Cdrot] {
-        let (a, b) = (pair(false, model), pair(true, model));
+        let (mut a, mut b) = (pair(false, model), pair(true, model));
         let vir = a.virial();
         assert_eq!(vir.contacts, 1, "they touch through the boundary");
         // The virial of the one contact is f_01 ⊗ r_01 (Eqs. 12–13), elastic plus

@@ -307,10 +307,13 @@ impl ShearSim {
 
     /// The virial sums Σ f ⊗ r_ij (Eqs. 12–13) and the contact count of the current
     /// state, computed when asked: only the states the outputs sample need them, so the
-    /// step does not carry them.
-    pub fn virial(&self) -> Virial {
+    /// step does not carry them. One pass of the straight loop over the near list (or,
+    /// with the straight kernel, the Verlet list), made valid for the state first: the
+    /// same sums, in the same order, as the straight loop over every pair.
+    pub fn virial(&mut self) -> Virial {
+        let b = self.boundary();
         let g = &self.g;
-        let pp = PairParams::new(&self.p, self.l, self.boundary().offset(), self.time);
+        let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
         let st = (
             &g.x[..],
             &g.y[..],
@@ -319,13 +322,20 @@ impl ShearSim {
             &g.omega[..],
             &g.radius[..],
         );
+        let (start, js) = if self.kernel == ShearKernel::Straight {
+            self.list.update(&g.x, &g.y, &g.radius, b);
+            (&self.list.start[..], &self.list.j[..])
+        } else {
+            self.slots.sync(&mut self.list, &g.radius, (&g.x, &g.y), b);
+            (&self.slots.start[..], &self.slots.j[..self.slots.len()])
+        };
         let n = g.len();
         let (mut fx, mut fy, mut tq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let mut hist = self.list.shear.clone();
         let (mut coll, mut vir) = (Collisions::default(), Virial::default());
-        let (start, js) = (&self.list.start[..], &self.list.j[..]);
+        // No history is read or written without HISTORY.
+        let no_hist = &mut [];
         pair_loop::<false, true>(
-            st, start, js, &mut hist, &pp, &mut fx, &mut fy, &mut tq, &mut coll, &mut vir,
+            st, start, js, no_hist, &pp, &mut fx, &mut fy, &mut tq, &mut coll, &mut vir,
         );
         vir
     }
@@ -392,9 +402,14 @@ impl ShearSim {
 
     /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each
     /// [xx, xy, yx, yy] in m/τ_e². The kinetic part uses fluctuations about v_x = γ̇ y.
-    pub fn pressure_tensor(&self) -> ([f64; 4], [f64; 4], [f64; 4]) {
-        let a = self.l * self.l;
+    pub fn pressure_tensor(&mut self) -> ([f64; 4], [f64; 4], [f64; 4]) {
         let vir = self.virial();
+        self.pressure_tensor_of(&vir)
+    }
+
+    /// As [`ShearSim::pressure_tensor`], with the virial of the current state given.
+    pub fn pressure_tensor_of(&self, vir: &Virial) -> ([f64; 4], [f64; 4], [f64; 4]) {
+        let a = self.l * self.l;
         let el = vir.el.map(|v| v / a);
         let dis = vir.dis.map(|v| v / a);
         let mut kin = [0.0; 4];

@@ -24,11 +24,11 @@ impl ShearSim {
         for v in [&self.fx, &self.fy, &self.tq] {
             e.f64s(v);
         }
-        // The virial is derived from the state; kept in the format for older readers.
-        let vir = self.virial();
-        e.f64s(&vir.el);
-        e.f64s(&vir.dis);
-        e.u64(vir.contacts as u64);
+        // The virial is derived from the state (`ShearSim::virial`); its place in the
+        // format is kept, zeroed.
+        e.f64s(&[0.0; 4]);
+        e.f64s(&[0.0; 4]);
+        e.u64(0);
         e.u64(self.coll.begun);
         e.u64(self.coll.ended);
         e.f64(self.coll.duration_sum);

@@ -31,6 +31,8 @@ pub struct Slots {
     pub(crate) hist: Vec<f64>,
     /// The Verlet-list slot of each near slot.
     sel: Vec<u32>,
+    /// CSR offsets: grain a's near slots are `start[a]..start[a + 1]`.
+    pub(crate) start: Vec<u32>,
     /// Real slots (the rest is padding).
     len: usize,
     pub(crate) n: usize,
@@ -160,6 +162,14 @@ impl Slots {
             m += keep as usize;
         }
         self.len = m;
+        self.start.clear();
+        self.start.resize(n + 1, 0);
+        for &a in &self.i[..m] {
+            self.start[a as usize + 1] += 1;
+        }
+        for a in 0..n {
+            self.start[a + 1] += self.start[a];
+        }
         let padded = m.next_multiple_of(4);
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
             v[m..padded].fill(0);

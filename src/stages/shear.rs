@@ -228,7 +228,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             if ramp.is_none() && sim.strain() >= opt.transient * opt.strain {
                 steady.sample(&sim, per_sample, field_every, opt.seed);
             }
-            let (el, dis, kin) = sim.pressure_tensor();
+            let vir = sim.virial();
+            let (el, dis, kin) = sim.pressure_tensor_of(&vir);
             let pr = |t: [f64; 4]| 0.5 * (t[0] + t[3]);
             let sg = |t: [f64; 4]| -t[1];
             let tot: [f64; 4] = std::array::from_fn(|k| el[k] + dis[k] + kin[k]);
@@ -247,7 +248,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 sg(dis),
                 pr(kin),
                 sg(kin),
-                2.0 * sim.virial().contacts as f64 / n,
+                2.0 * vir.contacts as f64 / n,
                 sm,
                 sv,
                 sim.coll.begun as f64,
