@@ -645,11 +645,16 @@ fn slot_kernel_gives_the_straight_loops_run_bit_for_bit() {
                 fast.slots.selections > 2 * builds,
                 "{what}: {builds} builds"
             );
+            let (f, s) = (&fast.g, &straight.g);
             for (a, b) in [
-                (&fast.g.x, &straight.g.x),
-                (&fast.g.vy, &straight.g.vy),
-                (&fast.g.omega, &straight.g.omega),
+                (&f.x, &s.x),
+                (&f.y, &s.y),
+                (&f.vx, &s.vx),
+                (&f.vy, &s.vy),
+                (&f.theta, &s.theta),
+                (&f.omega, &s.omega),
                 (&fast.fx, &straight.fx),
+                (&fast.fy, &straight.fy),
                 (&fast.tq, &straight.tq),
             ] {
                 assert_eq!(bits(a), bits(b), "{what}");
@@ -714,4 +719,13 @@ fn sheared_pair_lists_never_miss_a_contact() {
         s.slots.selections - s0 > builds,
         "the near list is re-selected in between"
     );
+}
+
+/// A box too small for the lists' minimum images is refused with the reason.
+#[test]
+fn a_box_smaller_than_twice_the_list_reach_is_refused() {
+    let small = params(4, 0.82, Dissipation::Cd, 1e-3);
+    let e = small.validate().unwrap_err();
+    assert!(e.contains("box of side") && e.contains("more disks"), "{e}");
+    assert!(params(64, 0.82, Dissipation::Cd, 1e-3).validate().is_ok());
 }

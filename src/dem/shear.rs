@@ -49,6 +49,16 @@ impl ShearParams {
         if self.n < 4 {
             return Err(format!("n must be ≥ 4, got {}", self.n));
         }
+        // Minimum images and the lists' displacement bounds need every pair within reach
+        // (2 R_max + skin = 1.7 d_s) to be its own nearest image: L > 2 × 1.7 d_s.
+        if self.phi.is_finite() && self.phi > 0.0 && self.box_side() <= 3.5 {
+            return Err(format!(
+                "n = {} at φ = {} gives a box of side {:.2} d_s; at least 3.5 is needed (more disks)",
+                self.n,
+                self.phi,
+                self.box_side()
+            ));
+        }
         for (k, v, lo, hi) in [
             ("phi", self.phi, 0.05, 1.5),
             ("q", self.q, 1e-6, 1e6),
@@ -127,7 +137,7 @@ pub struct ShearSim {
     pub resort_every: u64,
     /// The predicted state of Eq. 22 and the forces f_0 of Eq. 21 (reused buffers).
     pub pred: Predicted,
-    /// The pair list flattened for the force kernel (derived from `list`).
+    /// The near list the force kernels read (the pairs of `list` within 0.05 d_s).
     pub slots: Slots,
     /// Which force kernel runs (both give the same numbers bit for bit).
     pub kernel: ShearKernel,
@@ -138,11 +148,12 @@ pub struct ShearSim {
 /// The sheared disks' force kernels: the same numbers, different speed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum ShearKernel {
-    /// Two passes over blocks of flat pair slots, vectorised (`shear_slots`).
+    /// The near list's slots: the AVX2 kernel (`shear_avx2`) where the processor has it
+    /// and α = 2, else the portable two-pass kernel (`shear_slots`).
     #[default]
     Slots,
-    /// One straight loop over the pair list with a branch per contact
-    /// (`shear_pairs::pair_loop`): the reference the tests and `bench shear` compare to.
+    /// One straight loop over the Verlet list with a branch per contact
+    /// (`shear_pairs::pair_loop`): the reference the tests compare to.
     Straight,
 }
 

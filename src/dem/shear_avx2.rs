@@ -1,5 +1,5 @@
-//! The sheared disks' force evaluation (vagberg-sheared-disks Eqs. 1–3, 5–7, 12–13,
-//! harmonic α = 2) written with AVX2 intrinsics, four pair slots at a time.
+//! The sheared disks' force evaluation (vagberg-sheared-disks Eqs. 1–3, 5–7, harmonic
+//! α = 2) written with AVX2 intrinsics, four pair slots at a time.
 //!
 //! Why by hand: per slot the kernel needs twelve numbers of two grains. Compiled from
 //! scalar code they arrive as twelve loads and nine inserts per four slots and field;
@@ -10,8 +10,9 @@
 //!
 //! Same forces as the straight loop ([`super::shear_pairs::pair_loop`]) bit for bit, so
 //! the same trajectories: every lane does the scalar code's operations in its order (no
-//! fused multiply-add), masked-off lanes add +0.0, and each grain's force is summed in
-//! slot order. A test holds it to that.
+//! fused multiply-add), masked-off lanes add ±0.0 (which leaves every sum as it is: a sum
+//! that starts at +0.0 never becomes −0.0), and each grain's force is summed in slot
+//! order. A test holds it to that.
 
 use super::shear::Collisions;
 use super::shear_integrate::{Packed, Pos, Quad};
@@ -23,7 +24,9 @@ use std::arch::x86_64::*;
 /// with `TRACK` the history and collision counts.
 ///
 /// # Safety
-/// The processor must have AVX2.
+/// The processor must have AVX2. `slots` must come from `Slots::sync` for these grains
+/// (indices < n, tables padded to a multiple of four); the state's lengths are checked
+/// here, and `packed` is refilled unless it holds this state (`Packed::fill`).
 #[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx2")]
 pub unsafe fn evaluate<const TRACK: bool>(
@@ -86,8 +89,8 @@ fn contact_events(
     }
 }
 
-/// Nearest integer, ties to even, four lanes: the same value as `verlet::rint`'s
-/// 1.5 × 2^52 trick for every |v| < 2^51, in one instruction instead of two additions.
+/// Nearest integer, ties to even, four lanes: the same value as `verlet::rint` (which
+/// keeps a zero's sign as this does) for every |v| < 2^51, in one instruction.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn rint4(v: __m256d) -> __m256d {
@@ -214,7 +217,8 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                 let dx = _mm256_sub_pd(dx, _mm256_mul_pd(img, offset));
                 let dx = _mm256_sub_pd(dx, _mm256_mul_pd(ll, rint4(_mm256_mul_pd(dx, inv_l))));
                 let r2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
-                let touch = _mm256_cmp_pd::<_CMP_LT_OQ>(r2, _mm256_loadu_pd(dij2_p.add(k)));
+                // "Not apart" (unordered: a NaN separation counts), as the straight loop.
+                let touch = _mm256_cmp_pd::<_CMP_NGE_UQ>(r2, _mm256_loadu_pd(dij2_p.add(k)));
                 let mask = _mm256_movemask_pd(touch) as u32;
                 if TRACK {
                     // Contacts that began or ended: where the touch mask and the history
@@ -301,7 +305,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                 ));
                 // Per slot (f_x, f_y, T_i, 0) onto i and (−f_x, −f_y, T_j, 0) onto j, in
                 // slot order (f − g and f + (−g) round the same); lanes without contact
-                // add +0.0, cheaper than a branch that mispredicts.
+                // add ±0.0 (no change), cheaper than a branch that mispredicts.
                 let on_i = transpose(f_x, f_y, t_i, zero);
                 let on_j = transpose(neg(f_x), neg(f_y), t_j, zero);
                 let on_i = [on_i.0, on_i.1, on_i.2, on_i.3];

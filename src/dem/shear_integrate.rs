@@ -18,10 +18,10 @@ pub struct Quad(pub [f64; 4]);
 /// A cache: never part of a simulation's value.
 #[derive(Debug, Clone, Default)]
 pub struct Packed {
-    pub pos: Vec<Pos>,
-    pub vel: Vec<Quad>,
+    pub(crate) pos: Vec<Pos>,
+    pub(crate) vel: Vec<Quad>,
     /// Holds the state the next force evaluation is for.
-    pub fresh: bool,
+    pub(crate) fresh: bool,
 }
 
 impl PartialEq for Packed {
@@ -40,13 +40,13 @@ impl Packed {
 
     /// Pack the state (x, y, v_x, v_y, ω, R) unless the integrator already did.
     pub fn fill(&mut self, (x, y, vx, vy, w, r): super::shear_pairs::StateSlices) {
-        if std::mem::take(&mut self.fresh) && self.pos.len() == x.len() {
+        let n = x.len();
+        if std::mem::take(&mut self.fresh) && self.pos.len() == n && self.vel.len() == n {
             return;
         }
         self.pos.clear();
         self.pos.extend(x.iter().zip(y).map(|(&a, &b)| Pos([a, b])));
         self.vel.clear();
-        let n = x.len();
         self.vel
             .extend((0..n).map(|i| Quad([vx[i], vy[i], w[i], r[i]])));
     }

@@ -10,7 +10,7 @@
 //! summation and the contact bookkeeping are those of the whole list.
 
 use super::shear::{Collisions, angle_bin};
-use super::verlet::{Boundary, PairList, rint, strays};
+use super::verlet::{Boundary, PairList, rint, strain_since, stray_limit, strays};
 
 /// Extra distance beyond contact kept in the near list (d_s).
 pub const NEAR_SKIN: f64 = 0.05;
@@ -64,26 +64,20 @@ impl PartialEq for Slots {
 impl Slots {
     /// Make the near list valid for the state (x, y) (d_s) in boundary `b`: re-select
     /// when the Verlet list was rebuilt, when forced by [`Slots::invalidate`], or when
-    /// some grain strayed more than NEAR_SKIN/2 from the affine flow since the last
-    /// selection (as [`PairList::needs_rebuild_sheared`]). The Verlet list itself is
+    /// some grain strayed more than (NEAR_SKIN − |Δγ| reach)/2 from the affine flow since
+    /// the last selection (the bound of [`PairList::needs_rebuild_sheared`]). The Verlet list itself is
     /// checked (and rebuilt if need be) only then: between selections the kernels read
     /// the near list alone, and at a selection the Verlet list must hold every pair
     /// within R_i + R_j + NEAR_SKIN, a stricter test than its own.
     pub fn sync(&mut self, list: &mut PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
         let n = r.len();
-        let (ly, offset) = match b {
-            Boundary::LeesEdwards { ly, offset, .. } => (ly, offset),
-            Boundary::Periodic { ly, .. } => (ly, 0.0),
-            Boundary::Open => (1.0, 0.0),
-        };
-        let dgamma = (offset - self.offset_ref) / ly;
-        let room = NEAR_SKIN - dgamma.abs() * self.reach;
+        let dgamma = strain_since(b, self.offset_ref);
         let current = self.builds == list.builds
             && self.builds != 0
             && self.n == n
             && self.x_ref.len() == n
-            && room > 0.0
-            && !strays(x, y, &self.x_ref, &self.y_ref, dgamma, 0.25 * room * room);
+            && stray_limit(NEAR_SKIN, dgamma, self.reach)
+                .is_some_and(|lim| !strays(x, y, &self.x_ref, &self.y_ref, dgamma, lim));
         if !current {
             list.update_within(x, y, r, b, NEAR_SKIN);
             self.select(list, r, (x, y), b);
@@ -98,14 +92,19 @@ impl Slots {
     fn select(&mut self, list: &PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
         let n = r.len();
         let total = list.j.len();
+        // Checked on every selection (the list's fields are public): the kernels index
+        // with these without bounds checks.
+        assert!(
+            n > 0
+                && x.len() == n
+                && y.len() == n
+                && list.start.len() == n + 1
+                && list.start[n] as usize == total
+                && list.shear.len() == total
+                && list.j.iter().all(|&v| (v as usize) < n),
+            "pair list does not match the grains"
+        );
         if self.builds != list.builds || self.n != n || self.all_i.len() != total {
-            assert!(
-                n > 0
-                    && list.start.len() == n + 1
-                    && list.shear.len() == total
-                    && list.j.iter().all(|&v| (v as usize) < n),
-                "pair list does not match the grains"
-            );
             self.all_i.clear();
             for a in 0..n {
                 let len = (list.start[a + 1] - list.start[a]) as usize;
@@ -151,8 +150,9 @@ impl Slots {
             let dij = self.all_dij[k];
             let reach = dij + NEAR_SKIN;
             let h = list.shear[k];
-            // Pairs with history stay, however far: their contact ends here.
-            let keep = (dx * dx + dy * dy < reach * reach) | (h != 0.0);
+            // Pairs with history stay, however far: their contact ends here. (Written
+            // as "not beyond" so a NaN separation stays in, as the straight loop sees it.)
+            let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
             self.i[m] = a as u32;
             self.j[m] = c as u32;
             self.inv_dij[m] = self.all_inv_dij[k];
@@ -183,6 +183,7 @@ impl Slots {
         self.y_ref.extend_from_slice(y);
         self.offset_ref = b.offset();
         self.reach = 2.0 * r.iter().cloned().fold(0.0, f64::max) + NEAR_SKIN;
+        debug_assert!(self.i.len() >= padded && self.j.len() >= padded);
         self.n = n;
         self.builds = list.builds;
         self.selections += 1;
@@ -236,33 +237,49 @@ pub struct History<'a> {
 
 impl History<'_> {
     /// Near slot k at time `now` (τ_e), whose pair touches or not (separation (dx, dy),
-    /// d_s): a contact that begins gets its start time, one that ends adds its duration;
-    /// both count, and their direction goes into the collision-angle histograms.
+    /// d_s): see [`contact_event`].
     #[inline]
     pub fn update(
         &mut self,
         k: usize,
         touch: bool,
-        (dx, dy): (f64, f64),
+        d: (f64, f64),
         now: f64,
         coll: &mut Collisions,
     ) {
         let h = self.near[k];
-        if touch == (h != 0.0) {
-            return;
+        if touch != (h != 0.0) {
+            let new = contact_event(h, touch, d, now, coll);
+            self.near[k] = new;
+            self.all[self.sel[k] as usize] = new;
         }
-        let bin = angle_bin(dx, dy);
-        let new = if touch {
-            coll.begun += 1;
-            coll.angle_making[bin] += 1;
-            1.0 + now
-        } else {
-            coll.ended += 1;
-            coll.angle_breaking[bin] += 1;
-            coll.duration_sum += now - (h - 1.0);
-            0.0
-        };
-        self.near[k] = new;
-        self.all[self.sel[k] as usize] = new;
+    }
+}
+
+/// A pair's contact history `h` (0, or 1 + the time the contact began) at time `now`
+/// (τ_e), the pair touching or not (separation (dx, dy), d_s): a contact that begins gets
+/// its start time, one that ends adds its duration; both count, and their direction goes
+/// into the collision-angle histograms. Returns the new history.
+#[inline]
+pub fn contact_event(
+    h: f64,
+    touch: bool,
+    (dx, dy): (f64, f64),
+    now: f64,
+    coll: &mut Collisions,
+) -> f64 {
+    if touch == (h != 0.0) {
+        return h;
+    }
+    let bin = angle_bin(dx, dy);
+    if touch {
+        coll.begun += 1;
+        coll.angle_making[bin] += 1;
+        1.0 + now
+    } else {
+        coll.ended += 1;
+        coll.angle_breaking[bin] += 1;
+        coll.duration_sum += now - (h - 1.0);
+        0.0
     }
 }

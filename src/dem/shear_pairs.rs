@@ -4,7 +4,8 @@
 //! actual states keep the contact bookkeeping (the predictor of Eq. 22 needs forces
 //! only); `VIRIAL`: the virial, only at the states the outputs sample.
 
-use super::shear::{Collisions, Virial, angle_bin};
+use super::shear::{Collisions, Virial};
+use super::shear_near::contact_event;
 use super::verlet::rint;
 
 /// Everything the pair loop reads besides the state (units d_s = m = τ_e = 1).
@@ -88,22 +89,15 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
             let dx = dx - ll * rint(dx * inv_l);
             let dij = r[i] + r[j];
             let r2 = dx * dx + dy * dy;
-            if r2 >= dij * dij {
-                if track && hist[k] != 0.0 {
-                    coll.ended += 1;
-                    coll.angle_breaking[angle_bin(dx, dy)] += 1;
-                    coll.duration_sum += now - (hist[k] - 1.0);
-                    hist[k] = 0.0;
-                }
+            let touch = !(r2 >= dij * dij);
+            if track {
+                hist[k] = contact_event(hist[k], touch, (dx, dy), now, coll);
+            }
+            if !touch {
                 continue;
             }
             if VIRIAL {
                 vir.contacts += 1;
-            }
-            if track && hist[k] == 0.0 {
-                coll.begun += 1;
-                coll.angle_making[angle_bin(dx, dy)] += 1;
-                hist[k] = 1.0 + now;
             }
             let dist = r2.sqrt();
             let inv_dist = 1.0 / dist;

@@ -1,4 +1,4 @@
-//! The sheared disks' force evaluation (vagberg-sheared-disks Eqs. 1–7, 12–13) over a
+//! The sheared disks' force evaluation (vagberg-sheared-disks Eqs. 1–7) over a
 //! flat list of pair slots, block by block of slots:
 //!
 //! - **separations**: every slot's minimum-image separation and contact test, branch-free
@@ -93,8 +93,7 @@ pub fn evaluate<const TRACK: bool>(
             .iter()
             .chain(&[fx.len(), fy.len(), tq.len()])
             .all(|&l| l == n)
-            && slots.hist.len() >= slots.len()
-            && all_hist.len() >= slots.len(),
+            && slots.hist.len() >= slots.len(),
         "state does not match the slot table"
     );
     let harmonic = pp.alpha == 2.0;
@@ -132,12 +131,14 @@ pub fn evaluate<const TRACK: bool>(
     });
 }
 
-/// Reads a grain's value without a bounds check.
+/// Reads `a[m]` without a bounds check.
 ///
-/// SAFETY (of every call): `Slots::sync` checked every index against n, and `evaluate`
-/// that every state slice has length n.
+/// # Safety
+/// `m < a.len()`. At every call below, m is a grain index from the near list (checked
+/// against n by `Slots::select`, with every state slice of length n checked by
+/// `evaluate`) or a slot of the current block that `separations` listed.
 #[inline(always)]
-fn at<T: Copy>(a: &[T], m: usize) -> T {
+unsafe fn at<T: Copy>(a: &[T], m: usize) -> T {
     debug_assert!(m < a.len());
     unsafe { *a.get_unchecked(m) }
 }
@@ -158,7 +159,8 @@ fn separations(
     let len = si.len().min(sj.len()).min(dij2.len()).min(BLOCK);
     for k in 0..len {
         let (i, j) = (si[k] as usize, sj[k] as usize);
-        let (dx, dy) = (at(x, i) - at(x, j), at(y, i) - at(y, j));
+        // SAFETY: see `at`.
+        let (dx, dy) = unsafe { (at(x, i) - at(x, j), at(y, i) - at(y, j)) };
         let img = rint(dy * inv_l);
         let dy = dy - img * ll;
         let dx = dx - img * offset;
@@ -166,7 +168,8 @@ fn separations(
         b.dx[k] = dx;
         b.dy[k] = dy;
         b.img[k] = img;
-        b.touch[k] = dx * dx + dy * dy < dij2[k];
+        // "Not apart", as the straight loop tests it (a NaN separation counts).
+        b.touch[k] = !(dx * dx + dy * dy >= dij2[k]);
     }
     let mut m = 0;
     for k in 0..len {
@@ -218,12 +221,13 @@ fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
     for m in 0..b.contacts.min(BLOCK) {
         let k = b.slot[m] as usize % BLOCK;
         debug_assert!(k < si.len());
-        let (i, j) = (at(si, k) as usize, at(sj, k) as usize);
+        // SAFETY (this and the reads below): see `at`.
+        let (i, j) = unsafe { (at(si, k) as usize, at(sj, k) as usize) };
         let (dx, dy, img) = (b.dx[k], b.dy[k], b.img[k]);
         let r2 = dx * dx + dy * dy;
         let dist = r2.sqrt();
         let inv_dist = 1.0 / dist;
-        let inv_dij = at(inv_dij, k);
+        let inv_dij = unsafe { at(inv_dij, k) };
         let (nx, ny) = (dx * inv_dist, dy * inv_dist);
         // Eq. 2 with d_ij = R_i + R_j and k_e = 1.
         let overlap = 1.0 - dist * inv_dij;
@@ -234,13 +238,14 @@ fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
         };
         let (ex, ey) = (fe * nx, fe * ny);
         // Relative velocity; j's image moves img·γ̇L faster along x.
-        let (mut dvx, mut dvy) = (at(vx, i) - at(vx, j) - img * shear_v, at(vy, i) - at(vy, j));
+        let (mut dvx, mut dvy) =
+            unsafe { (at(vx, i) - at(vx, j) - img * shear_v, at(vy, i) - at(vy, j)) };
         // Moment arms s_ji (i to contact) = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
-        let (s_i, s_j) = (at(r, i) * inv_dij, at(r, j) * inv_dij);
+        let (s_i, s_j) = unsafe { (at(r, i) * inv_dij, at(r, j) * inv_dij) };
         let (six, siy, sjx, sjy) = (-dx * s_i, -dy * s_i, dx * s_j, dy * s_j);
         if CDROT {
             // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
-            let (wi, wj) = (at(w, i), at(w, j));
+            let (wi, wj) = unsafe { (at(w, i), at(w, j)) };
             dvx += -wi * siy + wj * sjy;
             dvy += wi * six - wj * sjx;
         }
@@ -274,7 +279,8 @@ fn sums<const TRACK: bool>(
     let pair = |m: usize| {
         let k = b.slot[m] as usize % BLOCK;
         debug_assert!(k < len);
-        (at(si, k) as usize, at(sj, k) as usize, k)
+        // SAFETY: see `at`.
+        unsafe { (at(si, k) as usize, at(sj, k) as usize, k) }
     };
     // Grain q receives its j-side terms (slots (i', q), i' < q) before its own slots
     // (q, j) in slot order, so adding all j-side terms of the block first, then all

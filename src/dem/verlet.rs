@@ -45,12 +45,30 @@ pub enum Boundary {
     LeesEdwards { lx: f64, ly: f64, offset: f64 },
 }
 
-/// Nearest integer of `v` for |v| < 2^51 without a libm call (x86-64 without SSE4.1
-/// has no rounding instruction; min-image separations call this twice per pair).
+/// Nearest integer of `v` (ties to even) for |v| < 2^51 without a libm call (x86-64
+/// without SSE4.1 has no rounding instruction; min-image separations call this twice per
+/// pair). A zero result keeps the sign of `v`, as the AVX2 kernel's `vroundpd` does.
 #[inline(always)]
 pub fn rint(v: f64) -> f64 {
     const M: f64 = 6_755_399_441_055_744.0; // 1.5 × 2^52
-    (v + M) - M
+    ((v + M) - M).copysign(v)
+}
+
+/// Shear strain of a Lees–Edwards box since its offset was `offset_ref` (0 otherwise).
+pub(crate) fn strain_since(b: Boundary, offset_ref: f64) -> f64 {
+    match b {
+        Boundary::LeesEdwards { ly, offset, .. } => (offset - offset_ref) / ly,
+        _ => 0.0,
+    }
+}
+
+/// The squared displacement (from the affine flow) a grain may have made since a list
+/// with skin `skin` and reach `reach` (2 R_max + skin) was made, the box having sheared by
+/// `dgamma` since; `None` when none is left (the list must be remade). See
+/// [`PairList::needs_rebuild_sheared`].
+pub(crate) fn stray_limit(skin: f64, dgamma: f64, reach: f64) -> Option<f64> {
+    let room = skin - dgamma.abs() * reach;
+    (reach > 0.0 && room > 0.0).then_some(0.25 * room * room)
 }
 
 impl Boundary {
@@ -169,12 +187,12 @@ impl PairList {
     /// As [`PairList::needs_rebuild_sheared`], for a list that must also hold every
     /// pair closer than R_i + R_j + `margin` (m): the skin left for motion is less.
     pub fn needs_rebuild_within(&self, x: &[f64], y: &[f64], dgamma: f64, margin: f64) -> bool {
-        let room = self.skin - margin - dgamma.abs() * self.cut;
-        if self.x_ref.len() != x.len() || !(self.cut > 0.0) || room <= 0.0 {
-            return true;
+        match stray_limit(self.skin - margin, dgamma, self.cut) {
+            Some(lim) if self.x_ref.len() == x.len() => {
+                strays(x, y, &self.x_ref, &self.y_ref, dgamma, lim)
+            }
+            _ => true,
         }
-        let lim = 0.25 * room * room;
-        strays(x, y, &self.x_ref, &self.y_ref, dgamma, lim)
     }
 
     /// Rebuild if needed; returns whether it did.
@@ -192,10 +210,7 @@ impl PairList {
         b: Boundary,
         margin: f64,
     ) -> bool {
-        let dgamma = match b {
-            Boundary::LeesEdwards { ly, offset, .. } => (offset - self.offset_ref) / ly,
-            _ => 0.0,
-        };
+        let dgamma = strain_since(b, self.offset_ref);
         if self.needs_rebuild_within(x, y, dgamma, margin) {
             self.build(x, y, r, b);
             true
