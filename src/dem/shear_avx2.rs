@@ -25,11 +25,12 @@ use std::arch::x86_64::*;
 ///
 /// # Safety
 /// The processor must have AVX2. `slots` must come from `Slots::sync` for these grains
-/// (indices < n, tables padded to a multiple of four); the state's lengths are checked
-/// here, and `packed` is refilled unless it holds this state (`Packed::fill`).
+/// (indices < n, tables padded to a multiple of four), and every slice of `st` and the
+/// force arrays must have length n, as `shear_slots::evaluate` (the one caller) asserts;
+/// `packed` is refilled unless it holds this state (`Packed::fill`).
 #[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx2")]
-pub unsafe fn evaluate<const TRACK: bool>(
+pub(crate) unsafe fn evaluate<const TRACK: bool>(
     st: StateSlices,
     slots: &Slots,
     packed: &mut Packed,
@@ -42,16 +43,7 @@ pub unsafe fn evaluate<const TRACK: bool>(
     coll: &mut Collisions,
 ) {
     let n = slots.n;
-    let (x, y, vx, vy, w, r) = st;
-    assert!(
-        [x.len(), y.len(), vx.len(), vy.len(), w.len(), r.len()]
-            .iter()
-            .chain(&[fx.len(), fy.len(), tq.len()])
-            .all(|&l| l == n)
-            && hist.near.len() >= slots.len()
-            && pp.alpha == 2.0,
-        "state does not match the slot table"
-    );
+    debug_assert!(pp.alpha == 2.0 && hist.near.len() >= slots.len());
     packed.fill(st);
     let (pos, vel) = (&packed.pos[..], &packed.vel[..]);
     acc.clear();

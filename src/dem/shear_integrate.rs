@@ -8,7 +8,8 @@
 pub struct Pos(pub [f64; 2]);
 
 /// Four numbers of a grain, one aligned 32-byte load: (v_x, v_y, ω, R) in the packed
-/// state, (f_x, f_y, T, 0) in force sums.
+/// state (d_s/τ_e, d_s/τ_e, 1/τ_e, d_s), (f_x, f_y, T, 0) in force sums (m d_s/τ_e²,
+/// m d_s²/τ_e²).
 #[repr(C, align(32))]
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Quad(pub [f64; 4]);

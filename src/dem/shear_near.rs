@@ -10,7 +10,7 @@
 //! summation and the contact bookkeeping are those of the whole list.
 
 use super::shear::{Collisions, angle_bin};
-use super::verlet::{Boundary, PairList, rint, strain_since, stray_limit, strays};
+use super::verlet::{Boundary, MinImage, PairList, strain_since, stray_limit, strays};
 
 /// Extra distance beyond contact kept in the near list (d_s).
 pub const NEAR_SKIN: f64 = 0.05;
@@ -125,28 +125,13 @@ impl Slots {
         for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
             v.resize(padded, 0.0);
         }
-        let (lx, ly, off) = match b {
-            Boundary::Open => (0.0, 0.0, 0.0),
-            Boundary::Periodic { lx, ly } => (lx, ly, 0.0),
-            Boundary::LeesEdwards { lx, ly, offset } => (lx, ly, offset),
-        };
-        let wrap = !matches!(b, Boundary::Open);
-        let (inv_lx, inv_ly) = if wrap {
-            (1.0 / lx, 1.0 / ly)
-        } else {
-            (0.0, 0.0)
-        };
+        let delta = MinImage::new(b);
         // Every Verlet slot is written at m and kept by advancing m: whether it is near
         // is a coin flip a branch would mispredict.
         let mut m = 0;
         for k in 0..total {
             let (a, c) = (self.all_i[k] as usize, list.j[k] as usize);
-            // Minimum image by multiplication: a pair at the edge may round either way,
-            // and either is right (the list need only hold every pair that can touch).
-            let (dx, dy) = (x[a] - x[c], y[a] - y[c]);
-            let img = rint(dy * inv_ly);
-            let (dx, dy) = (dx - img * off, dy - img * ly);
-            let dx = dx - lx * rint(dx * inv_lx);
+            let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
             let dij = self.all_dij[k];
             let reach = dij + NEAR_SKIN;
             let h = list.shear[k];

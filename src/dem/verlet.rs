@@ -54,6 +54,53 @@ pub fn rint(v: f64) -> f64 {
     ((v + M) - M).copysign(v)
 }
 
+/// Minimum image by multiplications with 1/L (as [`Boundary::delta`], which divides): for
+/// building lists, where a pair at the reach's edge may round either way and either is
+/// right (a list need only hold every pair closer than its reach).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct MinImage {
+    /// Box sides L_x, L_y, their inverses, and the Lees–Edwards offset (all 0 when open).
+    lx: f64,
+    ly: f64,
+    inv_lx: f64,
+    inv_ly: f64,
+    offset: f64,
+}
+
+impl MinImage {
+    pub(crate) fn new(b: Boundary) -> Self {
+        let (lx, ly, offset) = match b {
+            Boundary::Open => {
+                return MinImage {
+                    lx: 0.0,
+                    ly: 0.0,
+                    inv_lx: 0.0,
+                    inv_ly: 0.0,
+                    offset: 0.0,
+                };
+            }
+            Boundary::Periodic { lx, ly } => (lx, ly, 0.0),
+            Boundary::LeesEdwards { lx, ly, offset } => (lx, ly, offset),
+        };
+        MinImage {
+            lx,
+            ly,
+            inv_lx: 1.0 / lx,
+            inv_ly: 1.0 / ly,
+            offset,
+        }
+    }
+
+    /// The separation r_i − r_j given raw as (dx, dy), at its nearest image (open boxes:
+    /// unchanged, every factor being 0).
+    #[inline(always)]
+    pub(crate) fn of(&self, dx: f64, dy: f64) -> (f64, f64) {
+        let img = rint(dy * self.inv_ly);
+        let (dx, dy) = (dx - img * self.offset, dy - img * self.ly);
+        (dx - self.lx * rint(dx * self.inv_lx), dy)
+    }
+}
+
 /// Shear strain of a Lees–Edwards box since its offset was `offset_ref` (0 otherwise).
 pub(crate) fn strain_since(b: Boundary, offset_ref: f64) -> f64 {
     match b {
@@ -241,28 +288,7 @@ impl PairList {
         let cut = self.reach(r);
         self.cut = cut;
         let grid = Grid::new(x, y, cut, b, (head, items), &mut cell);
-        // Minimum image with multiplications (as Boundary::delta, which divides): a pair
-        // at the reach's edge may round either way, and either is right, since the list
-        // only has to hold every pair closer than R_i + R_j + skin.
-        let (lx, ly, off) = match b {
-            Boundary::Open => (0.0, 0.0, 0.0),
-            Boundary::Periodic { lx, ly } => (lx, ly, 0.0),
-            Boundary::LeesEdwards { lx, ly, offset } => (lx, ly, offset),
-        };
-        let wrap = !matches!(b, Boundary::Open);
-        let (inv_lx, inv_ly) = if wrap {
-            (1.0 / lx, 1.0 / ly)
-        } else {
-            (0.0, 0.0)
-        };
-        let delta = |dx: f64, dy: f64| {
-            if !wrap {
-                return (dx, dy);
-            }
-            let img = rint(dy * inv_ly);
-            let (dx, dy) = (dx - img * off, dy - img * ly);
-            (dx - lx * rint(dx * inv_lx), dy)
-        };
+        let delta = MinImage::new(b);
         let mut seg: Vec<u32> = vec![0; 64];
         let mut cells = [(0, 0); 9];
         for i in 0..n {
@@ -283,7 +309,7 @@ impl PairList {
                         Some(g) => g.items[q] as usize,
                         None => q,
                     };
-                    let (dx, dy) = delta(x[i] - x[j], y[i] - y[j]);
+                    let (dx, dy) = delta.of(x[i] - x[j], y[i] - y[j]);
                     let c = r[i] + r[j] + self.skin;
                     if m == seg.len() {
                         seg.push(0);

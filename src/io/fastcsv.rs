@@ -129,22 +129,8 @@ pub fn read_numeric_csv_chunked(
     let mut per_chunk: Vec<Vec<ColumnSlice>> = (0..chunks.len()).map(|_| Vec::new()).collect();
     for col in &mut columns {
         match col {
-            FastColumn::Float(v) => {
-                let mut rest = v.as_mut_slice();
-                for (k, &n) in lines.iter().enumerate() {
-                    let (h, t) = rest.split_at_mut(n);
-                    per_chunk[k].push(ColumnSlice::Float(h));
-                    rest = t;
-                }
-            }
-            FastColumn::Int(v) => {
-                let mut rest = v.as_mut_slice();
-                for (k, &n) in lines.iter().enumerate() {
-                    let (h, t) = rest.split_at_mut(n);
-                    per_chunk[k].push(ColumnSlice::Int(h));
-                    rest = t;
-                }
-            }
+            FastColumn::Float(v) => split_rows(v, &lines, &mut per_chunk, ColumnSlice::Float),
+            FastColumn::Int(v) => split_rows(v, &lines, &mut per_chunk, ColumnSlice::Int),
         }
     }
     let ok = chunks
@@ -389,6 +375,22 @@ fn parse_i64(b: &[u8]) -> Option<(i64, usize)> {
         return None;
     }
     Some((if neg { -v } else { v }, i))
+}
+
+/// A column cut into each chunk's rows (`lines[k]` of them for chunk k), each piece
+/// wrapped by `wrap` and pushed onto that chunk's list.
+fn split_rows<'a, T>(
+    v: &'a mut [T],
+    lines: &[usize],
+    per_chunk: &mut [Vec<ColumnSlice<'a>>],
+    wrap: fn(&'a mut [T]) -> ColumnSlice<'a>,
+) {
+    let mut rest = v;
+    for (chunk, &n) in per_chunk.iter_mut().zip(lines) {
+        let (h, t) = rest.split_at_mut(n);
+        chunk.push(wrap(h));
+        rest = t;
+    }
 }
 
 #[cfg(test)]
