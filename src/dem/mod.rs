@@ -19,6 +19,8 @@ pub mod pack;
 pub mod params;
 pub mod pillar;
 pub mod pillar_arrays;
+#[cfg(target_arch = "x86_64")]
+pub mod pillar_avx2;
 pub mod pillar_kernels;
 pub mod pillar_par;
 pub mod pillar_phases;

@@ -11,11 +11,14 @@
 //! (a list rebuild), while the others wait at the barrier.
 
 use super::pillar::PillarSim;
-use super::pillar_kernels::{GrainConsts, kick_drift};
+#[cfg(target_arch = "x86_64")]
+use super::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
+use super::pillar_kernels::{GrainConsts, kick_drift, pack_grains};
 use super::pillar_phases::{
     BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, bar_contacts, gather, mark_frozen,
     pair_slots, substrate_chunks,
 };
+use super::simd::{Level, Pos, Quad, level};
 use std::cell::UnsafeCell;
 use std::ops::Range;
 
@@ -80,12 +83,17 @@ pub(crate) struct Arrays {
     bottom_shear: P<f64>,
     resting: P<bool>,
     frozen: P<bool>,
-    slot_force: P<[f64; 3]>,
+    slot_force: P<Quad>,
+    owner: P<u32>,
+    packed_state: P<Quad>,
+    packed_spin: P<Pos>,
     rec_fn: P<f64>,
     rec_ft: P<f64>,
     rec_touch: P<bool>,
     bar_sums: P<[f64; 3]>,
     power: P<[f64; 2]>,
+    pow_t: P<f64>,
+    pow_r: P<f64>,
     pub(crate) moved2: P<f64>,
     skipped: P<u64>,
     frozen_count: P<usize>,
@@ -165,11 +173,16 @@ impl PillarSim {
             resting: P::of(&mut sc.resting),
             frozen: P::of(&mut sc.frozen),
             slot_force: P::of(&mut b.slot_force),
+            owner: P::of(&mut b.owner),
+            packed_state: P::of(&mut b.packed_state),
+            packed_spin: P::of(&mut b.packed_spin),
             rec_fn: P::of(&mut b.rec_fn),
             rec_ft: P::of(&mut b.rec_ft),
             rec_touch: P::of(&mut b.rec_touch),
             bar_sums: P::of(&mut b.bar_sums),
             power: P::of(&mut b.power),
+            pow_t: P::of(&mut b.pow_t),
+            pow_r: P::of(&mut b.pow_r),
             moved2: P::of(&mut b.moved2),
             skipped: P::of(&mut b.skipped),
             frozen_count: P::of(&mut b.frozen_count),
@@ -213,7 +226,7 @@ pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) ->
         } else {
             (&[], &[])
         };
-        kick_drift(
+        let moved2 = kick_drift(
             dt,
             a.x.part(r.clone()),
             a.y.part(r.clone()),
@@ -226,7 +239,31 @@ pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) ->
             a.resting.part(parity * n + r.start..parity * n + r.end),
             xr,
             yr,
-        )
+        );
+        phase_pack(a, t);
+        moved2
+    }
+}
+
+/// Thread t's grains packed for the AVX2 pair kernel (after their drift).
+pub(crate) unsafe fn phase_pack(a: &Arrays, t: usize) {
+    unsafe {
+        let r = range(a, t);
+        if a.packed_state.1 != a.x.1 || a.packed_spin.1 != a.x.1 || level() != Level::Avx2 {
+            return;
+        }
+        pack_grains(
+            GrainState {
+                x: a.x.view(r.clone()),
+                y: a.y.view(r.clone()),
+                vx: a.vx.view(r.clone()),
+                vy: a.vy.view(r.clone()),
+                omega: a.omega.view(r.clone()),
+                radius: a.radius.view(r.clone()),
+            },
+            a.packed_state.part(r.clone()),
+            a.packed_spin.part(r),
+        );
     }
 }
 
@@ -273,14 +310,40 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: us
             f_t: a.rec_ft.part(slots.clone()),
             touching: a.rec_touch.part(slots.clone()),
         });
+        let laws = (&s.normal(), &s.tangential(), s.params.dt);
+        let rest = a.freeze.then(|| resting(a, parity));
+        let n = a.x.1;
+        #[cfg(target_arch = "x86_64")]
+        if rec.is_none() && level() == Level::Avx2 {
+            let packed = PackedGrains {
+                state: a.packed_state.all(),
+                spin: a.packed_spin.all(),
+            };
+            // `sync_list_buffers` checked every owner and partner index against n.
+            assert!(packed.state.len() == n && packed.spin.len() == n);
+            assert!(rest.is_none_or(|f| f.len() == n));
+            // SAFETY: AVX2 present; indices and lengths checked (above and at the list's
+            // check); `phase_pack` packed this state after the drift.
+            a.skipped.part(t..t + 1)[0] = pair_slots_avx2(
+                slots.clone(),
+                g,
+                packed,
+                (a.owner.all(), a.js.all()),
+                a.shear.part(slots.clone()),
+                a.slot_force.part(slots),
+                rest,
+                laws,
+            );
+            return;
+        }
         let skipped = pair_slots(
             r,
             g,
             (start, a.js.all()),
             a.shear.part(slots.clone()),
             a.slot_force.part(slots),
-            a.freeze.then(|| resting(a, parity)),
-            (&s.normal(), &s.tangential(), s.params.dt),
+            rest,
+            laws,
             rec,
         );
         a.skipped.part(t..t + 1)[0] = skipped;
@@ -376,6 +439,7 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim, parity: u
             (fx, fy, tq),
             (vx, vy, a.ax.part(r.clone()), a.ay.part(r.clone()), omega),
             (a.sub_fx.part(r.clone()), a.sub_fy.part(r.clone())),
+            (a.pow_t.part(r.clone()), a.pow_r.part(r.clone())),
             a.power.part(chunks),
         );
     }

@@ -6,6 +6,8 @@
 //! branches that would mispredict.
 
 use super::contact::{SubstrateFriction, pick};
+use super::pillar_phases::GrainState;
+use super::simd::{Pos, Quad};
 
 /// `v` when `keep`, else +0, without a branch.
 #[inline(always)]
@@ -56,6 +58,19 @@ pub fn kick_drift(
     moved2
 }
 
+/// The grains of `g` packed for the AVX2 pair kernel (`pillar_avx2::PackedGrains`):
+/// (x, y, v_x, v_y) into `state`, (ω, R) into `spin`.
+pub fn pack_grains(g: GrainState, state: &mut [Quad], spin: &mut [Pos]) {
+    let n = state.len();
+    let (state, spin) = (&mut state[..n], &mut spin[..n]);
+    let (x, y, vx, vy) = (&g.x[..n], &g.y[..n], &g.vx[..n], &g.vy[..n]);
+    let (omega, radius) = (&g.omega[..n], &g.radius[..n]);
+    for i in 0..n {
+        state[i] = Quad([x[i], y[i], vx[i], vy[i]]);
+        spin[i] = Pos([omega[i], radius[i]]);
+    }
+}
+
 /// Per-grain constants (see `pillar::Consts`) as slices.
 pub struct GrainConsts<'a> {
     pub inv_mass: &'a [f64],
@@ -66,15 +81,81 @@ pub struct GrainConsts<'a> {
     pub xi_omega: &'a [f64],
 }
 
-crate::multiversion! {
 /// Substrate friction from the contact forces `fx`, `fy` (N) and torques `tq` (N m),
 /// new accelerations, and when `kick` the second half kick, the spin update and the
 /// ξ rule of Eq. 11 (`xi_v2` = ξ_v², m²/s²). Frozen grains (when `kick`) are left as
 /// they are. Each grain's dissipated power |f·v| and |T_μ ω| (W) goes into `pow_t` and
-/// `pow_r` (summed by the caller in a fixed order, so these loops carry no sum and run
-/// as vectors).
+/// `pow_r` (summed by the caller in a fixed order, so these loops carry no sum). Runs
+/// the AVX2 kernel (`pillar_avx2`, same numbers) where the processor has it.
+///
+/// # Panics
+/// If the slices' lengths differ (`frozen` may also be empty).
 #[allow(clippy::too_many_arguments)]
 pub fn substrate_kick(
+    kick: bool,
+    dt: f64,
+    xi_v2: f64,
+    sub: &SubstrateFriction,
+    c: &GrainConsts<'_>,
+    frozen: &[bool],
+    fx: &[f64],
+    fy: &[f64],
+    tq: &[f64],
+    vx: &mut [f64],
+    vy: &mut [f64],
+    ax: &mut [f64],
+    ay: &mut [f64],
+    omega: &mut [f64],
+    sub_fx: &mut [f64],
+    sub_fy: &mut [f64],
+    pow_t: &mut [f64],
+    pow_r: &mut [f64],
+) {
+    let n = vx.len();
+    let lens = [
+        c.inv_mass.len(),
+        c.inv_inertia.len(),
+        c.f_max.len(),
+        c.f_max2.len(),
+        c.t_max.len(),
+        c.xi_omega.len(),
+        fx.len(),
+        fy.len(),
+        tq.len(),
+        vy.len(),
+        ax.len(),
+        ay.len(),
+        omega.len(),
+        sub_fx.len(),
+        sub_fy.len(),
+        pow_t.len(),
+        pow_r.len(),
+    ];
+    assert!(
+        lens.iter().all(|&l| l == n) && (frozen.is_empty() || frozen.len() == n),
+        "substrate_kick: slices of one length"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if super::simd::level() == super::simd::Level::Avx2 {
+        // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
+        unsafe {
+            super::pillar_avx2::substrate_kick(
+                kick, dt, xi_v2, sub, c, frozen, fx, fy, tq, vx, vy, ax, ay, omega, sub_fx, sub_fy,
+                pow_t, pow_r,
+            )
+        };
+        return;
+    }
+    substrate_kick_scalar(
+        kick, dt, xi_v2, sub, c, frozen, fx, fy, tq, vx, vy, ax, ay, omega, sub_fx, sub_fy, pow_t,
+        pow_r,
+    );
+}
+
+/// [`substrate_kick`] in portable scalar code: the reference the AVX2 kernel matches
+/// bit for bit, and its tail.
+#[allow(clippy::too_many_arguments)]
+pub fn substrate_kick_scalar(
     kick: bool,
     dt: f64,
     xi_v2: f64,
@@ -141,7 +222,6 @@ pub fn substrate_kick(
         let w_new = keep_or_zero(w_new, !((w_new.abs() < xi_omega[i]) & (t.abs() <= t_m)));
         omega[i] = pick(hold, w, w_new);
     }
-}
 }
 
 /// Σ v in a fixed order that vectorises: four running sums over every fourth element,

@@ -8,8 +8,9 @@
 
 use super::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
 use super::pillar::PillarSim;
-use super::pillar_arrays::{SendPtr, Shared, phase_grains, phase_kick, phase_pairs};
+use super::pillar_arrays::{SendPtr, Shared, phase_grains, phase_kick, phase_pack, phase_pairs};
 use super::pillar_phases::{CHUNK, Reverse};
+use super::simd::{Pos, Quad};
 use super::verlet::Boundary;
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -17,12 +18,19 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 /// Per-step work the serial sections share with the phases (not state).
 #[derive(Debug, Clone, Default)]
 pub struct StepBuffers {
-    /// Contact force (x, y, N) on the slot's owner and its torque (N m), per pair slot.
-    pub slot_force: Vec<[f64; 3]>,
+    /// Contact force (x, y, N) on the slot's owner, its torque (N m) and a zero, per
+    /// pair slot.
+    pub slot_force: Vec<Quad>,
     /// Whether `slot_force` holds this list's forces (a slot between frozen grains is
     /// then left as it is).
     pub slots_valid: bool,
     pub reverse: Reverse,
+    /// The grain that owns each pair slot (for kernels that run over slots).
+    pub owner: Vec<u32>,
+    /// The grains packed for the AVX2 pair kernel after each drift: (x, y, v_x, v_y)
+    /// (m, m/s) and (ω, R) (rad/s, m).
+    pub packed_state: Vec<Quad>,
+    pub packed_spin: Vec<Pos>,
     /// F_n, |F_t| (N) and touching per slot, filled on force-snapshot steps.
     pub rec_fn: Vec<f64>,
     pub rec_ft: Vec<f64>,
@@ -30,6 +38,9 @@ pub struct StepBuffers {
     /// Per chunk: Σ F_n top, Σ F_n bottom, Σ bar shear (N); substrate power (W).
     pub bar_sums: Vec<[f64; 3]>,
     pub power: Vec<[f64; 2]>,
+    /// Per grain: |f·v| and |T_μ ω| (W), summed per chunk into `power`.
+    pub pow_t: Vec<f64>,
+    pub pow_r: Vec<f64>,
     /// Per thread: largest squared move since the list build (m²), slots skipped,
     /// frozen grains.
     pub moved2: Vec<f64>,
@@ -180,6 +191,7 @@ impl PillarSim {
         // SAFETY: one thread; the arrays outlive the calls.
         unsafe {
             let s = &*(self as *const PillarSim);
+            phase_pack(&a, 0);
             phase_pairs(&a, 0, s, 0);
             phase_grains(&a, 0, s, 0);
         }
@@ -205,6 +217,10 @@ impl PillarSim {
         b.skipped = vec![0; threads];
         b.frozen_count = vec![0; threads];
         b.busy = vec![0.0; threads];
+        b.pow_t.resize(n, 0.0);
+        b.pow_r.resize(n, 0.0);
+        b.packed_state.resize(n, Quad::default());
+        b.packed_spin.resize(n, Pos::default());
         self.sync_list_buffers();
         let b = &self.scratch.buffers;
         if b.bounds.len() != threads + 1 || b.bounds.last() != Some(&n) {
@@ -252,8 +268,20 @@ impl PillarSim {
         }
         if !b.slots_valid {
             b.reverse = Reverse::build(n, &self.list.start, &self.list.j);
-            b.slot_force = vec![[0.0; 3]; slots];
+            b.slot_force = vec![Quad::default(); slots];
+            b.owner = (0..n)
+                .flat_map(|i| {
+                    let r = self.list.start[i]..self.list.start[i + 1];
+                    r.map(move |_| i as u32)
+                })
+                .collect();
         }
+        // The AVX2 pair kernel indexes grains without bounds checks: every list index
+        // is checked here, after each rebuild and at the start of each `advance`.
+        assert!(
+            b.owner.len() == slots && self.list.j.iter().all(|&j| (j as usize) < n),
+            "pair list indices within the grains"
+        );
         let rec = self.record.is_some();
         let want = if rec { slots } else { 0 };
         b.rec_fn.resize(want, 0.0);

@@ -14,6 +14,7 @@
 
 use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, TangentialLaw};
 use super::pillar_kernels::{GrainConsts, substrate_kick, sum4};
+use super::simd::Quad;
 use std::ops::Range;
 
 /// Grains per reduction chunk.
@@ -108,30 +109,25 @@ pub struct SlotRecord<'a> {
 
 /// Phase 3: the contact of every pair slot owned by the grains in `range` (slots
 /// `start[range.start]..start[range.end]`, which `shear`, `slot_force` and `rec` hold):
-/// force on the owner (N, x and y) and the torque on each grain (N m), Eqs. 4, 7, 8.
-/// Normal along n = r_ij/|r_ij|, tangential along t̂ = ẑ × n from the contact history;
-/// lever arms ½|r_ij|; separated pairs forget their history and hold zeros. A slot
-/// between two grains `resting` this step (v = a = ω = 0 before the drift, so neither
-/// moves, and no slip adds to the history) keeps last step's values, which are then
-/// exactly what it would compute: the same positions, an unchanged shear spring, and,
-/// without normal damping (the caller's condition), no velocity term. Returns the
-/// slots skipped.
+/// see [`slot_contact`]. A slot between two grains `resting` this step (v = a = ω = 0
+/// before the drift, so neither moves, and no slip adds to the history) keeps last
+/// step's values, which are then exactly what it would compute: the same positions, an
+/// unchanged shear spring, and, without normal damping (the caller's condition), no
+/// velocity term. Returns the slots skipped.
 #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 pub fn pair_slots(
     range: Range<usize>,
     g: GrainState,
     (start, js): (&[u32], &[u32]),
     shear: &mut [f64],
-    slot_force: &mut [[f64; 3]],
+    slot_force: &mut [Quad],
     resting: Option<&[bool]>,
-    (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
+    laws: (&Hooke, &CundallStrack, f64),
     mut rec: Option<SlotRecord>,
 ) -> u64 {
     let k0 = start[range.start] as usize;
     let mut skipped = 0u64;
     for i in range {
-        let (xi, yi, ri, vxi, vyi, wi) =
-            (g.x[i], g.y[i], g.radius[i], g.vx[i], g.vy[i], g.omega[i]);
         let fi = resting.is_some_and(|f| f[i]);
         for k in start[i] as usize..start[i + 1] as usize {
             let j = js[k] as usize;
@@ -140,34 +136,57 @@ pub fn pair_slots(
                 skipped += 1;
                 continue;
             }
-            let (dx, dy) = (xi - g.x[j], yi - g.y[j]);
-            let rs = ri + g.radius[j];
-            let r2 = dx * dx + dy * dy;
-            if r2 >= rs * rs {
-                shear[s] = 0.0;
-                slot_force[s] = [0.0; 3];
-                if let Some(r) = rec.as_mut() {
-                    r.touching[s] = false;
-                }
-                continue;
-            }
-            let dist = r2.sqrt();
-            let (nx, ny) = (dx / dist, dy / dist);
-            let (dvx, dvy) = (vxi - g.vx[j], vyi - g.vy[j]);
-            let f_n = normal.force(rs - dist, dvx * nx + dvy * ny);
-            let vt = dvy * nx - dvx * ny - 0.5 * dist * (wi + g.omega[j]);
-            let f_t = tangential.force(&mut shear[s], vt, dt, f_n);
-            slot_force[s] = [f_n * nx - f_t * ny, f_n * ny + f_t * nx, -0.5 * dist * f_t];
+            let contact = slot_contact(i, j, &g, &mut shear[s], &mut slot_force[s], laws);
             if let Some(r) = rec.as_mut() {
-                r.touching[s] = true;
-                r.f_n[s] = f_n;
-                r.f_t[s] = f_t.abs();
+                r.touching[s] = contact.is_some();
+                if let Some((f_n, f_t)) = contact {
+                    r.f_n[s] = f_n;
+                    r.f_t[s] = f_t.abs();
+                }
             }
         }
     }
     skipped
 }
 
+/// The contact of grains i and j (Eqs. 4, 7, 8): into `out` the force on i (N, x and
+/// y), the torque on each grain (N m) and a zero; `shear` is the slot's tangential
+/// spring (m). Normal along n = r_ij/|r_ij|, tangential along t̂ = ẑ × n from the contact
+/// history; lever arms ½|r_ij|. Separated pairs forget their history and hold zeros
+/// (and return `None`); touching ones return (F_n, F_t) (N).
+#[inline(always)]
+pub fn slot_contact(
+    i: usize,
+    j: usize,
+    g: &GrainState,
+    shear: &mut f64,
+    out: &mut Quad,
+    (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
+) -> Option<(f64, f64)> {
+    let (dx, dy) = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
+    let rs = g.radius[i] + g.radius[j];
+    let r2 = dx * dx + dy * dy;
+    if r2 >= rs * rs {
+        *shear = 0.0;
+        *out = Quad([0.0; 4]);
+        return None;
+    }
+    let dist = r2.sqrt();
+    let (nx, ny) = (dx / dist, dy / dist);
+    let (dvx, dvy) = (g.vx[i] - g.vx[j], g.vy[i] - g.vy[j]);
+    let f_n = normal.force(rs - dist, dvx * nx + dvy * ny);
+    let vt = dvy * nx - dvx * ny - 0.5 * dist * (g.omega[i] + g.omega[j]);
+    let f_t = tangential.force(shear, vt, dt, f_n);
+    *out = Quad([
+        f_n * nx - f_t * ny,
+        f_n * ny + f_t * nx,
+        -0.5 * dist * f_t,
+        0.0,
+    ]);
+    Some((f_n, f_t))
+}
+
+crate::multiversion! {
 /// Phase 4a: each grain's contact force and torque, Σ over its own slots minus Σ over
 /// the slots where it is the partner (the torque T_ij = −½ r_ij × F_t acts alike on
 /// both); `frozen`, `fx`, `fy`, `tq` hold the range's. Frozen grains keep last step's
@@ -177,7 +196,7 @@ pub fn gather(
     range: Range<usize>,
     start: &[u32],
     rev: &Reverse,
-    slot_force: &[[f64; 3]],
+    slot_force: &[Quad],
     frozen: Option<&[bool]>,
     fx: &mut [f64],
     fy: &mut [f64],
@@ -188,22 +207,35 @@ pub fn gather(
         if frozen.is_some_and(|f| f[i - lo]) {
             continue;
         }
-        let (mut sx, mut sy, mut st) = (0.0, 0.0, 0.0);
-        for f in &slot_force[start[i] as usize..start[i + 1] as usize] {
-            sx += f[0];
-            sy += f[1];
-            st += f[2];
-        }
-        for &k in &rev.slot[rev.of(i)] {
-            let f = &slot_force[k as usize];
-            sx -= f[0];
-            sy -= f[1];
-            st += f[2];
-        }
-        fx[i - lo] = sx;
-        fy[i - lo] = sy;
-        tq[i - lo] = st;
+        let own = &slot_force[start[i] as usize..start[i + 1] as usize];
+        let s = sum_slots(own, &rev.slot[rev.of(i)], slot_force);
+        fx[i - lo] = s[0];
+        fy[i - lo] = s[1];
+        tq[i - lo] = s[2];
     }
+}
+}
+
+/// Σ `own` + Σ over the slots `theirs` of `all` with x and y negated (the partner's
+/// side), in that order, component by component (a four-lane add per slot).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+fn sum_slots(own: &[Quad], theirs: &[u32], all: &[Quad]) -> [f64; 4] {
+    let mut s = [0.0; 4];
+    for f in own {
+        for l in 0..4 {
+            s[l] += f.0[l];
+        }
+    }
+    // s − f and s + (−f) round alike.
+    const SIGN: [f64; 4] = [-1.0, -1.0, 1.0, 1.0];
+    for &k in theirs {
+        let f = &all[k as usize].0;
+        for l in 0..4 {
+            s[l] += SIGN[l] * f[l];
+        }
+    }
+    s
 }
 
 /// The bars as grains of infinite radius with 2 k_n and 2 k_t and friction μ_bar
@@ -292,9 +324,9 @@ pub type Motion<'a> = (
     &'a mut [f64],
 );
 
-/// The substrate and the second half kick of a range, chunk by chunk (`CHUNK` grains,
-/// the range starting on a chunk boundary): per chunk Σ|f·v| and Σ|T_μ ω| (W) into
-/// `power`.
+/// The substrate and the second half kick of a range (the range starting on a chunk
+/// boundary), then per chunk of `CHUNK` grains Σ|f·v| and Σ|T_μ ω| (W) into `power`;
+/// `pow` is scratch of the range's length.
 #[allow(clippy::too_many_arguments)]
 pub fn substrate_chunks(
     kick: bool,
@@ -305,43 +337,33 @@ pub fn substrate_chunks(
     (fx, fy, tq): (&[f64], &[f64], &[f64]),
     (vx, vy, ax, ay, omega): Motion,
     (sub_fx, sub_fy): (&mut [f64], &mut [f64]),
+    (pow_t, pow_r): (&mut [f64], &mut [f64]),
     power: &mut [[f64; 2]],
 ) {
     let n = vx.len();
     let xi_v2 = sub.xi_v(dt) * sub.xi_v(dt);
-    let no_frozen = [false; 0];
+    substrate_kick(
+        kick,
+        dt,
+        xi_v2,
+        sub,
+        c,
+        frozen.unwrap_or(&[]),
+        fx,
+        fy,
+        tq,
+        vx,
+        vy,
+        ax,
+        ay,
+        omega,
+        sub_fx,
+        sub_fy,
+        pow_t,
+        pow_r,
+    );
     for (ch, p) in power.iter_mut().enumerate() {
         let r = ch * CHUNK..((ch + 1) * CHUNK).min(n);
-        let cc = GrainConsts {
-            inv_mass: &c.inv_mass[r.clone()],
-            inv_inertia: &c.inv_inertia[r.clone()],
-            f_max: &c.f_max[r.clone()],
-            f_max2: &c.f_max2[r.clone()],
-            t_max: &c.t_max[r.clone()],
-            xi_omega: &c.xi_omega[r.clone()],
-        };
-        let (mut pow_t, mut pow_r) = ([0.0; CHUNK], [0.0; CHUNK]);
-        let len = r.len();
-        substrate_kick(
-            kick,
-            dt,
-            xi_v2,
-            sub,
-            &cc,
-            frozen.map_or(&no_frozen[..], |f| &f[r.clone()]),
-            &fx[r.clone()],
-            &fy[r.clone()],
-            &tq[r.clone()],
-            &mut vx[r.clone()],
-            &mut vy[r.clone()],
-            &mut ax[r.clone()],
-            &mut ay[r.clone()],
-            &mut omega[r.clone()],
-            &mut sub_fx[r.clone()],
-            &mut sub_fy[r.clone()],
-            &mut pow_t[..len],
-            &mut pow_r[..len],
-        );
-        *p = [sum4(&pow_t[..len]), sum4(&pow_r[..len])];
+        *p = [sum4(&pow_t[r.clone()]), sum4(&pow_r[r])];
     }
 }

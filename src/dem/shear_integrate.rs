@@ -2,19 +2,11 @@
 //! (alias-free arguments keep the array pointers in registers; multiplying by stored
 //! 1/m and 1/I instead of dividing saves ten divisions per grain and step).
 
-/// A grain's (x, y) (d_s), one aligned 16-byte load.
-#[repr(C, align(16))]
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Pos(pub [f64; 2]);
+pub use super::simd::{Pos, Quad};
 
-/// Four numbers of a grain, one aligned 32-byte load: (v_x, v_y, ω, R) in the packed
-/// state (d_s/τ_e, d_s/τ_e, 1/τ_e, d_s), (f_x, f_y, T, 0) in force sums (m d_s/τ_e²,
-/// m d_s²/τ_e²).
-#[repr(C, align(32))]
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Quad(pub [f64; 4]);
-
-/// A state packed grain by grain for the AVX2 force kernel. The integrator writes it
+/// A state packed grain by grain for the AVX2 force kernel: (x, y) (d_s) and
+/// (v_x, v_y, ω, R) (d_s/τ_e, d_s/τ_e, 1/τ_e, d_s); the kernel's force sums are
+/// (f_x, f_y, T, 0) (m d_s/τ_e², m d_s²/τ_e²). The integrator writes it
 /// while it writes the state (`fresh`), which spares the kernel a pass over the arrays.
 /// A cache: never part of a simulation's value.
 #[derive(Debug, Clone, Default)]

@@ -9,6 +9,18 @@
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
+/// Two numbers of a grain, one aligned 16-byte load (a packed record for the AVX2
+/// kernels, e.g. a position (x, y)).
+#[repr(C, align(16))]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Pos(pub [f64; 2]);
+
+/// Four numbers of a grain or a pair slot, one aligned 32-byte load (a packed record
+/// for the AVX2 kernels, e.g. (v_x, v_y, ω, R) or a force (f_x, f_y, T, 0)).
+#[repr(C, align(32))]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Quad(pub [f64; 4]);
+
 /// Instruction sets the kernels are compiled for, narrowest first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Level {

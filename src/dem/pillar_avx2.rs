@@ -1,0 +1,412 @@
+//! The pillar's two hot kernels written with AVX2 intrinsics: the grain–grain contacts
+//! (li-granular-pillars Eqs. 4, 7, 8) four pair slots at a time, and the substrate
+//! (Sec. II.B.3, Eqs. 9–11) four grains at a time.
+//!
+//! Why by hand: compiled from the scalar code (`pillar_phases::slot_contact`,
+//! `pillar_kernels::substrate_kick_scalar`) both stayed scalar, and their choices
+//! (touching or not, sliding or not, moving or resting grain) became branches that
+//! mispredicted, since such cases mix at random: three fifths of a flowing pillar's
+//! step. Here every choice is a lane mask, and each grain's numbers for the pair kernel
+//! come packed (x, y, v_x, v_y | ω, R), one load and a transpose per four grains.
+//!
+//! Same numbers as the scalar code bit for bit: each lane does its operations in its
+//! order (no fused multiply-add; division and square root are correctly rounded in
+//! both), with its NaN and signed-zero behaviour (`max` returns the second operand on a
+//! NaN as `f64::max` returns the number; ordered compares are false on NaN as `<`,
+//! `>` are; `!=` is unordered). What is left over past a multiple of four goes through
+//! the scalar code. A test runs a pillar both ways and compares every array by bits.
+
+use super::contact::{CundallStrack, Hooke, SubstrateFriction};
+use super::pillar_kernels::{GrainConsts, substrate_kick_scalar};
+use super::pillar_phases::{GrainState, slot_contact};
+use super::simd::{Pos, Quad};
+use std::arch::x86_64::*;
+use std::ops::Range;
+
+/// Four lanes from `s[i..i + 4]`.
+///
+/// # Safety
+/// AVX2 present; i + 4 ≤ s.len().
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn ld(s: &[f64], i: usize) -> __m256d {
+    unsafe { _mm256_loadu_pd(s.as_ptr().add(i)) }
+}
+
+/// `v` into `s[i..i + 4]`.
+///
+/// # Safety
+/// AVX2 present; i + 4 ≤ s.len().
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn st(s: &mut [f64], i: usize, v: __m256d) {
+    unsafe { _mm256_storeu_pd(s.as_mut_ptr().add(i), v) }
+}
+
+/// Lanes all ones where `f[i + l]` (bools from a slice), else zero.
+///
+/// # Safety
+/// AVX2 present; i + 4 ≤ f.len().
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn bool_mask(f: &[bool], i: usize) -> __m256d {
+    unsafe {
+        let bytes = (f.as_ptr().add(i) as *const u32).read_unaligned();
+        let wide = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(bytes as i32));
+        _mm256_castsi256_pd(_mm256_cmpgt_epi64(wide, _mm256_setzero_si256()))
+    }
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn abs4(v: __m256d) -> __m256d {
+    _mm256_andnot_pd(_mm256_set1_pd(-0.0), v)
+}
+
+#[inline]
+#[target_feature(enable = "avx2")]
+fn neg4(v: __m256d) -> __m256d {
+    _mm256_xor_pd(v, _mm256_set1_pd(-0.0))
+}
+
+/// `a` where `m`, else `b` (as `contact::pick`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn pick4(m: __m256d, a: __m256d, b: __m256d) -> __m256d {
+    _mm256_blendv_pd(b, a, m)
+}
+
+/// As [`super::pillar_kernels::substrate_kick`] (same arguments, same results).
+///
+/// # Safety
+/// The processor must have AVX2. Every slice but `frozen` must have length
+/// `vx.len()`; `frozen` that length or none (the dispatcher asserts both).
+#[allow(clippy::too_many_arguments)]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn substrate_kick(
+    kick: bool,
+    dt: f64,
+    xi_v2: f64,
+    sub: &SubstrateFriction,
+    c: &GrainConsts<'_>,
+    frozen: &[bool],
+    fx: &[f64],
+    fy: &[f64],
+    tq: &[f64],
+    vx: &mut [f64],
+    vy: &mut [f64],
+    ax: &mut [f64],
+    ay: &mut [f64],
+    omega: &mut [f64],
+    sub_fx: &mut [f64],
+    sub_fy: &mut [f64],
+    pow_t: &mut [f64],
+    pow_r: &mut [f64],
+) {
+    let n = vx.len();
+    let n4 = n / 4 * 4;
+    let skip = kick && frozen.len() == n;
+    let zero = _mm256_setzero_pd();
+    let one = _mm256_set1_pd(1.0);
+    let min_pos = _mm256_set1_pd(f64::MIN_POSITIVE);
+    let (half_dt, dt4, xi_v2_4) = (
+        _mm256_set1_pd(0.5 * dt),
+        _mm256_set1_pd(dt),
+        _mm256_set1_pd(xi_v2),
+    );
+    // SAFETY (every load and store below): i + 4 ≤ n4 ≤ n and every slice has length n
+    // (this function's contract).
+    for i in (0..n4).step_by(4) {
+        unsafe {
+            let hold = if skip { bool_mask(frozen, i) } else { zero };
+            let (f_x, f_y, v_x, v_y) = (ld(fx, i), ld(fy, i), ld(vx, i), ld(vy, i));
+            let (f_max, f_max2) = (ld(c.f_max, i), ld(c.f_max2, i));
+            // SubstrateFriction::force_with.
+            let v2 = _mm256_add_pd(_mm256_mul_pd(v_x, v_x), _mm256_mul_pd(v_y, v_y));
+            let f2 = _mm256_add_pd(_mm256_mul_pd(f_x, f_x), _mm256_mul_pd(f_y, f_y));
+            let moving = _mm256_cmp_pd::<_CMP_GT_OQ>(v2, zero);
+            let q = pick4(moving, v2, f2);
+            let k_q = _mm256_div_pd(f_max, _mm256_sqrt_pd(_mm256_max_pd(q, min_pos)));
+            let big = _mm256_cmp_pd::<_CMP_GT_OQ>(f2, f_max2);
+            let k = neg4(pick4(_mm256_or_pd(moving, big), k_q, one));
+            let sx = _mm256_mul_pd(k, pick4(moving, v_x, f_x));
+            let sy = _mm256_mul_pd(k, pick4(moving, v_y, f_y));
+            let p = _mm256_add_pd(_mm256_mul_pd(sx, v_x), _mm256_mul_pd(sy, v_y));
+            st(pow_t, i, _mm256_andnot_pd(hold, abs4(p)));
+            st(sub_fx, i, pick4(hold, ld(sub_fx, i), sx));
+            st(sub_fy, i, pick4(hold, ld(sub_fy, i), sy));
+            let inv_m = ld(c.inv_mass, i);
+            let a_x = pick4(
+                hold,
+                ld(ax, i),
+                _mm256_mul_pd(_mm256_add_pd(f_x, sx), inv_m),
+            );
+            let a_y = pick4(
+                hold,
+                ld(ay, i),
+                _mm256_mul_pd(_mm256_add_pd(f_y, sy), inv_m),
+            );
+            if !kick {
+                st(ax, i, a_x);
+                st(ay, i, a_y);
+                continue;
+            }
+            // Second half kick and the ξ_v rule.
+            let v_x = _mm256_add_pd(v_x, _mm256_mul_pd(half_dt, a_x));
+            let v_y = _mm256_add_pd(v_y, _mm256_mul_pd(half_dt, a_y));
+            let vv = _mm256_add_pd(_mm256_mul_pd(v_x, v_x), _mm256_mul_pd(v_y, v_y));
+            let stop = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_LT_OQ>(vv, xi_v2_4),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(f2, f_max2),
+            );
+            st(vx, i, _mm256_andnot_pd(stop, v_x));
+            st(vy, i, _mm256_andnot_pd(stop, v_y));
+            st(ax, i, _mm256_andnot_pd(stop, a_x));
+            st(ay, i, _mm256_andnot_pd(stop, a_y));
+            // Spin: SubstrateFriction::torque_with, the kick and the ξ_ω rule.
+            let (t, w, t_m) = (ld(tq, i), ld(omega, i), ld(c.t_max, i));
+            let sign = _mm256_and_pd(w, _mm256_set1_pd(-0.0));
+            let spinning = neg4(_mm256_or_pd(abs4(t_m), sign));
+            let neg_t_m = neg4(t_m);
+            let r = neg4(t);
+            let r = pick4(_mm256_cmp_pd::<_CMP_LT_OQ>(r, neg_t_m), neg_t_m, r);
+            let at_rest = pick4(_mm256_cmp_pd::<_CMP_GT_OQ>(r, t_m), t_m, r);
+            let ts = pick4(_mm256_cmp_pd::<_CMP_NEQ_UQ>(w, zero), spinning, at_rest);
+            st(pow_r, i, _mm256_andnot_pd(hold, abs4(_mm256_mul_pd(ts, w))));
+            let kick_w = _mm256_mul_pd(
+                _mm256_mul_pd(dt4, _mm256_add_pd(t, ts)),
+                ld(c.inv_inertia, i),
+            );
+            let w_new = _mm256_add_pd(w, kick_w);
+            let stop_w = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_LT_OQ>(abs4(w_new), ld(c.xi_omega, i)),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(abs4(t), t_m),
+            );
+            st(omega, i, pick4(hold, w, _mm256_andnot_pd(stop_w, w_new)));
+        }
+    }
+    if !kick {
+        pow_r.fill(0.0);
+    }
+    if n4 < n {
+        let r = n4..n;
+        let tail = GrainConsts {
+            inv_mass: &c.inv_mass[r.clone()],
+            inv_inertia: &c.inv_inertia[r.clone()],
+            f_max: &c.f_max[r.clone()],
+            f_max2: &c.f_max2[r.clone()],
+            t_max: &c.t_max[r.clone()],
+            xi_omega: &c.xi_omega[r.clone()],
+        };
+        let frozen = if skip { &frozen[r.clone()] } else { &[] };
+        substrate_kick_scalar(
+            kick,
+            dt,
+            xi_v2,
+            sub,
+            &tail,
+            frozen,
+            &fx[r.clone()],
+            &fy[r.clone()],
+            &tq[r.clone()],
+            &mut vx[r.clone()],
+            &mut vy[r.clone()],
+            &mut ax[r.clone()],
+            &mut ay[r.clone()],
+            &mut omega[r.clone()],
+            &mut sub_fx[r.clone()],
+            &mut sub_fy[r.clone()],
+            &mut pow_t[r.clone()],
+            &mut pow_r[r],
+        );
+    }
+}
+
+/// Rows (a, b, c, d) to columns: ([a0 b0 c0 d0], [a1 …], [a2 …], [a3 …]).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose(
+    a: __m256d,
+    b: __m256d,
+    c: __m256d,
+    d: __m256d,
+) -> (__m256d, __m256d, __m256d, __m256d) {
+    let t0 = _mm256_unpacklo_pd(a, b);
+    let t1 = _mm256_unpackhi_pd(a, b);
+    let t2 = _mm256_unpacklo_pd(c, d);
+    let t3 = _mm256_unpackhi_pd(c, d);
+    (
+        _mm256_permute2f128_pd(t0, t2, 0x20),
+        _mm256_permute2f128_pd(t1, t3, 0x20),
+        _mm256_permute2f128_pd(t0, t2, 0x31),
+        _mm256_permute2f128_pd(t1, t3, 0x31),
+    )
+}
+
+/// Grains g[0..4]'s (x, y, v_x, v_y) and (ω, R) records as six field vectors.
+///
+/// # Safety
+/// AVX2 present; every g[l] in bounds of both arrays.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn load_grains(state: *const Quad, spin: *const Pos, g: [usize; 4]) -> [__m256d; 6] {
+    unsafe {
+        let q = g.map(|l| _mm256_load_pd((*state.add(l)).0.as_ptr()));
+        let (x, y, vx, vy) = transpose(q[0], q[1], q[2], q[3]);
+        let p = g.map(|l| _mm_load_pd((*spin.add(l)).0.as_ptr()));
+        let p02 = _mm256_set_m128d(p[2], p[0]);
+        let p13 = _mm256_set_m128d(p[3], p[1]);
+        [
+            x,
+            y,
+            vx,
+            vy,
+            _mm256_unpacklo_pd(p02, p13),
+            _mm256_unpackhi_pd(p02, p13),
+        ]
+    }
+}
+
+/// The grains' state packed for [`pair_slots`]: (x, y, v_x, v_y) (m, m/s) and (ω, R)
+/// (rad/s, m) per grain.
+pub struct PackedGrains<'a> {
+    pub state: &'a [Quad],
+    pub spin: &'a [Pos],
+}
+
+/// As [`super::pillar_phases::pair_slots`] without a force record, four slots at a
+/// time: slots `slots` (of the whole list), owned by `owner[k]`, partnered by `js[k]`;
+/// `shear` and `slot_force` hold the range's slots. The last slots short of a multiple
+/// of four go through the scalar `slot_contact` with `g`. Returns the slots skipped.
+///
+/// # Safety
+/// The processor must have AVX2; `packed` holds the state `g` holds, and both and
+/// `resting` cover every grain that `owner` and `js` name over `slots` (the caller
+/// asserts both).
+#[allow(clippy::too_many_arguments)]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn pair_slots(
+    slots: Range<usize>,
+    g: GrainState,
+    packed: PackedGrains,
+    (owner, js): (&[u32], &[u32]),
+    shear: &mut [f64],
+    slot_force: &mut [Quad],
+    resting: Option<&[bool]>,
+    (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
+) -> u64 {
+    let len = slots.len();
+    let len4 = len / 4 * 4;
+    let (owner, js) = (&owner[slots.clone()], &js[slots.clone()]);
+    let (shear, slot_force) = (&mut shear[..len], &mut slot_force[..len]);
+    let (state, spin) = (packed.state.as_ptr(), packed.spin.as_ptr());
+    let zero = _mm256_setzero_pd();
+    let (k_n, damping) = (_mm256_set1_pd(normal.k_n), _mm256_set1_pd(normal.damping));
+    let (k_t, minus_k_t) = (
+        _mm256_set1_pd(tangential.k_t),
+        _mm256_set1_pd(-tangential.k_t),
+    );
+    let (mu, dt4) = (_mm256_set1_pd(tangential.mu), _mm256_set1_pd(dt));
+    let (half, minus_half) = (_mm256_set1_pd(0.5), _mm256_set1_pd(-0.5));
+    let sign_bit = _mm256_set1_pd(-0.0);
+    let mut skipped = 0u64;
+    for s in (0..len4).step_by(4) {
+        // SAFETY: s + 4 ≤ len4 ≤ len, the length of every per-slot slice here; grain
+        // indices are in bounds of `packed` and `resting` (this function's contract).
+        unsafe {
+            let i = [0, 1, 2, 3].map(|l| *owner.get_unchecked(s + l) as usize);
+            let j = [0, 1, 2, 3].map(|l| *js.get_unchecked(s + l) as usize);
+            // Slots between two resting grains keep their values (see pair_slots).
+            let (both, n_both) = match resting {
+                Some(r) => {
+                    let b = [0, 1, 2, 3].map(|l| *r.get_unchecked(i[l]) && *r.get_unchecked(j[l]));
+                    let m = b.map(|v| -(v as i64));
+                    let mask = _mm256_castsi256_pd(_mm256_set_epi64x(m[3], m[2], m[1], m[0]));
+                    (mask, b.iter().filter(|&&v| v).count() as u64)
+                }
+                None => (zero, 0),
+            };
+            skipped += n_both;
+            if n_both == 4 {
+                // A quasistatic pillar's resting grains come in runs (slots are in
+                // owner order): whole groups are common there.
+                continue;
+            }
+            let [xi, yi, vxi, vyi, wi, ri] = load_grains(state, spin, i);
+            let [xj, yj, vxj, vyj, wj, rj] = load_grains(state, spin, j);
+            let (dx, dy) = (_mm256_sub_pd(xi, xj), _mm256_sub_pd(yi, yj));
+            let rs = _mm256_add_pd(ri, rj);
+            let r2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+            // "Not apart" (unordered: a NaN separation goes the contact way, as in the
+            // scalar code).
+            let touch = _mm256_cmp_pd::<_CMP_NGE_UQ>(r2, _mm256_mul_pd(rs, rs));
+            let dist = _mm256_sqrt_pd(r2);
+            let (nx, ny) = (_mm256_div_pd(dx, dist), _mm256_div_pd(dy, dist));
+            let (dvx, dvy) = (_mm256_sub_pd(vxi, vxj), _mm256_sub_pd(vyi, vyj));
+            // Hooke::force, clipped at zero.
+            let vn = _mm256_add_pd(_mm256_mul_pd(dvx, nx), _mm256_mul_pd(dvy, ny));
+            let f = _mm256_sub_pd(
+                _mm256_mul_pd(k_n, _mm256_sub_pd(rs, dist)),
+                _mm256_mul_pd(damping, vn),
+            );
+            let f_n = _mm256_and_pd(f, _mm256_cmp_pd::<_CMP_GT_OQ>(f, zero));
+            // CundallStrack::force.
+            let vt = _mm256_sub_pd(
+                _mm256_sub_pd(_mm256_mul_pd(dvy, nx), _mm256_mul_pd(dvx, ny)),
+                _mm256_mul_pd(_mm256_mul_pd(half, dist), _mm256_add_pd(wi, wj)),
+            );
+            let old_s = _mm256_loadu_pd(shear.as_ptr().add(s));
+            let u = _mm256_add_pd(old_s, _mm256_mul_pd(vt, dt4));
+            let f_max = _mm256_mul_pd(mu, f_n);
+            let slide = _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_mul_pd(k_t, abs4(u)), f_max);
+            let held = _mm256_or_pd(abs4(_mm256_div_pd(f_max, k_t)), _mm256_and_pd(u, sign_bit));
+            let u = pick4(slide, held, u);
+            let f_t = _mm256_mul_pd(minus_k_t, u);
+            // Separated pairs: zeros; resting pairs: last step's values.
+            let keep = |v: __m256d| _mm256_and_pd(v, touch);
+            let new_s = pick4(both, old_s, keep(u));
+            _mm256_storeu_pd(shear.as_mut_ptr().add(s), new_s);
+            let f_x = keep(_mm256_sub_pd(
+                _mm256_mul_pd(f_n, nx),
+                _mm256_mul_pd(f_t, ny),
+            ));
+            let f_y = keep(_mm256_add_pd(
+                _mm256_mul_pd(f_n, ny),
+                _mm256_mul_pd(f_t, nx),
+            ));
+            let t = keep(_mm256_mul_pd(_mm256_mul_pd(minus_half, dist), f_t));
+            let (o0, o1, o2, o3) = transpose(f_x, f_y, t, zero);
+            let out = slot_force.as_mut_ptr().add(s);
+            for (l, v) in [o0, o1, o2, o3].into_iter().enumerate() {
+                let p = (*out.add(l)).0.as_mut_ptr();
+                if n_both == 0 {
+                    _mm256_store_pd(p, v);
+                    continue;
+                }
+                let lane = match l {
+                    0 => _mm256_permute4x64_pd::<0>(both),
+                    1 => _mm256_permute4x64_pd::<0b01_01_01_01>(both),
+                    2 => _mm256_permute4x64_pd::<0b10_10_10_10>(both),
+                    _ => _mm256_permute4x64_pd::<0b11_11_11_11>(both),
+                };
+                _mm256_store_pd(p, pick4(lane, _mm256_load_pd(p), v));
+            }
+        }
+    }
+    for s in len4..len {
+        let (i, j) = (owner[s] as usize, js[s] as usize);
+        if resting.is_some_and(|r| r[i] && r[j]) {
+            skipped += 1;
+            continue;
+        }
+        slot_contact(
+            i,
+            j,
+            &g,
+            &mut shear[s],
+            &mut slot_force[s],
+            (normal, tangential, dt),
+        );
+    }
+    skipped
+}
