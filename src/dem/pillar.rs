@@ -161,7 +161,7 @@ impl PillarSim {
         grains.sort_spatially(d);
         let n = grains.len();
         let mut s = PillarSim {
-            list: PairList::new(0.15 * d),
+            list: PairList::new(0.05 * d),
             params,
             grains,
             bottom_y,

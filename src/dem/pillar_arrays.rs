@@ -13,7 +13,7 @@
 use super::pillar::PillarSim;
 #[cfg(target_arch = "x86_64")]
 use super::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
-use super::pillar_kernels::{GrainConsts, kick_drift, pack_grains};
+use super::pillar_kernels::{Drift, DriftInputs, GrainConsts, kick_drift, pack_grains};
 use super::pillar_phases::{
     BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, bar_contacts, gather, mark_frozen,
     pair_slots, substrate_chunks,
@@ -215,7 +215,8 @@ unsafe fn range(a: &Arrays, t: usize) -> Range<usize> {
     b[t]..b[t + 1]
 }
 
-/// Phase 1: kick and drift of thread t's grains; their largest move since the build.
+/// Phase 1: kick and drift of thread t's grains, packed for the pair kernel; their
+/// largest move since the build.
 pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) -> f64 {
     unsafe {
         let r = range(a, t);
@@ -226,32 +227,34 @@ pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) ->
         } else {
             (&[], &[])
         };
-        let moved2 = kick_drift(
+        kick_drift(
             dt,
-            a.x.part(r.clone()),
-            a.y.part(r.clone()),
-            a.theta.part(r.clone()),
-            a.vx.part(r.clone()),
-            a.vy.part(r.clone()),
-            a.ax.view(r.clone()),
-            a.ay.view(r.clone()),
-            a.omega.view(r.clone()),
-            a.resting.part(parity * n + r.start..parity * n + r.end),
-            xr,
-            yr,
-        );
-        phase_pack(a, t);
-        moved2
+            Drift {
+                x: a.x.part(r.clone()),
+                y: a.y.part(r.clone()),
+                theta: a.theta.part(r.clone()),
+                vx: a.vx.part(r.clone()),
+                vy: a.vy.part(r.clone()),
+                resting: a.resting.part(parity * n + r.start..parity * n + r.end),
+            },
+            &DriftInputs {
+                ax: a.ax.view(r.clone()),
+                ay: a.ay.view(r.clone()),
+                omega: a.omega.view(r.clone()),
+                radius: a.radius.view(r.clone()),
+                x_ref: xr,
+                y_ref: yr,
+            },
+            a.packed_state.part(r.clone()),
+            a.packed_spin.part(r),
+        )
     }
 }
 
-/// Thread t's grains packed for the AVX2 pair kernel (after their drift).
-pub(crate) unsafe fn phase_pack(a: &Arrays, t: usize) {
+/// All grains packed for the AVX2 pair kernel (where no drift did it).
+pub(crate) unsafe fn phase_pack(a: &Arrays) {
     unsafe {
-        let r = range(a, t);
-        if a.packed_state.1 != a.x.1 || a.packed_spin.1 != a.x.1 || level() != Level::Avx2 {
-            return;
-        }
+        let r = 0..a.x.1;
         pack_grains(
             GrainState {
                 x: a.x.view(r.clone()),

@@ -17,7 +17,9 @@
 //! the scalar code. A test runs a pillar both ways and compares every array by bits.
 
 use super::contact::{CundallStrack, Hooke, SubstrateFriction};
-use super::pillar_kernels::{GrainConsts, substrate_kick_scalar};
+use super::pillar_kernels::{
+    Drift, DriftInputs, GrainConsts, kick_drift_scalar, substrate_kick_scalar,
+};
 use super::pillar_phases::{GrainState, slot_contact};
 use super::simd::{Pos, Quad};
 use std::arch::x86_64::*;
@@ -409,4 +411,112 @@ pub(crate) unsafe fn pair_slots(
         );
     }
     skipped
+}
+
+/// As [`super::pillar_kernels::kick_drift_scalar`] (same arguments, same results).
+///
+/// # Safety
+/// The processor must have AVX2; every slice of `d`, `inp` (the references when
+/// `refs_ok`), `state` and `spin` has length `d.x.len()` (the dispatcher asserts it).
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn kick_drift(
+    dt: f64,
+    d: Drift,
+    inp: &DriftInputs,
+    refs_ok: bool,
+    state: &mut [Quad],
+    spin: &mut [Pos],
+) -> f64 {
+    let n = d.x.len();
+    let n4 = n / 4 * 4;
+    let zero = _mm256_setzero_pd();
+    let (half_dt, dt4) = (_mm256_set1_pd(0.5 * dt), _mm256_set1_pd(dt));
+    let mut moved2 = zero;
+    for i in (0..n4).step_by(4) {
+        // SAFETY: i + 4 ≤ n4 ≤ n, every slice's length (this function's contract).
+        unsafe {
+            let (v_x, v_y, a_x, a_y) = (ld(d.vx, i), ld(d.vy, i), ld(inp.ax, i), ld(inp.ay, i));
+            let w = ld(inp.omega, i);
+            let eq = |v: __m256d| _mm256_cmp_pd::<_CMP_EQ_OQ>(v, zero);
+            let rest = _mm256_and_pd(
+                _mm256_and_pd(
+                    _mm256_and_pd(eq(v_x), eq(v_y)),
+                    _mm256_and_pd(eq(a_x), eq(a_y)),
+                ),
+                eq(w),
+            );
+            let bits = _mm256_movemask_pd(rest);
+            for l in 0..4 {
+                *d.resting.get_unchecked_mut(i + l) = bits >> l & 1 == 1;
+            }
+            let v_x = _mm256_add_pd(v_x, _mm256_mul_pd(half_dt, a_x));
+            let v_y = _mm256_add_pd(v_y, _mm256_mul_pd(half_dt, a_y));
+            let x = _mm256_add_pd(ld(d.x, i), _mm256_mul_pd(dt4, v_x));
+            let y = _mm256_add_pd(ld(d.y, i), _mm256_mul_pd(dt4, v_y));
+            st(d.vx, i, v_x);
+            st(d.vy, i, v_y);
+            st(d.x, i, x);
+            st(d.y, i, y);
+            st(
+                d.theta,
+                i,
+                _mm256_add_pd(ld(d.theta, i), _mm256_mul_pd(dt4, w)),
+            );
+            let (q0, q1, q2, q3) = transpose(x, y, v_x, v_y);
+            let out = state.as_mut_ptr().add(i);
+            for (l, q) in [q0, q1, q2, q3].into_iter().enumerate() {
+                _mm256_store_pd((*out.add(l)).0.as_mut_ptr(), q);
+            }
+            let r = ld(inp.radius, i);
+            let (w02, w13) = (_mm256_unpacklo_pd(w, r), _mm256_unpackhi_pd(w, r));
+            let sp = spin.as_mut_ptr().add(i);
+            _mm_store_pd((*sp).0.as_mut_ptr(), _mm256_castpd256_pd128(w02));
+            _mm_store_pd((*sp.add(1)).0.as_mut_ptr(), _mm256_castpd256_pd128(w13));
+            _mm_store_pd((*sp.add(2)).0.as_mut_ptr(), _mm256_extractf128_pd::<1>(w02));
+            _mm_store_pd((*sp.add(3)).0.as_mut_ptr(), _mm256_extractf128_pd::<1>(w13));
+            if refs_ok {
+                let ex = _mm256_sub_pd(x, ld(inp.x_ref, i));
+                let ey = _mm256_sub_pd(y, ld(inp.y_ref, i));
+                let e2 = _mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey));
+                // On a NaN `max` returns its second operand: the running maximum, as
+                // f64::max ignores a NaN.
+                moved2 = _mm256_max_pd(e2, moved2);
+            }
+        }
+    }
+    let mut lanes = [0.0; 4];
+    // SAFETY: four lanes into four doubles.
+    unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), moved2) };
+    // Maxima of numbers are exact, so any order gives the scalar loop's value.
+    let m = lanes.iter().fold(0.0f64, |a, &b| a.max(b));
+    if n4 == n {
+        return m;
+    }
+    let r = n4..n;
+    let tail = Drift {
+        x: &mut d.x[r.clone()],
+        y: &mut d.y[r.clone()],
+        theta: &mut d.theta[r.clone()],
+        vx: &mut d.vx[r.clone()],
+        vy: &mut d.vy[r.clone()],
+        resting: &mut d.resting[r.clone()],
+    };
+    let refs = if refs_ok { r.clone() } else { 0..0 };
+    let inputs = DriftInputs {
+        ax: &inp.ax[r.clone()],
+        ay: &inp.ay[r.clone()],
+        omega: &inp.omega[r.clone()],
+        radius: &inp.radius[r.clone()],
+        x_ref: &inp.x_ref[refs.clone()],
+        y_ref: &inp.y_ref[refs],
+    };
+    let t = kick_drift_scalar(
+        dt,
+        tail,
+        &inputs,
+        refs_ok,
+        &mut state[r.clone()],
+        &mut spin[r],
+    );
+    m.max(t)
 }

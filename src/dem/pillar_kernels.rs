@@ -15,28 +15,86 @@ pub fn keep_or_zero(v: f64, keep: bool) -> f64 {
     f64::from_bits(v.to_bits() & 0u64.wrapping_sub(keep as u64))
 }
 
-/// First half kick and drift of velocity Verlet (positions m, velocities m/s,
-/// accelerations m/s², spins rad/s, time step `dt` s); marks the grains at rest before
-/// the move and returns the largest squared displacement (m²) since the pair list's
-/// build positions `x_ref`, `y_ref` (infinite when those do not match).
-#[allow(clippy::too_many_arguments)]
+/// The arrays the first half kick and drift update, a range of grains each: positions
+/// (m), angles (rad), velocities (m/s), and the rest flags they set.
+pub struct Drift<'a> {
+    pub x: &'a mut [f64],
+    pub y: &'a mut [f64],
+    pub theta: &'a mut [f64],
+    pub vx: &'a mut [f64],
+    pub vy: &'a mut [f64],
+    pub resting: &'a mut [bool],
+}
+
+/// What the drift reads: accelerations (m/s²), spins (rad/s), radii (m), and the pair
+/// list's build positions (m; empty when they do not match the grains).
+pub struct DriftInputs<'a> {
+    pub ax: &'a [f64],
+    pub ay: &'a [f64],
+    pub omega: &'a [f64],
+    pub radius: &'a [f64],
+    pub x_ref: &'a [f64],
+    pub y_ref: &'a [f64],
+}
+
+/// First half kick and drift of velocity Verlet (time step `dt`, s); marks the grains
+/// at rest before the move, packs the moved grains for the AVX2 pair kernel into
+/// `state`, `spin` (see `pack_grains`), and returns the largest squared displacement
+/// (m²) since the pair list's build positions (infinite when those do not match). Runs
+/// the AVX2 kernel (`pillar_avx2::kick_drift`, same numbers) where the processor has it.
+///
+/// # Panics
+/// If the slices' lengths differ (`x_ref`, `y_ref` may also be empty).
 pub fn kick_drift(
     dt: f64,
-    x: &mut [f64],
-    y: &mut [f64],
-    theta: &mut [f64],
-    vx: &mut [f64],
-    vy: &mut [f64],
-    ax: &[f64],
-    ay: &[f64],
-    omega: &[f64],
-    resting: &mut [bool],
-    x_ref: &[f64],
-    y_ref: &[f64],
+    d: Drift,
+    inp: &DriftInputs,
+    state: &mut [Quad],
+    spin: &mut [Pos],
 ) -> f64 {
-    let n = x.len();
-    let (y, theta, vx, vy) = (&mut y[..n], &mut theta[..n], &mut vx[..n], &mut vy[..n]);
-    let (ax, ay, omega, resting) = (&ax[..n], &ay[..n], &omega[..n], &mut resting[..n]);
+    let n = d.x.len();
+    let lens = [
+        d.y.len(),
+        d.theta.len(),
+        d.vx.len(),
+        d.vy.len(),
+        d.resting.len(),
+        inp.ax.len(),
+        inp.ay.len(),
+        inp.omega.len(),
+        inp.radius.len(),
+        state.len(),
+        spin.len(),
+    ];
+    assert!(
+        lens.iter().all(|&l| l == n),
+        "kick_drift: slices of one length"
+    );
+    let refs_ok = inp.x_ref.len() == n && inp.y_ref.len() == n;
+    #[cfg(target_arch = "x86_64")]
+    if super::simd::level() == super::simd::Level::Avx2 {
+        // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
+        let m = unsafe { super::pillar_avx2::kick_drift(dt, d, inp, refs_ok, state, spin) };
+        return if refs_ok { m } else { f64::INFINITY };
+    }
+    let m = kick_drift_scalar(dt, d, inp, refs_ok, state, spin);
+    if refs_ok { m } else { f64::INFINITY }
+}
+
+/// [`kick_drift`] in portable scalar code (the reference the AVX2 kernel matches, and
+/// its tail); the largest move only when `refs_ok`, else 0.
+pub fn kick_drift_scalar(
+    dt: f64,
+    d: Drift,
+    inp: &DriftInputs,
+    refs_ok: bool,
+    state: &mut [Quad],
+    spin: &mut [Pos],
+) -> f64 {
+    let n = d.x.len();
+    let (x, y, theta) = (&mut d.x[..n], &mut d.y[..n], &mut d.theta[..n]);
+    let (vx, vy, resting) = (&mut d.vx[..n], &mut d.vy[..n], &mut d.resting[..n]);
+    let (ax, ay, omega) = (&inp.ax[..n], &inp.ay[..n], &inp.omega[..n]);
     for i in 0..n {
         resting[i] =
             (vx[i] == 0.0) & (vy[i] == 0.0) & (ax[i] == 0.0) & (ay[i] == 0.0) & (omega[i] == 0.0);
@@ -46,10 +104,19 @@ pub fn kick_drift(
         y[i] += dt * vy[i];
         theta[i] += dt * omega[i];
     }
-    if x_ref.len() != n || y_ref.len() != n {
-        return f64::INFINITY;
+    let g = GrainState {
+        x,
+        y,
+        vx,
+        vy,
+        omega,
+        radius: inp.radius,
+    };
+    pack_grains(g, state, spin);
+    if !refs_ok {
+        return 0.0;
     }
-    let (x_ref, y_ref) = (&x_ref[..n], &y_ref[..n]);
+    let (x_ref, y_ref) = (&inp.x_ref[..n], &inp.y_ref[..n]);
     let mut moved2: f64 = 0.0;
     for i in 0..n {
         let (ex, ey) = (x[i] - x_ref[i], y[i] - y_ref[i]);

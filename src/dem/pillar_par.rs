@@ -191,7 +191,7 @@ impl PillarSim {
         // SAFETY: one thread; the arrays outlive the calls.
         unsafe {
             let s = &*(self as *const PillarSim);
-            phase_pack(&a, 0);
+            phase_pack(&a);
             phase_pairs(&a, 0, s, 0);
             phase_grains(&a, 0, s, 0);
         }
