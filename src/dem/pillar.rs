@@ -75,6 +75,8 @@ pub struct Scratch {
     pub skip_frozen: bool,
     pub resting: Vec<bool>,
     pub frozen: Vec<bool>,
+    /// Whether frozen grains are being marked (see [`Marking`]).
+    pub marking: Marking,
     /// Grain-steps and pair evaluations skipped since the start (diagnostics).
     pub frozen_grain_steps: u64,
     pub skipped_pairs: u64,
@@ -89,6 +91,47 @@ pub struct Scratch {
     pub no_fallback: bool,
     /// `advance` calls that finished on one thread because waits kept being long.
     pub fallbacks: u64,
+}
+
+/// Marking frozen grains walks every grain's partners, which costs more than it
+/// saves when few are frozen (a flowing pillar): marking stops while fewer than
+/// `MARK_FRACTION` of the grains were frozen at the last marked step, and is tried
+/// again every `MARK_RETRY` steps. Results are the same either way (a grain not marked
+/// is computed, and gives the numbers it kept).
+#[derive(Debug, Clone)]
+pub struct Marking {
+    /// Mark the next step.
+    pub now: bool,
+    /// Whether the step under way marks.
+    pub marked: bool,
+    /// Steps since the last marked one.
+    pub idle: u64,
+}
+
+impl Default for Marking {
+    fn default() -> Self {
+        Marking {
+            now: true,
+            marked: false,
+            idle: 0,
+        }
+    }
+}
+
+pub const MARK_FRACTION: f64 = 0.4;
+pub const MARK_RETRY: u64 = 32;
+
+impl Marking {
+    /// After a step that found `frozen` of `n` grains frozen (when it marked).
+    pub fn after(&mut self, frozen: usize, n: usize) {
+        if self.marked {
+            self.now = frozen as f64 >= MARK_FRACTION * n as f64;
+            self.idle = 0;
+        } else {
+            self.idle += 1;
+            self.now = self.idle >= MARK_RETRY;
+        }
+    }
 }
 
 /// Per-grain constants derived from masses, radii and parameters, so the per-step

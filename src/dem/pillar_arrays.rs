@@ -108,6 +108,9 @@ pub(crate) struct Arrays {
     bounds: *const Vec<usize>,
     /// This step: frozen grains skipped; force snapshot wanted; second kick.
     freeze: bool,
+    /// This step: frozen grains marked (and skipped), when enough of them were last
+    /// time to pay for the marking (`Scratch::marking`).
+    mark: bool,
     record: bool,
     kick: bool,
 }
@@ -143,6 +146,8 @@ impl PillarSim {
             && self.scratch.buffers.slots_valid
             && kick;
         let record = self.record.is_some();
+        let mark = freeze && self.scratch.marking.now;
+        self.scratch.marking.marked = mark;
         let g = &mut self.grains;
         let l = &mut self.list;
         let sc = &mut self.scratch;
@@ -196,6 +201,7 @@ impl PillarSim {
             rev: &b.reverse,
             bounds: &b.bounds,
             freeze,
+            mark,
             record,
             kick,
         }
@@ -275,7 +281,7 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
     unsafe {
         let r = range(a, t);
         let out = a.frozen.part(r.clone());
-        if !a.freeze {
+        if !a.mark {
             out.fill(false);
             return;
         }
@@ -363,7 +369,7 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim, parity: u
         phase_frozen(a, t, s, parity);
         let r = range(a, t);
         let frozen: &[bool] = a.frozen.part(r.clone());
-        let fz = a.freeze.then_some(frozen);
+        let fz = a.mark.then_some(frozen);
         let (fx, fy, tq) = (
             a.fx.part(r.clone()),
             a.fy.part(r.clone()),

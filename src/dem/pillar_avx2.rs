@@ -165,7 +165,19 @@ pub(crate) unsafe fn substrate_kick(
             st(vy, i, _mm256_andnot_pd(stop, v_y));
             st(ax, i, _mm256_andnot_pd(stop, a_x));
             st(ay, i, _mm256_andnot_pd(stop, a_y));
-            // Spin: SubstrateFriction::torque_with, the kick and the ξ_ω rule.
+        }
+    }
+    // The spins in a loop of their own: the loop above is one long chain of latencies
+    // (square root, division) per group, and a shorter body lets the processor overlap
+    // more groups (measured 3 % faster on a flowing pillar).
+    for i in (0..n4).step_by(4) {
+        if !kick {
+            break;
+        }
+        // SAFETY: as above.
+        unsafe {
+            let hold = if skip { bool_mask(frozen, i) } else { zero };
+            // SubstrateFriction::torque_with, the kick and the ξ_ω rule.
             let (t, w, t_m) = (ld(tq, i), ld(omega, i), ld(c.t_max, i));
             let sign = _mm256_and_pd(w, _mm256_set1_pd(-0.0));
             let spinning = neg4(_mm256_or_pd(abs4(t_m), sign));

@@ -323,7 +323,9 @@ impl PillarSim {
         [self.top_force, self.bottom_force, self.bar_shear_force] = tot;
         let sc = &mut self.scratch;
         sc.skipped_pairs += sc.buffers.skipped.iter().sum::<u64>();
-        sc.frozen_grain_steps += sc.buffers.frozen_count.iter().sum::<usize>() as u64;
+        let frozen = sc.buffers.frozen_count.iter().sum::<usize>();
+        sc.frozen_grain_steps += frozen as u64;
+        sc.marking.after(frozen, self.grains.len());
         sc.buffers.skipped.iter_mut().for_each(|v| *v = 0);
         sc.buffers.frozen_count.iter_mut().for_each(|v| *v = 0);
         if let Some(rec) = self.record.as_mut() {

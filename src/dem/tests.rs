@@ -286,11 +286,23 @@ fn skipping_frozen_grains_gives_exactly_the_same_run() {
     a.scratch.skip_frozen = true;
     let mut b = a.clone();
     b.scratch.skip_frozen = false;
+    // Marking switched on and off at random (as `Marking` does when the frozen fraction
+    // crosses its threshold) changes nothing either.
+    let mut c = a.clone();
+    let mut rng = crate::rng::Rng::new(17);
+    let mut toggled = 0;
     for _ in 0..30_000 {
         a.step();
         b.step();
+        let now = rng.uniform() < 0.5;
+        toggled += (now != c.scratch.marking.now) as u32;
+        c.scratch.marking.now = now;
+        c.step();
     }
+    assert!(toggled > 1000);
     assert_eq!(a.grains, b.grains);
+    assert_eq!(a.grains, c.grains);
+    assert_eq!((&a.fx, &a.fy, &a.tq), (&c.fx, &c.fy, &c.tq));
     assert_eq!(a.list, b.list);
     assert_eq!(
         (a.fx.clone(), a.fy.clone(), a.tq.clone()),
@@ -302,6 +314,29 @@ fn skipping_frozen_grains_gives_exactly_the_same_run() {
         frozen > 0 && skipped > 0,
         "some grains were frozen: {frozen} grain-steps, {skipped} pairs skipped"
     );
+}
+
+#[test]
+fn frozen_grains_are_marked_only_while_enough_were_frozen() {
+    use super::pillar::{MARK_RETRY, Marking};
+    let mut m = Marking::default();
+    assert!(m.now, "marks from the start");
+    // A marked step that found 10 % frozen: stop marking...
+    m.marked = true;
+    m.after(100, 1000);
+    assert!(!m.now);
+    // ...until MARK_RETRY unmarked steps have passed.
+    m.marked = false;
+    for k in 1..MARK_RETRY {
+        m.after(0, 1000);
+        assert!(!m.now, "step {k}");
+    }
+    m.after(0, 1000);
+    assert!(m.now);
+    // Enough frozen: keep marking.
+    m.marked = true;
+    m.after(900, 1000);
+    assert!(m.now);
 }
 
 #[test]
