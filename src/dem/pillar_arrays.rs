@@ -98,6 +98,7 @@ pub(crate) struct Arrays {
     skipped: P<u64>,
     frozen_count: P<usize>,
     pub(crate) busy: P<f64>,
+    pub(crate) busy_pairs: P<f64>,
     inv_mass: P<f64>,
     inv_inertia: P<f64>,
     f_max: P<f64>,
@@ -106,6 +107,7 @@ pub(crate) struct Arrays {
     xi_omega: P<f64>,
     rev: *const Reverse,
     bounds: *const Vec<usize>,
+    pair_bounds: *const Vec<usize>,
     /// This step: frozen grains skipped; force snapshot wanted; second kick.
     freeze: bool,
     /// This step: frozen grains marked (and skipped), when enough of them were last
@@ -192,6 +194,7 @@ impl PillarSim {
             skipped: P::of(&mut b.skipped),
             frozen_count: P::of(&mut b.frozen_count),
             busy: P::of(&mut b.busy),
+            busy_pairs: P::of(&mut b.busy_pairs),
             inv_mass: P::of(&mut c.inv_mass),
             inv_inertia: P::of(&mut c.inv_inertia),
             f_max: P::of(&mut c.f_max),
@@ -200,6 +203,7 @@ impl PillarSim {
             xi_omega: P::of(&mut c.xi_omega),
             rev: &b.reverse,
             bounds: &b.bounds,
+            pair_bounds: &b.pair_bounds,
             freeze,
             mark,
             record,
@@ -218,6 +222,12 @@ unsafe fn resting<'a>(a: &Arrays, parity: usize) -> &'a [bool] {
 /// Thread t's grains.
 unsafe fn range(a: &Arrays, t: usize) -> Range<usize> {
     let b = unsafe { &*a.bounds };
+    b[t]..b[t + 1]
+}
+
+/// The grains whose pair slots thread t computes.
+unsafe fn pair_range(a: &Arrays, t: usize) -> Range<usize> {
+    let b = unsafe { &*a.pair_bounds };
     b[t]..b[t + 1]
 }
 
@@ -303,7 +313,7 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
 /// Phase 2: the pair slots of thread t's grains.
 pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
     unsafe {
-        let r = range(a, t);
+        let r = pair_range(a, t);
         let start = a.start.all();
         let slots = start[r.start] as usize..start[r.end] as usize;
         let g = GrainState {

@@ -46,10 +46,16 @@ pub struct StepBuffers {
     pub moved2: Vec<f64>,
     pub skipped: Vec<u64>,
     pub frozen_count: Vec<usize>,
-    /// Thread t works on grains bounds[t]..bounds[t + 1] (chunk multiples).
+    /// Thread t works on grains bounds[t]..bounds[t + 1] (chunk multiples) in the
+    /// grain phases, and on the pair slots of grains pair_bounds[t]..pair_bounds[t + 1]:
+    /// two splits, since pair work gathers where grains move while grain work is
+    /// nearly even.
     pub bounds: Vec<usize>,
+    pub pair_bounds: Vec<usize>,
     /// Seconds each thread spent working (not waiting) since the last rebalance.
     pub busy: Vec<f64>,
+    /// The same for the pair phase.
+    pub busy_pairs: Vec<f64>,
 }
 
 /// Over each window of steps, more long waits than this send the rest of an `advance`
@@ -144,7 +150,7 @@ impl PillarSim {
                     let s = &*sim.get();
                     let clock = std::time::Instant::now();
                     phase_pairs(&a, t, s, parity);
-                    work += clock.elapsed().as_secs_f64();
+                    a.busy_pairs.part(t..t + 1)[0] += clock.elapsed().as_secs_f64();
                     barrier.wait(t, &mut spin);
                     let clock = std::time::Instant::now();
                     phase_grains(&a, t, s, parity);
@@ -217,13 +223,15 @@ impl PillarSim {
         b.skipped = vec![0; threads];
         b.frozen_count = vec![0; threads];
         b.busy = vec![0.0; threads];
+        b.busy_pairs = vec![0.0; threads];
         b.pow_t.resize(n, 0.0);
         b.pow_r.resize(n, 0.0);
         b.packed_state.resize(n, Quad::default());
         b.packed_spin.resize(n, Pos::default());
         self.sync_list_buffers();
         let b = &self.scratch.buffers;
-        if b.bounds.len() != threads + 1 || b.bounds.last() != Some(&n) {
+        let fits = |v: &Vec<usize>| v.len() == threads + 1 && v.last() == Some(&n);
+        if !fits(&b.bounds) || !fits(&b.pair_bounds) {
             self.balance(threads);
         }
     }
@@ -233,27 +241,22 @@ impl PillarSim {
     fn balance(&mut self, threads: usize) {
         let n = self.grains.len();
         let chunks = n.div_ceil(CHUNK);
-        self.scratch.buffers.bounds = (0..=threads)
+        let b = &mut self.scratch.buffers;
+        b.bounds = (0..=threads)
             .map(|t| (chunks * t / threads * CHUNK).min(n))
             .collect();
+        b.pair_bounds = b.bounds.clone();
     }
 
     /// Move each boundary between two threads one chunk towards the one that worked
-    /// less since the last call (frozen grains cost little and gather at the bottom,
-    /// so equal shares of grains are unequal shares of work).
+    /// less since the last call, for the grain phases and the pair phase apart (frozen
+    /// grains cost little and gather at the bottom, so equal shares of grains are
+    /// unequal shares of work).
     fn rebalance(&mut self) {
         let n = self.grains.len();
         let b = &mut self.scratch.buffers;
-        let t_max = b.bounds.len() - 1;
-        for t in 1..t_max {
-            let (left, right) = (b.busy[t - 1], b.busy[t]);
-            if left < 0.9 * right && b.bounds[t] + CHUNK <= b.bounds[t + 1].min(n) {
-                b.bounds[t] += CHUNK;
-            } else if left > 1.1 * right && b.bounds[t] >= b.bounds[t - 1] + CHUNK {
-                b.bounds[t] -= CHUNK;
-            }
-        }
-        b.busy.iter_mut().for_each(|v| *v = 0.0);
+        shift_bounds(&mut b.bounds, &mut b.busy, n);
+        shift_bounds(&mut b.pair_bounds, &mut b.busy_pairs, n);
     }
 
     /// Per-slot buffers and the reverse index for the current list.
@@ -353,4 +356,17 @@ impl PillarSim {
             iv.substrate_power_rot += p_r;
         }
     }
+}
+
+/// One step of [`PillarSim::rebalance`] for one split; clears the busy times.
+fn shift_bounds(bounds: &mut [usize], busy: &mut [f64], n: usize) {
+    for t in 1..bounds.len() - 1 {
+        let (left, right) = (busy[t - 1], busy[t]);
+        if left < 0.9 * right && bounds[t] + CHUNK <= bounds[t + 1].min(n) {
+            bounds[t] += CHUNK;
+        } else if left > 1.1 * right && bounds[t] >= bounds[t - 1] + CHUNK {
+            bounds[t] -= CHUNK;
+        }
+    }
+    busy.iter_mut().for_each(|v| *v = 0.0);
 }
