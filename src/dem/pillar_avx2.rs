@@ -123,31 +123,32 @@ pub(crate) unsafe fn substrate_kick(
             let hold = if skip { bool_mask(frozen, i) } else { zero };
             let (f_x, f_y, v_x, v_y) = (ld(fx, i), ld(fy, i), ld(vx, i), ld(vy, i));
             let (f_max, f_max2) = (ld(c.f_max, i), ld(c.f_max2, i));
-            // SubstrateFriction::force_with.
-            let v2 = _mm256_add_pd(_mm256_mul_pd(v_x, v_x), _mm256_mul_pd(v_y, v_y));
             let f2 = _mm256_add_pd(_mm256_mul_pd(f_x, f_x), _mm256_mul_pd(f_y, f_y));
-            let moving = _mm256_cmp_pd::<_CMP_GT_OQ>(v2, zero);
-            let q = pick4(moving, v2, f2);
-            let k_q = _mm256_div_pd(f_max, _mm256_sqrt_pd(_mm256_max_pd(q, min_pos)));
-            let big = _mm256_cmp_pd::<_CMP_GT_OQ>(f2, f_max2);
-            let k = neg4(pick4(_mm256_or_pd(moving, big), k_q, one));
-            let sx = _mm256_mul_pd(k, pick4(moving, v_x, f_x));
-            let sy = _mm256_mul_pd(k, pick4(moving, v_y, f_y));
-            let p = _mm256_add_pd(_mm256_mul_pd(sx, v_x), _mm256_mul_pd(sy, v_y));
-            st(pow_t, i, _mm256_andnot_pd(hold, abs4(p)));
-            st(sub_fx, i, pick4(hold, ld(sub_fx, i), sx));
-            st(sub_fy, i, pick4(hold, ld(sub_fy, i), sy));
-            let inv_m = ld(c.inv_mass, i);
-            let a_x = pick4(
-                hold,
-                ld(ax, i),
-                _mm256_mul_pd(_mm256_add_pd(f_x, sx), inv_m),
-            );
-            let a_y = pick4(
-                hold,
-                ld(ay, i),
-                _mm256_mul_pd(_mm256_add_pd(f_y, sy), inv_m),
-            );
+            let (a_x, a_y) = if _mm256_movemask_pd(hold) == 0b1111 {
+                // Four frozen grains keep everything but the power (zero): what the
+                // masks below give, without the square root and division (frozen
+                // grains come in runs in a quasistatic pillar).
+                st(pow_t, i, zero);
+                (ld(ax, i), ld(ay, i))
+            } else {
+                // SubstrateFriction::force_with.
+                let v2 = _mm256_add_pd(_mm256_mul_pd(v_x, v_x), _mm256_mul_pd(v_y, v_y));
+                let moving = _mm256_cmp_pd::<_CMP_GT_OQ>(v2, zero);
+                let q = pick4(moving, v2, f2);
+                let k_q = _mm256_div_pd(f_max, _mm256_sqrt_pd(_mm256_max_pd(q, min_pos)));
+                let big = _mm256_cmp_pd::<_CMP_GT_OQ>(f2, f_max2);
+                let k = neg4(pick4(_mm256_or_pd(moving, big), k_q, one));
+                let sx = _mm256_mul_pd(k, pick4(moving, v_x, f_x));
+                let sy = _mm256_mul_pd(k, pick4(moving, v_y, f_y));
+                let p = _mm256_add_pd(_mm256_mul_pd(sx, v_x), _mm256_mul_pd(sy, v_y));
+                st(pow_t, i, _mm256_andnot_pd(hold, abs4(p)));
+                st(sub_fx, i, pick4(hold, ld(sub_fx, i), sx));
+                st(sub_fy, i, pick4(hold, ld(sub_fy, i), sy));
+                let inv_m = ld(c.inv_mass, i);
+                let a_x = _mm256_mul_pd(_mm256_add_pd(f_x, sx), inv_m);
+                let a_y = _mm256_mul_pd(_mm256_add_pd(f_y, sy), inv_m);
+                (pick4(hold, ld(ax, i), a_x), pick4(hold, ld(ay, i), a_y))
+            };
             if !kick {
                 st(ax, i, a_x);
                 st(ay, i, a_y);
@@ -177,6 +178,11 @@ pub(crate) unsafe fn substrate_kick(
         // SAFETY: as above.
         unsafe {
             let hold = if skip { bool_mask(frozen, i) } else { zero };
+            if _mm256_movemask_pd(hold) == 0b1111 {
+                // Four frozen grains keep their spins; no power.
+                st(pow_r, i, zero);
+                continue;
+            }
             // SubstrateFriction::torque_with, the kick and the ξ_ω rule.
             let (t, w, t_m) = (ld(tq, i), ld(omega, i), ld(c.t_max, i));
             let sign = _mm256_and_pd(w, _mm256_set1_pd(-0.0));
