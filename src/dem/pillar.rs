@@ -204,6 +204,9 @@ impl PillarSim {
         grains.sort_spatially(d);
         let n = grains.len();
         let mut s = PillarSim {
+            // A thin skin: the quasistatic pillar rebuilds rarely, and the vector pair
+            // kernel pays for every slot, touching or not (0.15 D held 2.4 slots per
+            // grain, 0.05 D 2.1; 1.6 touch).
             list: PairList::new(0.05 * d),
             params,
             grains,
