@@ -10,6 +10,8 @@
 //!
 //! Internal units are SI (m, kg, s, N); the stage layer converts lengths to cm on output.
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 pub mod barrier;
 pub mod checkpoint;
 pub mod contact;

@@ -16,6 +16,7 @@
 //! `>` are; `!=` is unordered). What is left over past a multiple of four goes through
 //! the scalar code. A test runs a pillar both ways and compares every array by bits.
 
+use super::avx2::{abs4, neg4, pick4, transpose};
 use super::contact::{CundallStrack, Hooke, SubstrateFriction};
 use super::pillar_kernels::{
     Drift, DriftInputs, GrainConsts, kick_drift_scalar, substrate_kick_scalar,
@@ -57,25 +58,6 @@ unsafe fn bool_mask(f: &[bool], i: usize) -> __m256d {
         let wide = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(bytes as i32));
         _mm256_castsi256_pd(_mm256_cmpgt_epi64(wide, _mm256_setzero_si256()))
     }
-}
-
-#[inline]
-#[target_feature(enable = "avx2")]
-fn abs4(v: __m256d) -> __m256d {
-    _mm256_andnot_pd(_mm256_set1_pd(-0.0), v)
-}
-
-#[inline]
-#[target_feature(enable = "avx2")]
-fn neg4(v: __m256d) -> __m256d {
-    _mm256_xor_pd(v, _mm256_set1_pd(-0.0))
-}
-
-/// `a` where `m`, else `b` (as `contact::pick`).
-#[inline]
-#[target_feature(enable = "avx2")]
-fn pick4(m: __m256d, a: __m256d, b: __m256d) -> __m256d {
-    _mm256_blendv_pd(b, a, m)
 }
 
 /// As [`super::pillar_kernels::substrate_kick`] (same arguments, same results).
@@ -240,27 +222,6 @@ pub(crate) unsafe fn substrate_kick(
             &mut pow_r[r],
         );
     }
-}
-
-/// Rows (a, b, c, d) to columns: ([a0 b0 c0 d0], [a1 …], [a2 …], [a3 …]).
-#[inline]
-#[target_feature(enable = "avx2")]
-fn transpose(
-    a: __m256d,
-    b: __m256d,
-    c: __m256d,
-    d: __m256d,
-) -> (__m256d, __m256d, __m256d, __m256d) {
-    let t0 = _mm256_unpacklo_pd(a, b);
-    let t1 = _mm256_unpackhi_pd(a, b);
-    let t2 = _mm256_unpacklo_pd(c, d);
-    let t3 = _mm256_unpackhi_pd(c, d);
-    (
-        _mm256_permute2f128_pd(t0, t2, 0x20),
-        _mm256_permute2f128_pd(t1, t3, 0x20),
-        _mm256_permute2f128_pd(t0, t2, 0x31),
-        _mm256_permute2f128_pd(t1, t3, 0x31),
-    )
 }
 
 /// Grains g[0..4]'s (x, y, v_x, v_y) and (ω, R) records as six field vectors.

@@ -14,6 +14,7 @@
 //! that starts at +0.0 never becomes −0.0), and each grain's force is summed in slot
 //! order. A test holds it to that.
 
+use super::avx2::{neg4, transpose};
 use super::shear::Collisions;
 use super::shear_integrate::{Packed, Pos, Quad};
 use super::shear_near::{History, Slots};
@@ -87,34 +88,6 @@ fn contact_events(
 #[target_feature(enable = "avx2")]
 fn rint4(v: __m256d) -> __m256d {
     _mm256_round_pd::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(v)
-}
-
-/// Rows (a, b, c, d) to columns: returns ([a0 b0 c0 d0], [a1 …], [a2 …], [a3 …]).
-#[inline]
-#[target_feature(enable = "avx2")]
-fn transpose(
-    a: __m256d,
-    b: __m256d,
-    c: __m256d,
-    d: __m256d,
-) -> (__m256d, __m256d, __m256d, __m256d) {
-    let t0 = _mm256_unpacklo_pd(a, b);
-    let t1 = _mm256_unpackhi_pd(a, b);
-    let t2 = _mm256_unpacklo_pd(c, d);
-    let t3 = _mm256_unpackhi_pd(c, d);
-    (
-        _mm256_permute2f128_pd(t0, t2, 0x20),
-        _mm256_permute2f128_pd(t1, t3, 0x20),
-        _mm256_permute2f128_pd(t0, t2, 0x31),
-        _mm256_permute2f128_pd(t1, t3, 0x31),
-    )
-}
-
-/// −v, four lanes.
-#[inline]
-#[target_feature(enable = "avx2")]
-fn neg(v: __m256d) -> __m256d {
-    _mm256_xor_pd(v, _mm256_set1_pd(-0.0))
 }
 
 /// The records of grains g[0..4] as four field vectors: halves of records loaded
@@ -273,11 +246,11 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                 let mut dvy = _mm256_sub_pd(vyi, vyj);
                 // Moment arms s_ji = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
                 let (s_i, s_j) = (_mm256_mul_pd(ri, inv_dij), _mm256_mul_pd(rj, inv_dij));
-                let (six, siy) = (_mm256_mul_pd(neg(dx), s_i), _mm256_mul_pd(neg(dy), s_i));
+                let (six, siy) = (_mm256_mul_pd(neg4(dx), s_i), _mm256_mul_pd(neg4(dy), s_i));
                 let (sjx, sjy) = (_mm256_mul_pd(dx, s_j), _mm256_mul_pd(dy, s_j));
                 if CDROT {
                     // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
-                    let tx = _mm256_add_pd(_mm256_mul_pd(neg(wi), siy), _mm256_mul_pd(wj, sjy));
+                    let tx = _mm256_add_pd(_mm256_mul_pd(neg4(wi), siy), _mm256_mul_pd(wj, sjy));
                     let ty = _mm256_sub_pd(_mm256_mul_pd(wi, six), _mm256_mul_pd(wj, sjx));
                     dvx = _mm256_add_pd(dvx, tx);
                     dvy = _mm256_add_pd(dvy, ty);
@@ -292,14 +265,14 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                     _mm256_mul_pd(siy, ddx),
                 ));
                 let t_j = keep(_mm256_sub_pd(
-                    _mm256_mul_pd(sjx, neg(ddy)),
-                    _mm256_mul_pd(sjy, neg(ddx)),
+                    _mm256_mul_pd(sjx, neg4(ddy)),
+                    _mm256_mul_pd(sjy, neg4(ddx)),
                 ));
                 // Per slot (f_x, f_y, T_i, 0) onto i and (−f_x, −f_y, T_j, 0) onto j, in
                 // slot order (f − g and f + (−g) round the same); lanes without contact
                 // add ±0.0 (no change), cheaper than a branch that mispredicts.
                 let on_i = transpose(f_x, f_y, t_i, zero);
-                let on_j = transpose(neg(f_x), neg(f_y), t_j, zero);
+                let on_j = transpose(neg4(f_x), neg4(f_y), t_j, zero);
                 let on_i = [on_i.0, on_i.1, on_i.2, on_i.3];
                 let on_j = [on_j.0, on_j.1, on_j.2, on_j.3];
                 for l in 0..4 {
