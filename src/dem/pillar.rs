@@ -118,7 +118,9 @@ impl Default for Marking {
     }
 }
 
+/// Fraction of the grains frozen at a marked step below which marking pauses.
 pub const MARK_FRACTION: f64 = 0.4;
+/// Steps without marking before it is tried again.
 pub const MARK_RETRY: u64 = 32;
 
 impl Marking {
@@ -166,6 +168,11 @@ impl Consts {
             .map(|i| sub.torque_max(g.mass[i], g.radius[i]))
             .collect();
         self.xi_omega = g.radius.iter().map(|&r| sub.xi_omega(dt, r)).collect();
+        // The scalar clamp(−T_max, T_max) panics otherwise; the AVX2 kernel would not.
+        assert!(
+            self.t_max.iter().all(|&t| t >= 0.0),
+            "substrate torque limits (2/3) m g μ R must be ≥ 0"
+        );
     }
 }
 

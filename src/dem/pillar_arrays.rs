@@ -108,7 +108,8 @@ pub(crate) struct Arrays {
     rev: *const Reverse,
     bounds: *const Vec<usize>,
     pair_bounds: *const Vec<usize>,
-    /// This step: frozen grains skipped; force snapshot wanted; second kick.
+    /// This step: slots between resting grains skipped; force snapshot wanted;
+    /// second kick.
     freeze: bool,
     /// This step: frozen grains marked (and skipped), when enough of them were last
     /// time to pay for the marking (`Scratch::marking`).
@@ -310,7 +311,7 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
     }
 }
 
-/// Phase 2: the pair slots of thread t's grains.
+/// Phase 2: the pair slots of the grains `pair_bounds[t]..pair_bounds[t + 1]`.
 pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
     unsafe {
         let r = pair_range(a, t);
@@ -342,7 +343,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: us
             assert!(packed.state.len() == n && packed.spin.len() == n);
             assert!(rest.is_none_or(|f| f.len() == n));
             // SAFETY: AVX2 present; indices and lengths checked (above and at the list's
-            // check); `phase_pack` packed this state after the drift.
+            // check); the kick (or `phase_pack`) packed this state.
             a.skipped.part(t..t + 1)[0] = pair_slots_avx2(
                 slots.clone(),
                 g,

@@ -14,7 +14,8 @@
 //! both), with its NaN and signed-zero behaviour (`max` returns the second operand on a
 //! NaN as `f64::max` returns the number; ordered compares are false on NaN as `<`,
 //! `>` are; `!=` is unordered). What is left over past a multiple of four goes through
-//! the scalar code. A test runs a pillar both ways and compares every array by bits.
+//! the scalar code. A test runs a pillar both ways and compares the state, forces and
+//! contact history by bits.
 
 use super::avx2::{abs4, neg4, pick4, transpose};
 use super::contact::{CundallStrack, Hooke, SubstrateFriction};

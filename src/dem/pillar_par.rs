@@ -21,16 +21,16 @@ pub struct StepBuffers {
     /// Contact force (x, y, N) on the slot's owner, its torque (N m) and a zero, per
     /// pair slot.
     pub slot_force: Vec<Quad>,
-    /// Whether `slot_force` holds this list's forces (a slot between frozen grains is
+    /// Whether `slot_force` holds this list's forces (a slot between resting grains is
     /// then left as it is).
     pub slots_valid: bool,
     pub reverse: Reverse,
     /// The grain that owns each pair slot (for kernels that run over slots).
-    pub owner: Vec<u32>,
+    pub(crate) owner: Vec<u32>,
     /// The grains packed for the AVX2 pair kernel after each drift: (x, y, v_x, v_y)
     /// (m, m/s) and (ω, R) (rad/s, m).
-    pub packed_state: Vec<Quad>,
-    pub packed_spin: Vec<Pos>,
+    pub(crate) packed_state: Vec<Quad>,
+    pub(crate) packed_spin: Vec<Pos>,
     /// F_n, |F_t| (N) and touching per slot, filled on force-snapshot steps.
     pub rec_fn: Vec<f64>,
     pub rec_ft: Vec<f64>,
@@ -52,7 +52,8 @@ pub struct StepBuffers {
     /// nearly even.
     pub bounds: Vec<usize>,
     pub pair_bounds: Vec<usize>,
-    /// Seconds each thread spent working (not waiting) since the last rebalance.
+    /// Seconds each thread spent working (not waiting) in the kick and grain phases
+    /// since the last rebalance.
     pub busy: Vec<f64>,
     /// The same for the pair phase.
     pub busy_pairs: Vec<f64>,
@@ -230,7 +231,13 @@ impl PillarSim {
         b.packed_spin.resize(n, Pos::default());
         self.sync_list_buffers();
         let b = &self.scratch.buffers;
-        let fits = |v: &Vec<usize>| v.len() == threads + 1 && v.last() == Some(&n);
+        // Ascending from 0 to n, or threads' ranges would overlap.
+        let fits = |v: &Vec<usize>| {
+            v.len() == threads + 1
+                && v[0] == 0
+                && v.last() == Some(&n)
+                && v.windows(2).all(|w| w[0] <= w[1])
+        };
         if !fits(&b.bounds) || !fits(&b.pair_bounds) {
             self.balance(threads);
         }
@@ -282,7 +289,9 @@ impl PillarSim {
         // The AVX2 pair kernel indexes grains without bounds checks: every list index
         // is checked here, after each rebuild and at the start of each `advance`.
         assert!(
-            b.owner.len() == slots && self.list.j.iter().all(|&j| (j as usize) < n),
+            b.owner.len() == slots
+                && b.owner.iter().all(|&i| (i as usize) < n)
+                && self.list.j.iter().all(|&j| (j as usize) < n),
             "pair list indices within the grains"
         );
         let rec = self.record.is_some();

@@ -107,7 +107,7 @@ pub struct SlotRecord<'a> {
     pub touching: &'a mut [bool],
 }
 
-/// Phase 3: the contact of every pair slot owned by the grains in `range` (slots
+/// Phase 2: the contact of every pair slot owned by the grains in `range` (slots
 /// `start[range.start]..start[range.end]`, which `shear`, `slot_force` and `rec` hold):
 /// see [`slot_contact`]. A slot between two grains `resting` this step (v = a = ω = 0
 /// before the drift, so neither moves, and no slip adds to the history) keeps last
@@ -187,7 +187,7 @@ pub fn slot_contact(
 }
 
 crate::multiversion! {
-/// Phase 4a: each grain's contact force and torque, Σ over its own slots minus Σ over
+/// Phase 3a: each grain's contact force and torque, Σ over its own slots minus Σ over
 /// the slots where it is the partner (the torque T_ij = −½ r_ij × F_t acts alike on
 /// both); `frozen`, `fx`, `fy`, `tq` hold the range's. Frozen grains keep last step's
 /// sums.
@@ -263,7 +263,7 @@ pub struct BarGrains<'a> {
     pub bottom_shear: &'a mut [f64],
 }
 
-/// Phase 4b: grain–bar contacts of a range (all slices are the range's), added into
+/// Phase 3b: grain–bar contacts of a range (all slices are the range's), added into
 /// `fx`, `fy`, `tq`; returns Σ F_n on the top bar, on the bottom bar, and Σ of the
 /// bars' tangential forces on the grains (N).
 pub fn bar_contacts(
@@ -326,7 +326,7 @@ pub type Motion<'a> = (
 
 /// The substrate and the second half kick of a range (the range starting on a chunk
 /// boundary), then per chunk of `CHUNK` grains Σ|f·v| and Σ|T_μ ω| (W) into `power`;
-/// `pow` is scratch of the range's length.
+/// `pow_t`, `pow_r` are scratch of the range's length (per-grain power, W).
 #[allow(clippy::too_many_arguments)]
 pub fn substrate_chunks(
     kick: bool,

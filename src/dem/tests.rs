@@ -419,7 +419,22 @@ fn baseline_and_avx2_kernels_give_the_same_run_bit_for_bit() {
     let bits = |s: &PillarSim| {
         let g = &s.grains;
         [
-            &s.fx, &s.fy, &s.tq, &s.sub_fx, &s.sub_fy, &g.x, &g.y, &g.vx, &g.vy, &g.omega,
+            &s.fx,
+            &s.fy,
+            &s.tq,
+            &s.sub_fx,
+            &s.sub_fy,
+            &g.x,
+            &g.y,
+            &g.vx,
+            &g.vy,
+            &g.omega,
+            &g.theta,
+            &g.ax,
+            &g.ay,
+            &s.list.shear,
+            &s.top_shear,
+            &s.bottom_shear,
         ]
         .map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
     };
