@@ -13,7 +13,9 @@
 use super::pillar::PillarSim;
 #[cfg(target_arch = "x86_64")]
 use super::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
-use super::pillar_kernels::{Drift, DriftInputs, GrainConsts, kick_drift, pack_grains};
+use super::pillar_kernels::{
+    Drift, DriftInputs, GrainConsts, SubstrateInputs, SubstrateState, kick_drift, pack_grains,
+};
 use super::pillar_phases::{
     BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, bar_contacts, gather, mark_frozen,
     pair_slots, substrate_chunks,
@@ -442,24 +444,39 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim, parity: u
                 &mut tq[local],
             );
         }
-        let c = GrainConsts {
-            inv_mass: &a.inv_mass.all()[r.clone()],
-            inv_inertia: &a.inv_inertia.all()[r.clone()],
-            f_max: &a.f_max.all()[r.clone()],
-            f_max2: &a.f_max2.all()[r.clone()],
-            t_max: &a.t_max.all()[r.clone()],
-            xi_omega: &a.xi_omega.all()[r.clone()],
+        let consts = GrainConsts {
+            inv_mass: a.inv_mass.all(),
+            inv_inertia: a.inv_inertia.all(),
+            f_max: a.f_max.all(),
+            f_max2: a.f_max2.all(),
+            t_max: a.t_max.all(),
+            xi_omega: a.xi_omega.all(),
         };
+        let sub = s.substrate();
+        let xi_v = sub.xi_v(p.dt);
         substrate_chunks(
-            a.kick,
-            p.dt,
-            &s.substrate(),
-            &c,
-            fz,
-            (fx, fy, tq),
-            (vx, vy, a.ax.part(r.clone()), a.ay.part(r.clone()), omega),
-            (a.sub_fx.part(r.clone()), a.sub_fy.part(r.clone())),
-            (a.pow_t.part(r.clone()), a.pow_r.part(r.clone())),
+            &SubstrateInputs {
+                kick: a.kick,
+                dt: p.dt,
+                xi_v2: xi_v * xi_v,
+                sub: &sub,
+                c: consts.range(r.clone()),
+                frozen: fz.unwrap_or(&[]),
+                fx,
+                fy,
+                tq,
+            },
+            SubstrateState {
+                vx,
+                vy,
+                ax: a.ax.part(r.clone()),
+                ay: a.ay.part(r.clone()),
+                omega,
+                sub_fx: a.sub_fx.part(r.clone()),
+                sub_fy: a.sub_fy.part(r.clone()),
+                pow_t: a.pow_t.part(r.clone()),
+                pow_r: a.pow_r.part(r),
+            },
             a.power.part(chunks),
         );
     }

@@ -18,9 +18,9 @@
 //! contact history by bits.
 
 use super::avx2::{abs4, neg4, pick4, transpose};
-use super::contact::{CundallStrack, Hooke, SubstrateFriction};
+use super::contact::{CundallStrack, Hooke};
 use super::pillar_kernels::{
-    Drift, DriftInputs, GrainConsts, kick_drift_scalar, substrate_kick_scalar,
+    Drift, DriftInputs, SubstrateInputs, SubstrateState, kick_drift_scalar, substrate_kick_scalar,
 };
 use super::pillar_phases::{GrainState, slot_contact};
 use super::simd::{Pos, Quad};
@@ -65,29 +65,31 @@ unsafe fn bool_mask(f: &[bool], i: usize) -> __m256d {
 ///
 /// # Safety
 /// The processor must have AVX2. Every slice but `frozen` must have length
-/// `vx.len()`; `frozen` that length or none (the dispatcher asserts both).
-#[allow(clippy::too_many_arguments)]
+/// `out.vx.len()`; `frozen` that length or none (the dispatcher asserts both).
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn substrate_kick(
-    kick: bool,
-    dt: f64,
-    xi_v2: f64,
-    sub: &SubstrateFriction,
-    c: &GrainConsts<'_>,
-    frozen: &[bool],
-    fx: &[f64],
-    fy: &[f64],
-    tq: &[f64],
-    vx: &mut [f64],
-    vy: &mut [f64],
-    ax: &mut [f64],
-    ay: &mut [f64],
-    omega: &mut [f64],
-    sub_fx: &mut [f64],
-    sub_fy: &mut [f64],
-    pow_t: &mut [f64],
-    pow_r: &mut [f64],
-) {
+pub(crate) unsafe fn substrate_kick(inp: &SubstrateInputs, mut out: SubstrateState) {
+    let SubstrateInputs {
+        kick,
+        dt,
+        xi_v2,
+        c,
+        frozen,
+        fx,
+        fy,
+        tq,
+        ..
+    } = *inp;
+    let SubstrateState {
+        vx,
+        vy,
+        ax,
+        ay,
+        omega,
+        sub_fx,
+        sub_fy,
+        pow_t,
+        pow_r,
+    } = &mut out;
     let n = vx.len();
     let n4 = n / 4 * 4;
     let skip = kick && frozen.len() == n;
@@ -192,36 +194,7 @@ pub(crate) unsafe fn substrate_kick(
         pow_r.fill(0.0);
     }
     if n4 < n {
-        let r = n4..n;
-        let tail = GrainConsts {
-            inv_mass: &c.inv_mass[r.clone()],
-            inv_inertia: &c.inv_inertia[r.clone()],
-            f_max: &c.f_max[r.clone()],
-            f_max2: &c.f_max2[r.clone()],
-            t_max: &c.t_max[r.clone()],
-            xi_omega: &c.xi_omega[r.clone()],
-        };
-        let frozen = if skip { &frozen[r.clone()] } else { &[] };
-        substrate_kick_scalar(
-            kick,
-            dt,
-            xi_v2,
-            sub,
-            &tail,
-            frozen,
-            &fx[r.clone()],
-            &fy[r.clone()],
-            &tq[r.clone()],
-            &mut vx[r.clone()],
-            &mut vy[r.clone()],
-            &mut ax[r.clone()],
-            &mut ay[r.clone()],
-            &mut omega[r.clone()],
-            &mut sub_fx[r.clone()],
-            &mut sub_fy[r.clone()],
-            &mut pow_t[r.clone()],
-            &mut pow_r[r],
-        );
+        substrate_kick_scalar(&inp.range(n4..n), out.range(n4..n));
     }
 }
 

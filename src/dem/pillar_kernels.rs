@@ -8,6 +8,7 @@
 use super::contact::{SubstrateFriction, pick};
 use super::pillar_phases::GrainState;
 use super::simd::{Pos, Quad};
+use std::ops::Range;
 
 /// `v` when `keep`, else +0, without a branch.
 #[inline(always)]
@@ -138,7 +139,9 @@ pub fn pack_grains(g: GrainState, state: &mut [Quad], spin: &mut [Pos]) {
     }
 }
 
-/// Per-grain constants (see `pillar::Consts`) as slices.
+/// Per-grain constants (see `pillar::Consts`) as slices: 1/m (1/kg), 1/I
+/// (1/(kg m²)), m g μ (N) and its square (N²), T_max = (2/3) m g μ R (N m), ξ_ω (rad/s).
+#[derive(Clone, Copy)]
 pub struct GrainConsts<'a> {
     pub inv_mass: &'a [f64],
     pub inv_inertia: &'a [f64],
@@ -148,37 +151,97 @@ pub struct GrainConsts<'a> {
     pub xi_omega: &'a [f64],
 }
 
-/// Substrate friction from the contact forces `fx`, `fy` (N) and torques `tq` (N m),
-/// new accelerations, and when `kick` the second half kick, the spin update and the
-/// ξ rule of Eq. 11 (`xi_v2` = ξ_v², m²/s²). Frozen grains (when `kick`) are left as
-/// they are. Each grain's dissipated power |f·v| and |T_μ ω| (W) goes into `pow_t` and
+impl<'a> GrainConsts<'a> {
+    /// The grains `r` of these.
+    pub fn range(&self, r: Range<usize>) -> GrainConsts<'a> {
+        GrainConsts {
+            inv_mass: &self.inv_mass[r.clone()],
+            inv_inertia: &self.inv_inertia[r.clone()],
+            f_max: &self.f_max[r.clone()],
+            f_max2: &self.f_max2[r.clone()],
+            t_max: &self.t_max[r.clone()],
+            xi_omega: &self.xi_omega[r],
+        }
+    }
+}
+
+/// What the substrate kernel reads, a range of grains each: whether to kick (second
+/// half kick and spin update), δt (s), ξ_v² (m²/s², Eq. 11), the law, the per-grain
+/// constants, frozen flags (empty when none are), contact forces (N) and torques
+/// (N m).
+#[derive(Clone, Copy)]
+pub struct SubstrateInputs<'a> {
+    pub kick: bool,
+    pub dt: f64,
+    pub xi_v2: f64,
+    pub sub: &'a SubstrateFriction,
+    pub c: GrainConsts<'a>,
+    pub frozen: &'a [bool],
+    pub fx: &'a [f64],
+    pub fy: &'a [f64],
+    pub tq: &'a [f64],
+}
+
+/// What it writes: velocities (m/s), accelerations (m/s²), spins (rad/s), substrate
+/// forces (N), and per grain the dissipated power |f·v| and |T_μ ω| (W).
+pub struct SubstrateState<'a> {
+    pub vx: &'a mut [f64],
+    pub vy: &'a mut [f64],
+    pub ax: &'a mut [f64],
+    pub ay: &'a mut [f64],
+    pub omega: &'a mut [f64],
+    pub sub_fx: &'a mut [f64],
+    pub sub_fy: &'a mut [f64],
+    pub pow_t: &'a mut [f64],
+    pub pow_r: &'a mut [f64],
+}
+
+impl<'a> SubstrateInputs<'a> {
+    /// The grains `r` of these (frozen flags too, when there are any).
+    pub fn range(&self, r: Range<usize>) -> SubstrateInputs<'a> {
+        SubstrateInputs {
+            c: self.c.range(r.clone()),
+            frozen: if self.frozen.is_empty() {
+                &[]
+            } else {
+                &self.frozen[r.clone()]
+            },
+            fx: &self.fx[r.clone()],
+            fy: &self.fy[r.clone()],
+            tq: &self.tq[r],
+            ..*self
+        }
+    }
+}
+
+impl SubstrateState<'_> {
+    /// The grains `r` of these.
+    pub fn range(&mut self, r: Range<usize>) -> SubstrateState<'_> {
+        SubstrateState {
+            vx: &mut self.vx[r.clone()],
+            vy: &mut self.vy[r.clone()],
+            ax: &mut self.ax[r.clone()],
+            ay: &mut self.ay[r.clone()],
+            omega: &mut self.omega[r.clone()],
+            sub_fx: &mut self.sub_fx[r.clone()],
+            sub_fy: &mut self.sub_fy[r.clone()],
+            pow_t: &mut self.pow_t[r.clone()],
+            pow_r: &mut self.pow_r[r],
+        }
+    }
+}
+
+/// Substrate friction from the contact forces, new accelerations, and when `kick` the
+/// second half kick, the spin update and the ξ rule of Eq. 11. Frozen grains (when
+/// `kick`) are left as they are. Each grain's dissipated power goes into `pow_t` and
 /// `pow_r` (summed by the caller in a fixed order, so these loops carry no sum). Runs
 /// the AVX2 kernel (`pillar_avx2`, same numbers) where the processor has it.
 ///
 /// # Panics
 /// If the slices' lengths differ (`frozen` may also be empty).
-#[allow(clippy::too_many_arguments)]
-pub fn substrate_kick(
-    kick: bool,
-    dt: f64,
-    xi_v2: f64,
-    sub: &SubstrateFriction,
-    c: &GrainConsts<'_>,
-    frozen: &[bool],
-    fx: &[f64],
-    fy: &[f64],
-    tq: &[f64],
-    vx: &mut [f64],
-    vy: &mut [f64],
-    ax: &mut [f64],
-    ay: &mut [f64],
-    omega: &mut [f64],
-    sub_fx: &mut [f64],
-    sub_fy: &mut [f64],
-    pow_t: &mut [f64],
-    pow_r: &mut [f64],
-) {
-    let n = vx.len();
+pub fn substrate_kick(inp: &SubstrateInputs, out: SubstrateState) {
+    let n = out.vx.len();
+    let (c, o) = (&inp.c, &out);
     let lens = [
         c.inv_mass.len(),
         c.inv_inertia.len(),
@@ -186,62 +249,56 @@ pub fn substrate_kick(
         c.f_max2.len(),
         c.t_max.len(),
         c.xi_omega.len(),
-        fx.len(),
-        fy.len(),
-        tq.len(),
-        vy.len(),
-        ax.len(),
-        ay.len(),
-        omega.len(),
-        sub_fx.len(),
-        sub_fy.len(),
-        pow_t.len(),
-        pow_r.len(),
+        inp.fx.len(),
+        inp.fy.len(),
+        inp.tq.len(),
+        o.vy.len(),
+        o.ax.len(),
+        o.ay.len(),
+        o.omega.len(),
+        o.sub_fx.len(),
+        o.sub_fy.len(),
+        o.pow_t.len(),
+        o.pow_r.len(),
     ];
     assert!(
-        lens.iter().all(|&l| l == n) && (frozen.is_empty() || frozen.len() == n),
+        lens.iter().all(|&l| l == n) && (inp.frozen.is_empty() || inp.frozen.len() == n),
         "substrate_kick: slices of one length"
     );
     #[cfg(target_arch = "x86_64")]
     if super::simd::level() == super::simd::Level::Avx2 {
         // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
-        unsafe {
-            super::pillar_avx2::substrate_kick(
-                kick, dt, xi_v2, sub, c, frozen, fx, fy, tq, vx, vy, ax, ay, omega, sub_fx, sub_fy,
-                pow_t, pow_r,
-            )
-        };
+        unsafe { super::pillar_avx2::substrate_kick(inp, out) };
         return;
     }
-    substrate_kick_scalar(
-        kick, dt, xi_v2, sub, c, frozen, fx, fy, tq, vx, vy, ax, ay, omega, sub_fx, sub_fy, pow_t,
-        pow_r,
-    );
+    substrate_kick_scalar(inp, out);
 }
 
 /// [`substrate_kick`] in portable scalar code: the reference the AVX2 kernel matches
 /// bit for bit, and its tail.
-#[allow(clippy::too_many_arguments)]
-pub fn substrate_kick_scalar(
-    kick: bool,
-    dt: f64,
-    xi_v2: f64,
-    sub: &SubstrateFriction,
-    c: &GrainConsts<'_>,
-    frozen: &[bool],
-    fx: &[f64],
-    fy: &[f64],
-    tq: &[f64],
-    vx: &mut [f64],
-    vy: &mut [f64],
-    ax: &mut [f64],
-    ay: &mut [f64],
-    omega: &mut [f64],
-    sub_fx: &mut [f64],
-    sub_fy: &mut [f64],
-    pow_t: &mut [f64],
-    pow_r: &mut [f64],
-) {
+pub fn substrate_kick_scalar(inp: &SubstrateInputs, out: SubstrateState) {
+    let SubstrateInputs {
+        kick,
+        dt,
+        xi_v2,
+        sub,
+        c,
+        frozen,
+        fx,
+        fy,
+        tq,
+    } = *inp;
+    let SubstrateState {
+        vx,
+        vy,
+        ax,
+        ay,
+        omega,
+        sub_fx,
+        sub_fy,
+        pow_t,
+        pow_r,
+    } = out;
     let n = vx.len();
     let (pow_t, pow_r) = (&mut pow_t[..n], &mut pow_r[..n]);
     let (fx, fy, tq, vy) = (&fx[..n], &fy[..n], &tq[..n], &mut vy[..n]);

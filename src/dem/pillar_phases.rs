@@ -12,8 +12,8 @@
 //! and the chunks added in order; threads get whole chunks. So every thread count gives
 //! the same numbers, bit for bit.
 
-use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction, TangentialLaw};
-use super::pillar_kernels::{GrainConsts, substrate_kick, sum4};
+use super::contact::{CundallStrack, Hooke, NormalLaw, TangentialLaw};
+use super::pillar_kernels::{SubstrateInputs, SubstrateState, substrate_kick, sum4};
 use super::simd::Quad;
 use std::ops::Range;
 
@@ -315,53 +315,13 @@ pub fn bar_contacts(
     [top_force, bottom_force, shear_force]
 }
 
-/// Velocities, accelerations and spins of a range (m/s, m/s², rad/s).
-pub type Motion<'a> = (
-    &'a mut [f64],
-    &'a mut [f64],
-    &'a mut [f64],
-    &'a mut [f64],
-    &'a mut [f64],
-);
-
 /// The substrate and the second half kick of a range (the range starting on a chunk
-/// boundary), then per chunk of `CHUNK` grains Σ|f·v| and Σ|T_μ ω| (W) into `power`;
-/// `pow_t`, `pow_r` are scratch of the range's length (per-grain power, W).
-#[allow(clippy::too_many_arguments)]
-pub fn substrate_chunks(
-    kick: bool,
-    dt: f64,
-    sub: &SubstrateFriction,
-    c: &GrainConsts,
-    frozen: Option<&[bool]>,
-    (fx, fy, tq): (&[f64], &[f64], &[f64]),
-    (vx, vy, ax, ay, omega): Motion,
-    (sub_fx, sub_fy): (&mut [f64], &mut [f64]),
-    (pow_t, pow_r): (&mut [f64], &mut [f64]),
-    power: &mut [[f64; 2]],
-) {
-    let n = vx.len();
-    let xi_v2 = sub.xi_v(dt) * sub.xi_v(dt);
-    substrate_kick(
-        kick,
-        dt,
-        xi_v2,
-        sub,
-        c,
-        frozen.unwrap_or(&[]),
-        fx,
-        fy,
-        tq,
-        vx,
-        vy,
-        ax,
-        ay,
-        omega,
-        sub_fx,
-        sub_fy,
-        pow_t,
-        pow_r,
-    );
+/// boundary; see [`substrate_kick`]), then per chunk of `CHUNK` grains Σ|f·v| and
+/// Σ|T_μ ω| (W) into `power`.
+pub fn substrate_chunks(inp: &SubstrateInputs, mut out: SubstrateState, power: &mut [[f64; 2]]) {
+    let n = out.vx.len();
+    substrate_kick(inp, out.range(0..n));
+    let (pow_t, pow_r) = (&*out.pow_t, &*out.pow_r);
     for (ch, p) in power.iter_mut().enumerate() {
         let r = ch * CHUNK..((ch + 1) * CHUNK).min(n);
         *p = [sum4(&pow_t[r.clone()]), sum4(&pow_r[r])];
