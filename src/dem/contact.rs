@@ -55,6 +55,15 @@ pub struct CundallStrack {
     pub mu: f64,
 }
 
+impl CundallStrack {
+    /// μ/k_t (m/N): the spring's stretch at the Coulomb limit per newton of normal
+    /// force.
+    #[inline(always)]
+    pub fn mu_over_k_t(&self) -> f64 {
+        self.mu / self.k_t
+    }
+}
+
 impl TangentialLaw for CundallStrack {
     const HAS_HISTORY: bool = true;
     #[inline(always)]
@@ -62,8 +71,10 @@ impl TangentialLaw for CundallStrack {
         let mut u = *s + vt * dt;
         let f_max = self.mu * f_n;
         if self.k_t * u.abs() > f_max {
-            // Sliding: the spring is held at the Coulomb limit.
-            u = (f_max / self.k_t).copysign(u);
+            // Sliding: the spring is held at the Coulomb limit μ F_n / k_t, as
+            // F_n (μ/k_t): one multiplication, where a division would cost the vector
+            // kernels a divider slot per pair.
+            u = (f_n * self.mu_over_k_t()).copysign(u);
         }
         *s = u;
         -self.k_t * u

@@ -118,6 +118,14 @@ impl Default for Marking {
     }
 }
 
+/// Top bar face (m) after `step` steps of δt = `dt` (s) at `bar_speed` (m/s) from
+/// `top_y0` (m): one expression for every caller, so threads that compute it from the
+/// step number get the bits [`PillarSim::top_y`] gives.
+#[inline]
+pub fn top_y_at(top_y0: f64, bar_speed: f64, dt: f64, step: u64) -> f64 {
+    top_y0 - bar_speed * dt * step as f64
+}
+
 /// Fraction of the grains frozen at a marked step below which marking pauses.
 pub const MARK_FRACTION: f64 = 0.4;
 /// Steps without marking before it is tried again.
@@ -264,7 +272,12 @@ impl PillarSim {
 
     /// Top bar face at the current step (m).
     pub fn top_y(&self) -> f64 {
-        self.top_y0 - self.params.bar_speed * self.params.dt * self.step as f64
+        top_y_at(
+            self.top_y0,
+            self.params.bar_speed,
+            self.params.dt,
+            self.step,
+        )
     }
 
     /// Time since the bar started (s).

@@ -10,15 +10,16 @@
 //! reached through raw pointers refreshed by the first thread after any reallocation
 //! (a list rebuild), while the others wait at the barrier.
 
-use super::pillar::PillarSim;
+use super::contact::{CundallStrack, Hooke, SubstrateFriction};
+use super::pillar::{PillarSim, top_y_at};
 #[cfg(target_arch = "x86_64")]
 use super::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
 use super::pillar_kernels::{
     Drift, DriftInputs, GrainConsts, SubstrateInputs, SubstrateState, kick_drift, pack_grains,
 };
 use super::pillar_phases::{
-    BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, bar_contacts, gather, mark_frozen,
-    pair_slots, substrate_chunks,
+    BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, TermSink, bar_contacts, gather,
+    mark_frozen, pair_slots, substrate_chunks,
 };
 use super::simd::{Level, Pos, Quad, level};
 use std::cell::UnsafeCell;
@@ -41,7 +42,7 @@ impl<T> P<T> {
     /// # Safety
     /// No thread writes `r` for the lifetime of the slice (others may write elsewhere:
     /// unlike `all`, the slice covers `r` only).
-    unsafe fn view<'a>(self, r: Range<usize>) -> &'a [T] {
+    pub(crate) unsafe fn view<'a>(self, r: Range<usize>) -> &'a [T] {
         assert!(
             r.start <= r.end && r.end <= self.1,
             "range within the array"
@@ -85,7 +86,7 @@ pub(crate) struct Arrays {
     bottom_shear: P<f64>,
     resting: P<bool>,
     frozen: P<bool>,
-    slot_force: P<Quad>,
+    terms: P<Quad>,
     owner: P<u32>,
     packed_state: P<Quad>,
     packed_spin: P<Pos>,
@@ -121,6 +122,66 @@ pub(crate) struct Arrays {
 }
 unsafe impl Send for Arrays {}
 unsafe impl Sync for Arrays {}
+
+/// What the phases need of the simulation besides its arrays, copied once per
+/// `advance` call, so no thread holds a reference to the simulation while the first
+/// thread updates its totals during the pair phase.
+#[derive(Clone, Copy)]
+pub(crate) struct StepLaws {
+    normal: Hooke,
+    tangential: CundallStrack,
+    /// The bars (their `top` set per step by [`StepLaws::bars_at`]).
+    bars: Bars,
+    sub: SubstrateFriction,
+    /// δt (s); ξ_v² (m²/s², Eq. 11).
+    pub(crate) dt: f64,
+    xi_v2: f64,
+    /// Top bar face at step 0 (m) and the bar speed (m/s).
+    top_y0: f64,
+    bar_speed: f64,
+    /// Frozen grains stay two steps of bar travel (m) clear of the top bar.
+    margin: f64,
+}
+
+impl StepLaws {
+    pub(crate) fn of(s: &PillarSim) -> Self {
+        let p = &s.params;
+        let sub = s.substrate();
+        let xi_v = sub.xi_v(p.dt);
+        StepLaws {
+            normal: s.normal(),
+            tangential: s.tangential(),
+            bars: Bars {
+                normal: Hooke {
+                    k_n: 2.0 * p.k_n,
+                    damping: p.damping_n,
+                },
+                tangential: CundallStrack {
+                    k_t: 2.0 * p.kt_over_kn * p.k_n,
+                    mu: p.mu_bar,
+                },
+                top: s.top_y(),
+                bottom: s.bottom_y,
+                v_bar: p.bar_speed,
+                dt: p.dt,
+            },
+            sub,
+            dt: p.dt,
+            xi_v2: xi_v * xi_v,
+            top_y0: s.top_y0,
+            bar_speed: p.bar_speed,
+            margin: 2.0 * p.bar_speed * p.dt,
+        }
+    }
+
+    /// The bars at step `step` (the simulation's step count during that step's forces).
+    fn bars_at(&self, step: u64) -> Bars {
+        Bars {
+            top: top_y_at(self.top_y0, self.bar_speed, self.dt, step),
+            ..self.bars
+        }
+    }
+}
 
 /// The serial sections' view of the arrays, republished after each.
 pub(crate) struct Shared(pub(crate) UnsafeCell<Arrays>);
@@ -182,7 +243,7 @@ impl PillarSim {
             bottom_shear: P::of(&mut self.bottom_shear),
             resting: P::of(&mut sc.resting),
             frozen: P::of(&mut sc.frozen),
-            slot_force: P::of(&mut b.slot_force),
+            terms: P::of(&mut b.terms),
             owner: P::of(&mut b.owner),
             packed_state: P::of(&mut b.packed_state),
             packed_spin: P::of(&mut b.packed_spin),
@@ -213,6 +274,24 @@ impl PillarSim {
             kick,
         }
     }
+}
+
+impl Arrays {
+    /// The same views with this step's frozen skip and marking (see `arrays`).
+    pub(crate) fn with_flags(self, freeze: bool, mark: bool) -> Self {
+        Arrays {
+            freeze,
+            mark,
+            ..self
+        }
+    }
+}
+
+/// Thread t's entry in the `parity` half of a per-thread count kept per step parity
+/// (thread 0 folds last step's half in while this step's is written).
+fn half(a: &Arrays, parity: usize, t: usize) -> Range<usize> {
+    let k = parity * (a.skipped.1 / 2) + t;
+    k..k + 1
 }
 
 /// This step's rest flags (the other half of the array is the next step's, which a
@@ -290,7 +369,7 @@ pub(crate) unsafe fn phase_pack(a: &Arrays) {
 }
 
 /// Frozen flags of thread t's grains (each reads every grain's rest flag).
-unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
+unsafe fn phase_frozen(a: &Arrays, t: usize, laws: &StepLaws, bars: &Bars, parity: usize) {
     unsafe {
         let r = range(a, t);
         let out = a.frozen.part(r.clone());
@@ -298,7 +377,6 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
             out.fill(false);
             return;
         }
-        let margin = 2.0 * s.params.bar_speed * s.params.dt;
         let c = mark_frozen(
             r.clone(),
             out,
@@ -306,15 +384,15 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
             a.y.part(r),
             (a.start.all(), a.js.all()),
             &*a.rev,
-            (s.top_y(), s.bottom_y, margin),
+            (bars.top, bars.bottom, laws.margin),
             a.radius.all(),
         );
-        a.frozen_count.part(t..t + 1)[0] = c;
+        a.frozen_count.part(half(a, parity, t))[0] = c;
     }
 }
 
 /// Phase 2: the pair slots of the grains `pair_bounds[t]..pair_bounds[t + 1]`.
-pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
+pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: usize) {
     unsafe {
         let r = pair_range(a, t);
         let start = a.start.all();
@@ -332,7 +410,17 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: us
             f_t: a.rec_ft.part(slots.clone()),
             touching: a.rec_touch.part(slots.clone()),
         });
-        let laws = (&s.normal(), &s.tangential(), s.params.dt);
+        let skipped = a.skipped.part(half(a, parity, t));
+        let laws = (&laws.normal, &laws.tangential, laws.dt);
+        let rev = &*a.rev;
+        // SAFETY: each slot's two term places are its own (`Reverse::build`), checked
+        // in bounds by `sync_list_buffers`; no phase reads the terms while pairs run.
+        let sink = TermSink::new(
+            a.terms.0,
+            a.terms.1,
+            &rev.term_own[slots.clone()],
+            &rev.term_partner[slots.clone()],
+        );
         let rest = a.freeze.then(|| resting(a, parity));
         let n = a.x.1;
         #[cfg(target_arch = "x86_64")]
@@ -346,29 +434,28 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: us
             assert!(rest.is_none_or(|f| f.len() == n));
             // SAFETY: AVX2 present; indices and lengths checked (above and at the list's
             // check); the kick (or `phase_pack`) packed this state.
-            a.skipped.part(t..t + 1)[0] = pair_slots_avx2(
+            skipped[0] = pair_slots_avx2(
                 slots.clone(),
                 g,
                 packed,
                 (a.owner.all(), a.js.all()),
                 a.shear.part(slots.clone()),
-                a.slot_force.part(slots),
+                sink,
                 rest,
                 laws,
             );
             return;
         }
-        let skipped = pair_slots(
+        skipped[0] = pair_slots(
             r,
             g,
             (start, a.js.all()),
             a.shear.part(slots.clone()),
-            a.slot_force.part(slots),
+            sink,
             rest,
             laws,
             rec,
         );
-        a.skipped.part(t..t + 1)[0] = skipped;
     }
 }
 
@@ -377,9 +464,10 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, s: &PillarSim, parity: us
 ///
 /// No barrier separates this from the next step's kick, so it reads other threads'
 /// grains only in arrays no kick writes (slot forces, radii, the list).
-pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim, parity: usize) {
+pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u64, parity: usize) {
     unsafe {
-        phase_frozen(a, t, s, parity);
+        let bars = laws.bars_at(step);
+        phase_frozen(a, t, laws, &bars, parity);
         let r = range(a, t);
         let frozen: &[bool] = a.frozen.part(r.clone());
         let fz = a.mark.then_some(frozen);
@@ -392,27 +480,12 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim, parity: u
             r.clone(),
             a.start.all(),
             &*a.rev,
-            a.slot_force.all(),
+            a.terms.all(),
             fz,
             fx,
             fy,
             tq,
         );
-        let p = &s.params;
-        let bars = Bars {
-            normal: super::contact::Hooke {
-                k_n: 2.0 * p.k_n,
-                damping: p.damping_n,
-            },
-            tangential: super::contact::CundallStrack {
-                k_t: 2.0 * p.kt_over_kn * p.k_n,
-                mu: p.mu_bar,
-            },
-            top: s.top_y(),
-            bottom: s.bottom_y,
-            v_bar: p.bar_speed,
-            dt: p.dt,
-        };
         let chunks = r.start / CHUNK..r.end.div_ceil(CHUNK);
         let sums = a.bar_sums.part(chunks.clone());
         // Own-range views only: other threads write their ranges of these arrays now.
@@ -452,14 +525,12 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, s: &PillarSim, parity: u
             t_max: a.t_max.all(),
             xi_omega: a.xi_omega.all(),
         };
-        let sub = s.substrate();
-        let xi_v = sub.xi_v(p.dt);
         substrate_chunks(
             &SubstrateInputs {
                 kick: a.kick,
-                dt: p.dt,
-                xi_v2: xi_v * xi_v,
-                sub: &sub,
+                dt: laws.dt,
+                xi_v2: laws.xi_v2,
+                sub: &laws.sub,
                 c: consts.range(r.clone()),
                 frozen: fz.unwrap_or(&[]),
                 fx,

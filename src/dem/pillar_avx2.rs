@@ -22,7 +22,7 @@ use super::contact::{CundallStrack, Hooke};
 use super::pillar_kernels::{
     Drift, DriftInputs, SubstrateInputs, SubstrateState, kick_drift_scalar, substrate_kick_scalar,
 };
-use super::pillar_phases::{GrainState, slot_contact};
+use super::pillar_phases::{GrainState, TermSink, slot_contact};
 use super::simd::{Pos, Quad};
 use std::arch::x86_64::*;
 use std::ops::Range;
@@ -231,13 +231,14 @@ pub struct PackedGrains<'a> {
 
 /// As [`super::pillar_phases::pair_slots`] without a force record, four slots at a
 /// time: slots `slots` (of the whole list), owned by `owner[k]`, partnered by `js[k]`;
-/// `shear` and `slot_force` hold the range's slots. The last slots short of a multiple
+/// `shear` and `sink` hold the range's slots. The last slots short of a multiple
 /// of four go through the scalar `slot_contact` with `g`. Returns the slots skipped.
 ///
 /// # Safety
 /// The processor must have AVX2; `packed` holds the state `g` holds, and both and
 /// `resting` cover every grain that `owner` and `js` name over `slots` (the caller
-/// asserts both).
+/// asserts both); the sink's term places are in bounds (`sync_list_buffers` checks
+/// every one after each rebuild).
 #[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx2")]
 pub(crate) unsafe fn pair_slots(
@@ -246,14 +247,18 @@ pub(crate) unsafe fn pair_slots(
     packed: PackedGrains,
     (owner, js): (&[u32], &[u32]),
     shear: &mut [f64],
-    slot_force: &mut [Quad],
+    sink: TermSink,
     resting: Option<&[bool]>,
     (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
 ) -> u64 {
     let len = slots.len();
     let len4 = len / 4 * 4;
     let (owner, js) = (&owner[slots.clone()], &js[slots.clone()]);
-    let (shear, slot_force) = (&mut shear[..len], &mut slot_force[..len]);
+    let shear = &mut shear[..len];
+    let (terms, n_terms, term_own, term_partner) = sink.parts();
+    assert!(term_own.len() == len && term_partner.len() == len);
+    // The partner's term: x and y negated.
+    let flip = _mm256_set_pd(0.0, 0.0, -0.0, -0.0);
     let (state, spin) = (packed.state.as_ptr(), packed.spin.as_ptr());
     let zero = _mm256_setzero_pd();
     let (k_n, damping) = (_mm256_set1_pd(normal.k_n), _mm256_set1_pd(normal.damping));
@@ -262,6 +267,8 @@ pub(crate) unsafe fn pair_slots(
         _mm256_set1_pd(-tangential.k_t),
     );
     let (mu, dt4) = (_mm256_set1_pd(tangential.mu), _mm256_set1_pd(dt));
+    let mu_over_k_t = _mm256_set1_pd(tangential.mu_over_k_t());
+    let one = _mm256_set1_pd(1.0);
     let (half, minus_half) = (_mm256_set1_pd(0.5), _mm256_set1_pd(-0.5));
     let sign_bit = _mm256_set1_pd(-0.0);
     let mut skipped = 0u64;
@@ -296,7 +303,8 @@ pub(crate) unsafe fn pair_slots(
             // scalar code).
             let touch = _mm256_cmp_pd::<_CMP_NGE_UQ>(r2, _mm256_mul_pd(rs, rs));
             let dist = _mm256_sqrt_pd(r2);
-            let (nx, ny) = (_mm256_div_pd(dx, dist), _mm256_div_pd(dy, dist));
+            let inv_dist = _mm256_div_pd(one, dist);
+            let (nx, ny) = (_mm256_mul_pd(dx, inv_dist), _mm256_mul_pd(dy, inv_dist));
             let (dvx, dvy) = (_mm256_sub_pd(vxi, vxj), _mm256_sub_pd(vyi, vyj));
             // Hooke::force, clipped at zero.
             let vn = _mm256_add_pd(_mm256_mul_pd(dvx, nx), _mm256_mul_pd(dvy, ny));
@@ -314,7 +322,10 @@ pub(crate) unsafe fn pair_slots(
             let u = _mm256_add_pd(old_s, _mm256_mul_pd(vt, dt4));
             let f_max = _mm256_mul_pd(mu, f_n);
             let slide = _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_mul_pd(k_t, abs4(u)), f_max);
-            let held = _mm256_or_pd(abs4(_mm256_div_pd(f_max, k_t)), _mm256_and_pd(u, sign_bit));
+            let held = _mm256_or_pd(
+                abs4(_mm256_mul_pd(f_n, mu_over_k_t)),
+                _mm256_and_pd(u, sign_bit),
+            );
             let u = pick4(slide, held, u);
             let f_t = _mm256_mul_pd(minus_k_t, u);
             // Separated pairs: zeros; resting pairs: last step's values.
@@ -331,20 +342,20 @@ pub(crate) unsafe fn pair_slots(
             ));
             let t = keep(_mm256_mul_pd(_mm256_mul_pd(minus_half, dist), f_t));
             let (o0, o1, o2, o3) = transpose(f_x, f_y, t, zero);
-            let out = slot_force.as_mut_ptr().add(s);
+            // Both terms of each slot, but for slots between resting grains (theirs
+            // keep last step's values).
+            let keep_old = _mm256_movemask_pd(both);
             for (l, v) in [o0, o1, o2, o3].into_iter().enumerate() {
-                let p = (*out.add(l)).0.as_mut_ptr();
-                if n_both == 0 {
-                    _mm256_store_pd(p, v);
+                if keep_old >> l & 1 == 1 {
                     continue;
                 }
-                let lane = match l {
-                    0 => _mm256_permute4x64_pd::<0>(both),
-                    1 => _mm256_permute4x64_pd::<0b01_01_01_01>(both),
-                    2 => _mm256_permute4x64_pd::<0b10_10_10_10>(both),
-                    _ => _mm256_permute4x64_pd::<0b11_11_11_11>(both),
-                };
-                _mm256_store_pd(p, pick4(lane, _mm256_load_pd(p), v));
+                let (a, b) = (
+                    *term_own.get_unchecked(s + l) as usize,
+                    *term_partner.get_unchecked(s + l) as usize,
+                );
+                debug_assert!(a < n_terms && b < n_terms);
+                _mm256_store_pd((*terms.add(a)).0.as_mut_ptr(), v);
+                _mm256_store_pd((*terms.add(b)).0.as_mut_ptr(), _mm256_xor_pd(v, flip));
             }
         }
     }
@@ -354,14 +365,16 @@ pub(crate) unsafe fn pair_slots(
             skipped += 1;
             continue;
         }
+        let mut force = Quad::default();
         slot_contact(
             i,
             j,
             &g,
             &mut shear[s],
-            &mut slot_force[s],
+            &mut force,
             (normal, tangential, dt),
         );
+        sink.put(s, force);
     }
     skipped
 }

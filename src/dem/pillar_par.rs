@@ -8,20 +8,23 @@
 
 use super::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
 use super::pillar::PillarSim;
-use super::pillar_arrays::{SendPtr, Shared, phase_grains, phase_kick, phase_pack, phase_pairs};
+use super::pillar_arrays::{
+    SendPtr, Shared, StepLaws, phase_grains, phase_kick, phase_pack, phase_pairs,
+};
 use super::pillar_phases::{CHUNK, Reverse};
 use super::simd::{Pos, Quad};
 use super::verlet::Boundary;
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
 
 /// Per-step work the serial sections share with the phases (not state).
 #[derive(Debug, Clone, Default)]
 pub struct StepBuffers {
-    /// Contact force (x, y, N) on the slot's owner, its torque (N m) and a zero, per
-    /// pair slot.
-    pub slot_force: Vec<Quad>,
-    /// Whether `slot_force` holds this list's forces (a slot between resting grains is
+    /// Each grain's contact terms, contiguous (`Reverse::terms_of`): per slot it takes
+    /// part in, the contact force (x, y, N) on it and the torque (N m), and a zero.
+    pub terms: Vec<Quad>,
+    /// Whether `terms` holds this list's forces (a slot between resting grains is
     /// then left as it is).
     pub slots_valid: bool,
     pub reverse: Reverse,
@@ -65,6 +68,9 @@ const FALLBACK_WINDOW: u64 = 64;
 const FALLBACK_LONG_WAITS: usize = 16;
 /// Steps between rebalances of the threads' shares.
 const REBALANCE_EVERY: u64 = 32;
+/// Steps between timings of the phases for the rebalance (a clock read costs tens of
+/// nanoseconds, and a step of 1000 grains on two threads a few microseconds).
+const TIME_EVERY: u64 = 4;
 
 impl PillarSim {
     /// Threads an `advance` uses: the `threads` setting, or (0) one per core up to one
@@ -95,68 +101,110 @@ impl PillarSim {
         self.prepare(threads);
         let barrier = SpinBarrier::new(threads);
         let shared = Shared(UnsafeCell::new(self.arrays(true)));
+        let laws = StepLaws::of(self);
+        // What `arrays` would give for the frozen skip while the list stands (the
+        // fast steps below never rebuild it).
+        let freeze =
+            self.scratch.skip_frozen && self.params.damping_n == 0.0 && self.record.is_none();
+        let record = self.record.is_some();
+        let half = 0.5 * self.list.skin;
+        let rebuild_at = half * half;
+        let no_fallback = threads == 1 || self.scratch.no_fallback;
         let sim: *mut PillarSim = self;
         let sim = SendPtr(sim);
         // Steps done, and a request (from thread 0) to finish on one thread: on a machine
         // busy with other work each barrier can cost a scheduler time slice.
         let done = AtomicU64::new(0);
         let fall_back = AtomicBool::new(false);
+        // This step's frozen marking, decided by thread 0 during a fast step's pairs.
+        let mark_now = AtomicBool::new(false);
         // SAFETY: read before any thread starts.
         let first = unsafe { (*sim.get()).step };
-        // Three barriers a step: after the kick (then thread 0's serial part: last
-        // step's totals, the list test, this step's views), after the serial part, and
-        // after the pair slots. A thread's grain phase and its next kick touch only its
-        // own grains and the next step's half of the rest flags, so they need none.
+        // A step: the kick; a barrier; the pair slots; a barrier; the grain phase (a
+        // thread's grain phase and its next kick touch only its own grains and the next
+        // step's half of the rest flags, so they need none). Every thread decides from
+        // the same numbers whether a step is *slow*: the first, one that rebalances or
+        // whose list must be rebuilt, or any with a force snapshot. A slow step has a
+        // serial part on thread 0 (last step's totals, the rebuild, the shares, this
+        // step's views) between two barriers; on the others thread 0 folds last step's
+        // totals in while the rest start on the pairs, so three barriers become two.
         let body = |t: usize| {
             let _poison = PoisonOnPanic(&barrier);
             let mut spin = MAX_SPIN;
             let mut completed = 0u64;
+            let mut last_check = 0u64;
+            // SAFETY: published before any thread starts; republished only in the serial
+            // parts, while every other thread waits.
+            let mut a = unsafe { *shared.get() };
             for k in 0..steps {
                 // Set by thread 0 in a serial part; every thread has passed a barrier
                 // since, so all stop at the same step.
                 if fall_back.load(Ordering::Relaxed) {
                     break;
                 }
-                let parity = ((first + k + 1) % 2) as usize;
-                // SAFETY: see the module notes; serial sections run on thread 0 while
-                // the others wait at a barrier holding no references.
+                // The step count during this step's forces, and its parity.
+                let step = first + k + 1;
+                let parity = (step % 2) as usize;
+                let timed = k.is_multiple_of(TIME_EVERY);
+                // SAFETY: see the module notes; serial parts run on thread 0 while the
+                // others wait at a barrier holding no references; a fast step's
+                // bookkeeping on thread 0 touches no array the phases use.
                 unsafe {
-                    let a = *shared.get();
-                    let clock = std::time::Instant::now();
-                    let m = phase_kick(&a, t, (*sim.get()).params.dt, parity);
-                    *a.moved2.part(t..t + 1).first_mut().expect("slot") = m;
-                    let mut work = clock.elapsed().as_secs_f64();
+                    let clock = timed.then(Instant::now);
+                    let m = phase_kick(&a, t, laws.dt, parity);
+                    a.moved2.part(t..t + 1)[0] = m;
+                    let mut work = clock.map_or(0.0, |c| c.elapsed().as_secs_f64());
                     barrier.wait(t, &mut spin);
-                    if t == 0 {
-                        let s = &mut *sim.get();
-                        if k > 0 {
-                            s.serial_after(true);
-                            if threads > 1
-                                && !s.scratch.no_fallback
-                                && k.is_multiple_of(FALLBACK_WINDOW)
-                                && barrier.long_waits.swap(0, Ordering::Relaxed)
-                                    > FALLBACK_LONG_WAITS
-                            {
-                                fall_back.store(true, Ordering::Relaxed);
+                    let slow = k == 0
+                        || record
+                        || step.is_multiple_of(REBALANCE_EVERY)
+                        || a.moved2.view(0..threads).iter().any(|&m| m > rebuild_at);
+                    if slow {
+                        if t == 0 {
+                            let s = &mut *sim.get();
+                            if k > 0 {
+                                s.serial_after(true, 1 - parity);
+                                if !no_fallback && k >= last_check + FALLBACK_WINDOW {
+                                    last_check = k;
+                                    if barrier.long_waits.swap(0, Ordering::Relaxed)
+                                        > FALLBACK_LONG_WAITS
+                                    {
+                                        fall_back.store(true, Ordering::Relaxed);
+                                    }
+                                }
                             }
+                            s.serial_before();
+                            if s.step.is_multiple_of(REBALANCE_EVERY) {
+                                s.rebalance();
+                            }
+                            *shared.get() = s.arrays(true);
                         }
-                        s.serial_before();
-                        if s.step.is_multiple_of(REBALANCE_EVERY) {
-                            s.rebalance();
-                        }
-                        *shared.get() = s.arrays(true);
+                        barrier.wait(t, &mut spin);
+                        a = *shared.get();
+                    } else {
+                        a = a.with_flags(freeze, false);
+                    }
+                    let clock = timed.then(Instant::now);
+                    if !slow && t == 0 {
+                        mark_now.store(
+                            fast_bookkeeping(sim.get(), freeze, 1 - parity),
+                            Ordering::Relaxed,
+                        );
+                    }
+                    phase_pairs(&a, t, &laws, parity);
+                    if let Some(c) = clock {
+                        a.busy_pairs.part(t..t + 1)[0] += c.elapsed().as_secs_f64();
                     }
                     barrier.wait(t, &mut spin);
-                    let a = *shared.get();
-                    let s = &*sim.get();
-                    let clock = std::time::Instant::now();
-                    phase_pairs(&a, t, s, parity);
-                    a.busy_pairs.part(t..t + 1)[0] += clock.elapsed().as_secs_f64();
-                    barrier.wait(t, &mut spin);
-                    let clock = std::time::Instant::now();
-                    phase_grains(&a, t, s, parity);
-                    work += clock.elapsed().as_secs_f64();
-                    a.busy.part(t..t + 1)[0] += work;
+                    if !slow {
+                        a = a.with_flags(freeze, mark_now.load(Ordering::Relaxed));
+                    }
+                    let clock = timed.then(Instant::now);
+                    phase_grains(&a, t, &laws, step, parity);
+                    if let Some(c) = clock {
+                        work += c.elapsed().as_secs_f64();
+                        a.busy.part(t..t + 1)[0] += work;
+                    }
                 }
                 completed += 1;
             }
@@ -177,10 +225,10 @@ impl PillarSim {
                 body(0);
             });
         }
-        // The last step's totals (the next step's serial part would have formed them).
+        // The last step's totals (the next step would have folded them in).
         let done = done.load(Ordering::Relaxed);
         if done > 0 {
-            self.serial_after(true);
+            self.serial_after(true, (self.step % 2) as usize);
         }
         let left = steps - done;
         if left > 0 {
@@ -195,14 +243,15 @@ impl PillarSim {
         self.prepare(1);
         self.scratch.frozen.iter_mut().for_each(|f| *f = false);
         let a = self.arrays(false);
+        let laws = StepLaws::of(self);
+        let parity = (self.step % 2) as usize;
         // SAFETY: one thread; the arrays outlive the calls.
         unsafe {
-            let s = &*(self as *const PillarSim);
             phase_pack(&a);
-            phase_pairs(&a, 0, s, 0);
-            phase_grains(&a, 0, s, 0);
+            phase_pairs(&a, 0, &laws, parity);
+            phase_grains(&a, 0, &laws, self.step, parity);
         }
-        self.serial_after(false);
+        self.serial_after(false, parity);
     }
 
     /// Sizes every buffer for `threads` threads.
@@ -221,8 +270,9 @@ impl PillarSim {
         b.bar_sums.resize(chunks, [0.0; 3]);
         b.power.resize(chunks, [0.0; 2]);
         b.moved2 = vec![0.0; threads];
-        b.skipped = vec![0; threads];
-        b.frozen_count = vec![0; threads];
+        // One half per step parity (see `fast_bookkeeping`).
+        b.skipped = vec![0; 2 * threads];
+        b.frozen_count = vec![0; 2 * threads];
         b.busy = vec![0.0; threads];
         b.busy_pairs = vec![0.0; threads];
         b.pow_t.resize(n, 0.0);
@@ -271,14 +321,14 @@ impl PillarSim {
         let (n, slots) = (self.grains.len(), self.list.len());
         let b = &mut self.scratch.buffers;
         if b.reverse.start.len() != n + 1
-            || b.slot_force.len() != slots
+            || b.terms.len() != 2 * slots
             || b.reverse.slot.len() != slots
         {
             b.slots_valid = false;
         }
         if !b.slots_valid {
             b.reverse = Reverse::build(n, &self.list.start, &self.list.j);
-            b.slot_force = vec![Quad::default(); slots];
+            b.terms = vec![Quad::default(); 2 * slots];
             b.owner = (0..n)
                 .flat_map(|i| {
                     let r = self.list.start[i]..self.list.start[i + 1];
@@ -293,6 +343,17 @@ impl PillarSim {
                 && b.owner.iter().all(|&i| (i as usize) < n)
                 && self.list.j.iter().all(|&j| (j as usize) < n),
             "pair list indices within the grains"
+        );
+        // So are the places the pair kernels write each slot's terms.
+        let r = &b.reverse;
+        assert!(
+            r.term_own.len() == slots
+                && r.term_partner.len() == slots
+                && r.term_own
+                    .iter()
+                    .chain(&r.term_partner)
+                    .all(|&m| (m as usize) < 2 * slots),
+            "term places within the terms"
         );
         let rec = self.record.is_some();
         let want = if rec { slots } else { 0 };
@@ -316,30 +377,12 @@ impl PillarSim {
         self.step += 1;
     }
 
-    /// Thread 0 after the forces: totals in chunk order, the output interval's sums,
-    /// the force snapshot.
-    fn serial_after(&mut self, kick: bool) {
-        let b = &mut self.scratch.buffers;
-        b.slots_valid = true;
-        let mut tot = [0.0; 3];
-        for s in &b.bar_sums {
-            for (t, v) in tot.iter_mut().zip(s) {
-                *t += v;
-            }
-        }
-        let (mut p_t, mut p_r) = (0.0, 0.0);
-        for p in &b.power {
-            p_t += p[0];
-            p_r += p[1];
-        }
-        [self.top_force, self.bottom_force, self.bar_shear_force] = tot;
-        let sc = &mut self.scratch;
-        sc.skipped_pairs += sc.buffers.skipped.iter().sum::<u64>();
-        let frozen = sc.buffers.frozen_count.iter().sum::<usize>();
-        sc.frozen_grain_steps += frozen as u64;
-        sc.marking.after(frozen, self.grains.len());
-        sc.buffers.skipped.iter_mut().for_each(|v| *v = 0);
-        sc.buffers.frozen_count.iter_mut().for_each(|v| *v = 0);
+    /// Thread 0 after the forces of a step whose per-thread counts are in the `parity`
+    /// halves: totals in chunk order, the output interval's sums, the force snapshot.
+    fn serial_after(&mut self, kick: bool, parity: usize) {
+        self.scratch.buffers.slots_valid = true;
+        // SAFETY: `self` is borrowed whole, so nothing else touches these fields.
+        unsafe { fold_totals(self, kick, parity) };
         if let Some(rec) = self.record.as_mut() {
             let n = self.grains.len();
             *rec = super::forces::ContactRecord::zeroed(n);
@@ -356,14 +399,78 @@ impl PillarSim {
                 }
             }
         }
+    }
+}
+
+/// Last step's totals (bar forces and power in chunk order, the counts of the
+/// `parity` halves) into the simulation and its output interval (with `kick`), and the
+/// frozen marking's next choice. Touches only the fields it names, through `sim`.
+///
+/// # Safety
+/// No other thread touches those fields, nor the `parity` halves of the counts or the
+/// chunk sums, while this runs.
+unsafe fn fold_totals(sim: *mut PillarSim, kick: bool, parity: usize) {
+    unsafe {
+        let n = (*sim).grains.len();
+        let bar_sums: &[[f64; 3]] = &(*sim).scratch.buffers.bar_sums;
+        let power: &[[f64; 2]] = &(*sim).scratch.buffers.power;
+        let mut tot = [0.0; 3];
+        for s in bar_sums {
+            for (t, v) in tot.iter_mut().zip(s) {
+                *t += v;
+            }
+        }
+        let (mut p_t, mut p_r) = (0.0, 0.0);
+        for p in power {
+            p_t += p[0];
+            p_r += p[1];
+        }
+        [
+            (*sim).top_force,
+            (*sim).bottom_force,
+            (*sim).bar_shear_force,
+        ] = tot;
+        let skipped: &mut Vec<u64> = &mut (*sim).scratch.buffers.skipped;
+        let threads = skipped.len() / 2;
+        let half = parity * threads..parity * threads + threads;
+        let skipped = &mut skipped[half.clone()];
+        (*sim).scratch.skipped_pairs += skipped.iter().sum::<u64>();
+        skipped.fill(0);
+        let frozen_count: &mut Vec<usize> = &mut (*sim).scratch.buffers.frozen_count;
+        let frozen_count = &mut frozen_count[half];
+        let frozen = frozen_count.iter().sum::<usize>();
+        frozen_count.fill(0);
+        (*sim).scratch.frozen_grain_steps += frozen as u64;
+        (*sim).scratch.marking.after(frozen, n);
         if kick {
-            let iv = &mut self.interval;
+            let iv = &mut (*sim).interval;
             iv.steps += 1;
-            iv.top_force += self.top_force;
-            iv.bottom_force += self.bottom_force;
+            iv.top_force += (*sim).top_force;
+            iv.bottom_force += (*sim).bottom_force;
             iv.substrate_power += p_t;
             iv.substrate_power_rot += p_r;
         }
+    }
+}
+
+/// Thread 0's part of a fast step (no rebuild, no snapshot, no rebalance), run while
+/// the pair phase runs: last step's totals (counts in the `parity` halves), the step
+/// count, and whether this step marks frozen grains (returned; `freeze` is whether
+/// the skip is on at all). The same as the serial part of a slow step would do.
+///
+/// # Safety
+/// Thread 0 between the kick barrier and the pair barrier of a fast step: the other
+/// threads hold no reference to the simulation (only `Arrays` views and `StepLaws`)
+/// and write only this step's halves of the counts.
+unsafe fn fast_bookkeeping(sim: *mut PillarSim, freeze: bool, parity: usize) -> bool {
+    unsafe {
+        (*sim).scratch.buffers.slots_valid = true;
+        fold_totals(sim, true, parity);
+        (*sim).step += 1;
+        let marking = &mut (*sim).scratch.marking;
+        let mark = freeze && marking.now;
+        marking.marked = mark;
+        mark
     }
 }
 

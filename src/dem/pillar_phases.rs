@@ -27,6 +27,10 @@ pub struct Reverse {
     pub start: Vec<u32>,
     pub slot: Vec<u32>,
     pub other: Vec<u32>,
+    /// Per slot of the list, where its force goes in the per-grain terms (see
+    /// [`TermSink`]): its owner's term and its partner's.
+    pub term_own: Vec<u32>,
+    pub term_partner: Vec<u32>,
 }
 
 impl Reverse {
@@ -41,11 +45,17 @@ impl Reverse {
         }
         let mut fill = rs.clone();
         let (mut slot, mut other) = (vec![0u32; js.len()], vec![0u32; js.len()]);
+        let (mut term_own, mut term_partner) = (vec![0u32; js.len()], vec![0u32; js.len()]);
         for i in 0..n {
             for k in start[i] as usize..start[i + 1] as usize {
                 let j = js[k] as usize;
-                slot[fill[j] as usize] = k as u32;
-                other[fill[j] as usize] = i as u32;
+                let r = fill[j] as usize;
+                slot[r] = k as u32;
+                other[r] = i as u32;
+                // Grain g's terms start at start[g] + rs[g]: its own slots in order,
+                // then those where it is the partner, in order.
+                term_own[k] = k as u32 + rs[i];
+                term_partner[k] = start[j + 1] + r as u32;
                 fill[j] += 1;
             }
         }
@@ -53,7 +63,14 @@ impl Reverse {
             start: rs,
             slot,
             other,
+            term_own,
+            term_partner,
         }
+    }
+
+    /// Grain i's terms in the per-grain term array.
+    pub fn terms_of(&self, start: &[u32], i: usize) -> Range<usize> {
+        (start[i] + self.start[i]) as usize..(start[i + 1] + self.start[i + 1]) as usize
     }
     pub fn of(&self, j: usize) -> Range<usize> {
         self.start[j] as usize..self.start[j + 1] as usize
@@ -89,6 +106,59 @@ pub fn mark_frozen(
     count
 }
 
+/// Where the pair phase puts each slot's force (f_x, f_y, T, 0): into its owner's term
+/// and, with x and y negated, into its partner's, in an array of 2 × slots terms in
+/// which each grain's are contiguous, in the order the grain sums them (own slots, then
+/// those where it is the partner, each ascending). The sums then read memory in order
+/// instead of chasing the partner slots. Every thread's pair phase writes it at once;
+/// each slot's two places are its own.
+#[derive(Clone, Copy)]
+pub struct TermSink<'a> {
+    terms: *mut Quad,
+    len: usize,
+    /// `Reverse::term_own` and `term_partner` for the slots the phase computes (its
+    /// first slot at index 0).
+    own: &'a [u32],
+    partner: &'a [u32],
+}
+
+impl<'a> TermSink<'a> {
+    /// # Safety
+    /// `terms` points at `len` terms; every index in `own` and `partner` is below `len`
+    /// (`sync_list_buffers` checks it), and no other thread touches those places
+    /// while the sink is used.
+    pub unsafe fn new(terms: *mut Quad, len: usize, own: &'a [u32], partner: &'a [u32]) -> Self {
+        assert_eq!(
+            own.len(),
+            partner.len(),
+            "one owner and one partner term per slot"
+        );
+        TermSink {
+            terms,
+            len,
+            own,
+            partner,
+        }
+    }
+
+    /// Slot s's force onto its owner and its partner.
+    #[inline(always)]
+    pub fn put(&self, s: usize, q: Quad) {
+        let (a, b) = (self.own[s] as usize, self.partner[s] as usize);
+        assert!(a < self.len && b < self.len, "term within the array");
+        // SAFETY: in bounds (above); the places are this slot's alone (`new`).
+        unsafe {
+            *self.terms.add(a) = q;
+            *self.terms.add(b) = Quad([-q.0[0], -q.0[1], q.0[2], q.0[3]]);
+        }
+    }
+
+    /// The raw parts, for the vector kernel.
+    pub(crate) fn parts(&self) -> (*mut Quad, usize, &'a [u32], &'a [u32]) {
+        (self.terms, self.len, self.own, self.partner)
+    }
+}
+
 /// Positions (m), velocities (m/s), spins (rad/s) and radii (m) of every grain.
 #[derive(Clone, Copy)]
 pub struct GrainState<'a> {
@@ -108,19 +178,19 @@ pub struct SlotRecord<'a> {
 }
 
 /// Phase 2: the contact of every pair slot owned by the grains in `range` (slots
-/// `start[range.start]..start[range.end]`, which `shear`, `slot_force` and `rec` hold):
+/// `start[range.start]..start[range.end]`, which `shear`, `sink` and `rec` hold):
 /// see [`slot_contact`]. A slot between two grains `resting` this step (v = a = ω = 0
 /// before the drift, so neither moves, and no slip adds to the history) keeps last
 /// step's values, which are then exactly what it would compute: the same positions, an
 /// unchanged shear spring, and, without normal damping (the caller's condition), no
-/// velocity term. Returns the slots skipped.
+/// velocity term (its terms keep theirs too). Returns the slots skipped.
 #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 pub fn pair_slots(
     range: Range<usize>,
     g: GrainState,
     (start, js): (&[u32], &[u32]),
     shear: &mut [f64],
-    slot_force: &mut [Quad],
+    sink: TermSink,
     resting: Option<&[bool]>,
     laws: (&Hooke, &CundallStrack, f64),
     mut rec: Option<SlotRecord>,
@@ -136,7 +206,9 @@ pub fn pair_slots(
                 skipped += 1;
                 continue;
             }
-            let contact = slot_contact(i, j, &g, &mut shear[s], &mut slot_force[s], laws);
+            let mut force = Quad::default();
+            let contact = slot_contact(i, j, &g, &mut shear[s], &mut force, laws);
+            sink.put(s, force);
             if let Some(r) = rec.as_mut() {
                 r.touching[s] = contact.is_some();
                 if let Some((f_n, f_t)) = contact {
@@ -172,7 +244,10 @@ pub fn slot_contact(
         return None;
     }
     let dist = r2.sqrt();
-    let (nx, ny) = (dx / dist, dy / dist);
+    // One division for both components (the vector kernels' divider is their
+    // bottleneck); within an ulp of dx / dist.
+    let inv_dist = 1.0 / dist;
+    let (nx, ny) = (dx * inv_dist, dy * inv_dist);
     let (dvx, dvy) = (g.vx[i] - g.vx[j], g.vy[i] - g.vy[j]);
     let f_n = normal.force(rs - dist, dvx * nx + dvy * ny);
     let vt = dvy * nx - dvx * ny - 0.5 * dist * (g.omega[i] + g.omega[j]);
@@ -187,16 +262,16 @@ pub fn slot_contact(
 }
 
 crate::multiversion! {
-/// Phase 3a: each grain's contact force and torque, Σ over its own slots minus Σ over
-/// the slots where it is the partner (the torque T_ij = −½ r_ij × F_t acts alike on
-/// both); `frozen`, `fx`, `fy`, `tq` hold the range's. Frozen grains keep last step's
-/// sums.
-#[allow(clippy::too_many_arguments)]
+/// Phase 3a: each grain's contact force and torque, the sum of its terms in order
+/// (own slots, then the slots where it is the partner, with x and y negated: the
+/// torque T_ij = −½ r_ij × F_t acts alike on both); `frozen`, `fx`, `fy`, `tq` hold the
+/// range's. Frozen grains keep last step's sums (their terms are unchanged).
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 pub fn gather(
     range: Range<usize>,
     start: &[u32],
     rev: &Reverse,
-    slot_force: &[Quad],
+    terms: &[Quad],
     frozen: Option<&[bool]>,
     fx: &mut [f64],
     fy: &mut [f64],
@@ -207,35 +282,17 @@ pub fn gather(
         if frozen.is_some_and(|f| f[i - lo]) {
             continue;
         }
-        let own = &slot_force[start[i] as usize..start[i + 1] as usize];
-        let s = sum_slots(own, &rev.slot[rev.of(i)], slot_force);
+        let mut s = [0.0; 4];
+        for f in &terms[rev.terms_of(start, i)] {
+            for l in 0..4 {
+                s[l] += f.0[l];
+            }
+        }
         fx[i - lo] = s[0];
         fy[i - lo] = s[1];
         tq[i - lo] = s[2];
     }
 }
-}
-
-/// Σ `own` + Σ over the slots `theirs` of `all` with x and y negated (the partner's
-/// side), in that order, component by component (a four-lane add per slot).
-#[inline(always)]
-#[allow(clippy::needless_range_loop)]
-fn sum_slots(own: &[Quad], theirs: &[u32], all: &[Quad]) -> [f64; 4] {
-    let mut s = [0.0; 4];
-    for f in own {
-        for l in 0..4 {
-            s[l] += f.0[l];
-        }
-    }
-    // s − f and s + (−f) round alike.
-    const SIGN: [f64; 4] = [-1.0, -1.0, 1.0, 1.0];
-    for &k in theirs {
-        let f = &all[k as usize].0;
-        for l in 0..4 {
-            s[l] += SIGN[l] * f[l];
-        }
-    }
-    s
 }
 
 /// The bars as grains of infinite radius with 2 k_n and 2 k_t and friction μ_bar
@@ -274,12 +331,24 @@ pub fn bar_contacts(
     tq: &mut [f64],
 ) -> [f64; 3] {
     let (mut top_force, mut bottom_force, mut shear_force) = (0.0, 0.0, 0.0);
-    for i in 0..g.y.len() {
+    let n = g.y.len();
+    let clear = |i: usize| b.top - g.y[i] >= g.radius[i] && g.y[i] - b.bottom >= g.radius[i];
+    let mut i = 0;
+    while i < n {
+        // Four grains at once clear of both bars (most of a pillar): what the loop below
+        // does to each, with one test and no branch per grain.
+        if i + 4 <= n && (clear(i) & clear(i + 1) & clear(i + 2) & clear(i + 3)) {
+            g.top_shear[i..i + 4].fill(0.0);
+            g.bottom_shear[i..i + 4].fill(0.0);
+            i += 4;
+            continue;
+        }
         let r = g.radius[i];
-        if g.frozen.is_some_and(|f| f[i]) || (b.top - g.y[i] >= r && g.y[i] - b.bottom >= r) {
+        if g.frozen.is_some_and(|f| f[i]) || clear(i) {
             // Clear of both bars (frozen grains are by definition).
             g.top_shear[i] = 0.0;
             g.bottom_shear[i] = 0.0;
+            i += 1;
             continue;
         }
         // n points from the bar into the grain; t̂ = ẑ × n.
@@ -311,6 +380,7 @@ pub fn bar_contacts(
             tq[i] += -gap * f_t;
             *total += f_n;
         }
+        i += 1;
     }
     [top_force, bottom_force, shear_force]
 }

@@ -389,6 +389,58 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
     assert_eq!(one.record, mixed.record);
 }
 
+/// Most steps of an `advance` call are fast (no serial part: thread 0 folds the last
+/// step's totals in while the pairs run); a lone `step` is always slow (the first of
+/// its call). The two must agree on everything, bookkeeping included: the interval
+/// sums, the bar forces, the skip counters and the frozen marking.
+#[test]
+fn fast_steps_keep_the_books_as_serial_steps_do() {
+    let mut p = PillarParams::fast();
+    p.bar_speed *= 5.0;
+    let start = packed_pillar(300, 4, p);
+    let mut serial = start.clone();
+    for _ in 0..1_500 {
+        serial.step();
+    }
+    assert!(
+        serial.scratch.frozen_grain_steps > 0,
+        "some grains were frozen"
+    );
+    assert!(
+        serial.scratch.skipped_pairs > 0,
+        "some pair slots were skipped"
+    );
+    assert!(
+        serial.list.builds > start.list.builds,
+        "the list was rebuilt"
+    );
+    for threads in [1, 2] {
+        let mut fast = start.clone();
+        fast.scratch.no_fallback = true;
+        fast.advance_with(1_500, threads);
+        assert_eq!(fast.step, serial.step, "{threads} threads");
+        assert_eq!(fast.grains, serial.grains);
+        assert_eq!(fast.interval, serial.interval);
+        assert_eq!(fast.interval.steps, serial.interval.steps);
+        assert_eq!(
+            (fast.top_force, fast.bottom_force, fast.bar_shear_force),
+            (
+                serial.top_force,
+                serial.bottom_force,
+                serial.bar_shear_force
+            )
+        );
+        assert_eq!(
+            (fast.scratch.frozen_grain_steps, fast.scratch.skipped_pairs),
+            (
+                serial.scratch.frozen_grain_steps,
+                serial.scratch.skipped_pairs
+            )
+        );
+        assert_eq!(fast.scratch.marking.now, serial.scratch.marking.now);
+    }
+}
+
 #[test]
 fn baseline_and_avx2_kernels_give_the_same_run_bit_for_bit() {
     use crate::dem::simd::{Level, detected, level, use_at_most};
