@@ -62,6 +62,10 @@ pub struct StepBuffers {
     pub busy_pairs: Vec<f64>,
 }
 
+/// A value alone in its cache line (two, against the adjacent-line prefetcher).
+#[repr(align(128))]
+struct Line<T>(T);
+
 /// Over each window of steps, more long waits than this send the rest of an `advance`
 /// call to one thread.
 const FALLBACK_WINDOW: u64 = 64;
@@ -115,9 +119,12 @@ impl PillarSim {
         // Steps done, and a request (from thread 0) to finish on one thread: on a machine
         // busy with other work each barrier can cost a scheduler time slice.
         let done = AtomicU64::new(0);
-        let fall_back = AtomicBool::new(false);
+        let fall_back = Line(AtomicBool::new(false));
         // This step's frozen marking, decided by thread 0 during a fast step's pairs.
-        let mark_now = AtomicBool::new(false);
+        // Each in a cache line of its own: thread 0 writes this every fast step, and
+        // `fall_back` is read by every thread every step (a shared line would cross
+        // cores twice a step).
+        let mark_now = Line(AtomicBool::new(false));
         // SAFETY: read before any thread starts.
         let first = unsafe { (*sim.get()).step };
         // A step: the kick; a barrier; the pair slots; a barrier; the grain phase (a
@@ -139,7 +146,7 @@ impl PillarSim {
             for k in 0..steps {
                 // Set by thread 0 in a serial part; every thread has passed a barrier
                 // since, so all stop at the same step.
-                if fall_back.load(Ordering::Relaxed) {
+                if fall_back.0.load(Ordering::Relaxed) {
                     break;
                 }
                 // The step count during this step's forces, and its parity.
@@ -169,7 +176,7 @@ impl PillarSim {
                                     if barrier.long_waits.swap(0, Ordering::Relaxed)
                                         > FALLBACK_LONG_WAITS
                                     {
-                                        fall_back.store(true, Ordering::Relaxed);
+                                        fall_back.0.store(true, Ordering::Relaxed);
                                     }
                                 }
                             }
@@ -186,7 +193,7 @@ impl PillarSim {
                     }
                     let clock = timed.then(Instant::now);
                     if !slow && t == 0 {
-                        mark_now.store(
+                        mark_now.0.store(
                             fast_bookkeeping(sim.get(), freeze, 1 - parity),
                             Ordering::Relaxed,
                         );
@@ -197,7 +204,7 @@ impl PillarSim {
                     }
                     barrier.wait(t, &mut spin);
                     if !slow {
-                        a = a.with_flags(freeze, mark_now.load(Ordering::Relaxed));
+                        a = a.with_flags(freeze, mark_now.0.load(Ordering::Relaxed));
                     }
                     let clock = timed.then(Instant::now);
                     phase_grains(&a, t, &laws, step, parity);
@@ -464,7 +471,11 @@ unsafe fn fold_totals(sim: *mut PillarSim, kick: bool, parity: usize) {
 /// and write only this step's halves of the counts.
 unsafe fn fast_bookkeeping(sim: *mut PillarSim, freeze: bool, parity: usize) -> bool {
     unsafe {
-        (*sim).scratch.buffers.slots_valid = true;
+        // Written only when it changes: the flag shares a cache line with the reverse
+        // index the other threads read in every phase.
+        if !(*sim).scratch.buffers.slots_valid {
+            (*sim).scratch.buffers.slots_valid = true;
+        }
         fold_totals(sim, true, parity);
         (*sim).step += 1;
         let marking = &mut (*sim).scratch.marking;
