@@ -631,7 +631,7 @@ fn slot_kernel_gives_the_straight_loops_run_bit_for_bit() {
             straight.list.builds > 2,
             "{model:?}: the list was never rebuilt"
         );
-        for max in [Level::Baseline, Level::Avx2] {
+        for max in [Level::Baseline, Level::Avx2, Level::Avx512] {
             use_at_most(max);
             assert_eq!(level(), max.min(detected()));
             let mut fast = start.clone();
@@ -678,7 +678,7 @@ fn slot_kernel_gives_the_straight_loops_run_bit_for_bit() {
             assert_eq!(fast.virial(), straight.virial(), "{what}");
             assert_eq!(fast.coll, straight.coll, "{what}");
         }
-        use_at_most(Level::Avx2);
+        use_at_most(Level::Avx512);
     }
 }
 

@@ -45,3 +45,10 @@ pub(crate) fn transpose(
         _mm256_permute2f128_pd(t1, t3, 0x31),
     )
 }
+
+/// `[f(0), f(1), f(2), f(3)]`, always inlined: an array's `map` in a kernel body built
+/// for two instruction sets (`avx2_entry_point!`) stayed an out-of-line call.
+#[inline(always)]
+pub(crate) fn lanes<T>(mut f: impl FnMut(usize) -> T) -> [T; 4] {
+    [f(0), f(1), f(2), f(3)]
+}

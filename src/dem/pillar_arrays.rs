@@ -424,7 +424,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
         let rest = a.freeze.then(|| resting(a, parity));
         let n = a.x.1;
         #[cfg(target_arch = "x86_64")]
-        if rec.is_none() && level() == Level::Avx2 {
+        if rec.is_none() && level() >= Level::Avx2 {
             let packed = PackedGrains {
                 state: a.packed_state.all(),
                 spin: a.packed_spin.all(),

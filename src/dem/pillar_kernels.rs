@@ -73,7 +73,7 @@ pub fn kick_drift(
     );
     let refs_ok = inp.x_ref.len() == n && inp.y_ref.len() == n;
     #[cfg(target_arch = "x86_64")]
-    if super::simd::level() == super::simd::Level::Avx2 {
+    if super::simd::level() >= super::simd::Level::Avx2 {
         // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
         let m = unsafe { super::pillar_avx2::kick_drift(dt, d, inp, refs_ok, state, spin) };
         return if refs_ok { m } else { f64::INFINITY };
@@ -266,7 +266,7 @@ pub fn substrate_kick(inp: &SubstrateInputs, out: SubstrateState) {
         "substrate_kick: slices of one length"
     );
     #[cfg(target_arch = "x86_64")]
-    if super::simd::level() == super::simd::Level::Avx2 {
+    if super::simd::level() >= super::simd::Level::Avx2 {
         // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
         unsafe { super::pillar_avx2::substrate_kick(inp, out) };
         return;

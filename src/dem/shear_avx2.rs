@@ -21,6 +21,7 @@ use super::shear_near::{History, Slots};
 use super::shear_pairs::{PairParams, StateSlices};
 use std::arch::x86_64::*;
 
+crate::avx2_entry_point! {
 /// As `shear_slots::evaluate` (α = 2 only): forces and torques into `fx`, `fy`, `tq`,
 /// with `TRACK` the history and collision counts.
 ///
@@ -29,9 +30,23 @@ use std::arch::x86_64::*;
 /// (indices < n, tables padded to a multiple of four), and every slice of `st` and the
 /// force arrays must have length n, as `shear_slots::evaluate` (the one caller) asserts;
 /// `packed` is refilled unless it holds this state (`Packed::fill`).
+pub(crate) fn evaluate<const TRACK: bool>(
+    st: StateSlices,
+    slots: &Slots,
+    packed: &mut Packed,
+    acc: &mut Vec<Quad>,
+    hist: &mut History,
+    pp: &PairParams,
+    fx: &mut [f64],
+    fy: &mut [f64],
+    tq: &mut [f64],
+    coll: &mut Collisions,
+) = evaluate_body
+}
+
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
-#[target_feature(enable = "avx2")]
-pub(crate) unsafe fn evaluate<const TRACK: bool>(
+unsafe fn evaluate_body<const TRACK: bool>(
     st: StateSlices,
     slots: &Slots,
     packed: &mut Packed,
@@ -132,9 +147,9 @@ struct Stage1 {
 
 /// # Safety
 /// AVX2 present; every slot index (padding included) < the arrays' length n.
+/// (No target feature of its own: it is compiled into each entry point of `evaluate`.)
 #[allow(clippy::too_many_arguments)]
-#[inline]
-#[target_feature(enable = "avx2")]
+#[inline(always)]
 unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
     pos: &[Pos],
     vel: &[Quad],

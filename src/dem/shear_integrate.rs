@@ -28,7 +28,7 @@ impl Packed {
     pub fn used_for(p: &super::shear::ShearParams) -> bool {
         cfg!(target_arch = "x86_64")
             && p.alpha == 2.0
-            && super::simd::level() == super::simd::Level::Avx2
+            && super::simd::level() >= super::simd::Level::Avx2
     }
 
     /// Pack the state (x, y, v_x, v_y, ω, R) unless the integrator already did.

@@ -98,7 +98,7 @@ pub fn evaluate<const TRACK: bool>(
     );
     let harmonic = pp.alpha == 2.0;
     #[cfg(target_arch = "x86_64")]
-    if harmonic && super::simd::level() == super::simd::Level::Avx2 {
+    if harmonic && super::simd::level() >= super::simd::Level::Avx2 {
         let mut acc = std::mem::take(&mut slots.acc);
         // SAFETY: the processor has AVX2 (checked at run time).
         slots.with_history(all_hist, |slots, hist| unsafe {

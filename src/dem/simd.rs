@@ -3,9 +3,15 @@
 //! fuses a multiply and an add on its own and vector lanes round as scalars do, so both
 //! versions give the same numbers bit for bit; AVX2 does four lanes at a time.
 //!
-//! No AVX-512 version: LLVM turns the pair kernels' indexed loads into AVX-512 gathers,
-//! which on this project's machines (AMD EPYC, Zen 4) made the sheared-disk step 12–16 %
-//! slower than AVX2's loads and inserts (`bench shear`, N = 1024 and 16,384).
+//!
+//! A third level, `Avx512`, compiles the same 256-bit code with AVX-512 F/VL/DQ enabled:
+//! LLVM then has 32 vector registers instead of 16 (the pair kernels spilled), mask
+//! registers and three-input logic, for the same operations on the same lanes, so the
+//! same numbers (tested). It is used for the intrinsics kernels (`avx2_entry_point!`)
+//! only: the autovectorised loops of `multiversion!` turned slower with it. No 512-bit
+//! vectors:
+//! LLVM turned the pair kernels' indexed loads into AVX-512 gathers, which on AMD EPYC
+//! Zen 4 made the sheared-disk step 12–16 % slower than AVX2's loads and inserts.
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
@@ -26,6 +32,8 @@ pub struct Quad(pub [f64; 4]);
 pub enum Level {
     Baseline = 1,
     Avx2 = 2,
+    /// AVX2 code compiled with AVX-512 F, VL and DQ available.
+    Avx512 = 3,
 }
 
 /// 0 not yet detected, else the `Level` in use.
@@ -35,7 +43,15 @@ static STATE: AtomicU8 = AtomicU8::new(0);
 pub fn detected() -> Level {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::is_x86_feature_detected!("avx2") {
+        let avx2 = std::is_x86_feature_detected!("avx2");
+        if avx2
+            && std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("avx512vl")
+            && std::is_x86_feature_detected!("avx512dq")
+        {
+            return Level::Avx512;
+        }
+        if avx2 {
             return Level::Avx2;
         }
     }
@@ -54,6 +70,7 @@ pub fn level() -> Level {
     match STATE.load(Ordering::Relaxed) {
         1 => Level::Baseline,
         2 => Level::Avx2,
+        3 => Level::Avx512,
         _ => {
             let l = detected();
             STATE.store(l as u8, Ordering::Relaxed);
@@ -81,12 +98,54 @@ macro_rules! multiversion {
                     imp($($arg),*)
                 }
                 match $crate::dem::simd::level() {
-                    // SAFETY: the processor has these (checked at run time).
-                    $crate::dem::simd::Level::Avx2 => return unsafe { avx2($($arg),*) },
+                    // SAFETY: the processor has these (checked at run time). Not an
+                    // AVX-512 build for Level::Avx512: LLVM then autovectorises these
+                    // loops with 512-bit registers, which made the sheared-disk step 4 %
+                    // slower on the project's Intel machines.
+                    $crate::dem::simd::Level::Avx512 | $crate::dem::simd::Level::Avx2 => {
+                        return unsafe { avx2($($arg),*) }
+                    }
                     $crate::dem::simd::Level::Baseline => {}
                 }
             }
             imp($($arg),*)
+        }
+    };
+}
+
+/// An entry point to a kernel written with AVX2 intrinsics: `body` is an
+/// `#[inline(always)] unsafe fn` without target features, compiled here twice, for AVX2
+/// and for [`Level::Avx512`] (same operations, same numbers; see the module notes), and
+/// `name` runs the one the level in use picks. Arguments must be plain identifiers; the
+/// safety contract is the body's, which includes AVX2.
+#[macro_export]
+macro_rules! avx2_entry_point {
+    ($(#[$m:meta])* $vis:vis fn $name:ident $(<$(const $g:ident: $gt:ty),*>)?
+        ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? = $body:ident) => {
+        $(#[$m])*
+        #[allow(clippy::too_many_arguments)]
+        $vis unsafe fn $name $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
+            #[target_feature(enable = "avx2")]
+            #[allow(clippy::too_many_arguments)]
+            unsafe fn avx2 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
+                // SAFETY: the caller keeps the body's contract.
+                unsafe { $body $(::<$($g),*>)? ($($arg),*) }
+            }
+            #[target_feature(enable = "avx2,avx512f,avx512vl,avx512dq")]
+            #[allow(clippy::too_many_arguments)]
+            unsafe fn avx512 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
+                // SAFETY: the caller keeps the body's contract.
+                unsafe { $body $(::<$($g),*>)? ($($arg),*) }
+            }
+            // SAFETY: the caller keeps the body's contract (AVX2 present); the level is
+            // Avx512 only where the processor has those features too.
+            unsafe {
+                if $crate::dem::simd::level() == $crate::dem::simd::Level::Avx512 {
+                    avx512 $(::<$($g),*>)? ($($arg),*)
+                } else {
+                    avx2 $(::<$($g),*>)? ($($arg),*)
+                }
+            }
         }
     };
 }
