@@ -67,13 +67,8 @@ crate::avx2_entry_point! {
 /// # Safety
 /// The processor must have AVX2. Every slice but `frozen` must have length
 /// `out.vx.len()`; `frozen` that length or none (the dispatcher asserts both).
-pub(crate) fn substrate_kick(inp: &SubstrateInputs, out: SubstrateState)
-    = substrate_kick_body
-}
-
-#[inline(always)]
-#[allow(unused_unsafe)]
-unsafe fn substrate_kick_body(inp: &SubstrateInputs, mut out: SubstrateState) {
+pub(crate) unsafe fn substrate_kick(inp: &SubstrateInputs, out: SubstrateState) {
+    let mut out = out;
     unsafe {
         let SubstrateInputs {
             kick,
@@ -204,6 +199,8 @@ unsafe fn substrate_kick_body(inp: &SubstrateInputs, mut out: SubstrateState) {
             substrate_kick_scalar(&inp.range(n4..n), out.range(n4..n));
         }
     }
+
+}
 }
 
 /// Grains g[0..4]'s (x, y, v_x, v_y) and (ω, R) records as six field vectors.
@@ -239,16 +236,16 @@ pub struct PackedGrains<'a> {
 
 crate::avx2_entry_point! {
 /// As [`super::pillar_phases::pair_slots`] without a force record, four slots at a
-/// time: slots `slots` (of the whole list), owned by `owner[k]`, partnered by `js[k]`;
+/// time: slots `slots` (of the whole list), owned by `ids.0[k]`, partnered by `ids.1[k]`;
 /// `shear` and `sink` hold the range's slots. The last slots short of a multiple
 /// of four go through the scalar `slot_contact` with `g`. Returns the slots skipped.
 ///
 /// # Safety
 /// The processor must have AVX2; `packed` holds the state `g` holds, and both and
-/// `resting` cover every grain that `owner` and `js` name over `slots` (the caller
-/// asserts both); the sink's term places are in bounds (`sync_list_buffers` checks
-/// every one after each rebuild).
-pub(crate) fn pair_slots(
+/// `resting` cover every grain that the owners and partners name over `slots` (the
+/// caller asserts both); the sink's term places are in bounds (`sync_list_buffers`
+/// checks every one after each rebuild).
+pub(crate) unsafe fn pair_slots(
     slots: Range<usize>,
     g: GrainState,
     packed: PackedGrains,
@@ -257,21 +254,8 @@ pub(crate) fn pair_slots(
     sink: TermSink,
     resting: Option<&[bool]>,
     laws: (&Hooke, &CundallStrack, f64),
-) -> u64 = pair_slots_body
-}
-
-#[inline(always)]
-#[allow(clippy::too_many_arguments, unused_unsafe)]
-unsafe fn pair_slots_body(
-    slots: Range<usize>,
-    g: GrainState,
-    packed: PackedGrains,
-    (owner, js): (&[u32], &[u32]),
-    shear: &mut [f64],
-    sink: TermSink,
-    resting: Option<&[bool]>,
-    (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
 ) -> u64 {
+    let ((owner, js), (normal, tangential, dt)) = (ids, laws);
     unsafe {
         let len = slots.len();
         let len4 = len / 4 * 4;
@@ -400,6 +384,8 @@ unsafe fn pair_slots_body(
         }
         skipped
     }
+
+}
 }
 
 crate::avx2_entry_point! {
@@ -408,19 +394,7 @@ crate::avx2_entry_point! {
 /// # Safety
 /// The processor must have AVX2; every slice of `d`, `inp` (the references when
 /// `refs_ok`), `state` and `spin` has length `d.x.len()` (the dispatcher asserts it).
-pub(crate) fn kick_drift(
-    dt: f64,
-    d: Drift,
-    inp: &DriftInputs,
-    refs_ok: bool,
-    state: &mut [Quad],
-    spin: &mut [Pos],
-) -> f64 = kick_drift_body
-}
-
-#[inline(always)]
-#[allow(unused_unsafe)]
-unsafe fn kick_drift_body(
+pub(crate) unsafe fn kick_drift(
     dt: f64,
     d: Drift,
     inp: &DriftInputs,
@@ -522,4 +496,6 @@ unsafe fn kick_drift_body(
         );
         m.max(t)
     }
+
+}
 }

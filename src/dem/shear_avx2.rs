@@ -30,23 +30,7 @@ crate::avx2_entry_point! {
 /// (indices < n, tables padded to a multiple of four), and every slice of `st` and the
 /// force arrays must have length n, as `shear_slots::evaluate` (the one caller) asserts;
 /// `packed` is refilled unless it holds this state (`Packed::fill`).
-pub(crate) fn evaluate<const TRACK: bool>(
-    st: StateSlices,
-    slots: &Slots,
-    packed: &mut Packed,
-    acc: &mut Vec<Quad>,
-    hist: &mut History,
-    pp: &PairParams,
-    fx: &mut [f64],
-    fy: &mut [f64],
-    tq: &mut [f64],
-    coll: &mut Collisions,
-) = evaluate_body
-}
-
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-unsafe fn evaluate_body<const TRACK: bool>(
+pub(crate) unsafe fn evaluate<const TRACK: bool>(
     st: StateSlices,
     slots: &Slots,
     packed: &mut Packed,
@@ -77,6 +61,8 @@ unsafe fn evaluate_body<const TRACK: bool>(
         let [a, b, c, _] = acc[i].0;
         (fx[i], fy[i], tq[i]) = (a, b, c);
     }
+
+}
 }
 
 /// Contact events of the four slots from k on (`touch` bits; see `History::update`).

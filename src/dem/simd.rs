@@ -113,29 +113,32 @@ macro_rules! multiversion {
     };
 }
 
-/// An entry point to a kernel written with AVX2 intrinsics: `body` is an
-/// `#[inline(always)] unsafe fn` without target features, compiled here twice, for AVX2
-/// and for [`Level::Avx512`] (same operations, same numbers; see the module notes), and
-/// `name` runs the one the level in use picks. Arguments must be plain identifiers; the
-/// safety contract is the body's, which includes AVX2.
+/// `pub unsafe fn name(a: A, …) -> R { body }` for a kernel written with AVX2
+/// intrinsics: the body is compiled twice, for AVX2 and for [`Level::Avx512`] (same
+/// operations, same numbers; see the module notes), and the call runs the one the level
+/// in use picks. Arguments must be plain identifiers; the safety contract is the body's,
+/// which includes AVX2.
 #[macro_export]
 macro_rules! avx2_entry_point {
-    ($(#[$m:meta])* $vis:vis fn $name:ident $(<$(const $g:ident: $gt:ty),*>)?
-        ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? = $body:ident) => {
+    ($(#[$m:meta])* $vis:vis unsafe fn $name:ident $(<$(const $g:ident: $gt:ty),*>)?
+        ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
         $(#[$m])*
         #[allow(clippy::too_many_arguments)]
         $vis unsafe fn $name $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
+            #[inline(always)]
+            #[allow(clippy::too_many_arguments, unused_unsafe)]
+            unsafe fn imp $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? $body
             #[target_feature(enable = "avx2")]
             #[allow(clippy::too_many_arguments)]
             unsafe fn avx2 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
                 // SAFETY: the caller keeps the body's contract.
-                unsafe { $body $(::<$($g),*>)? ($($arg),*) }
+                unsafe { imp $(::<$($g),*>)? ($($arg),*) }
             }
             #[target_feature(enable = "avx2,avx512f,avx512vl,avx512dq")]
             #[allow(clippy::too_many_arguments)]
             unsafe fn avx512 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
                 // SAFETY: the caller keeps the body's contract.
-                unsafe { $body $(::<$($g),*>)? ($($arg),*) }
+                unsafe { imp $(::<$($g),*>)? ($($arg),*) }
             }
             // SAFETY: the caller keeps the body's contract (AVX2 present); the level is
             // Avx512 only where the processor has those features too.
