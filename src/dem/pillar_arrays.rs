@@ -202,15 +202,18 @@ impl SendPtr {
 }
 
 impl PillarSim {
+    /// Whether steps may skip frozen grains and resting pairs at all: asked for, exact
+    /// (only without normal damping; see `pair_slots`) and no force snapshot due (it
+    /// records every slot). A step skips when, besides, the terms hold the current
+    /// list's forces.
+    pub(crate) fn frozen_skip_allowed(&self) -> bool {
+        self.scratch.skip_frozen && self.params.damping_n == 0.0 && self.record.is_none()
+    }
+
     /// Raw views of every array, and this step's switches (frozen skip, force
     /// snapshot, second kick).
     pub(crate) fn arrays(&mut self, kick: bool) -> Arrays {
-        // Skipping is exact only without normal damping (see `pair_slots`).
-        let freeze = self.scratch.skip_frozen
-            && self.params.damping_n == 0.0
-            && self.record.is_none()
-            && self.scratch.buffers.slots_valid
-            && kick;
+        let freeze = self.frozen_skip_allowed() && self.scratch.buffers.slots_valid && kick;
         let record = self.record.is_some();
         let mark = freeze && self.scratch.marking.now;
         self.scratch.marking.marked = mark;
@@ -287,10 +290,15 @@ impl Arrays {
     }
 }
 
-/// Thread t's entry in the `parity` half of a per-thread count kept per step parity
-/// (thread 0 folds last step's half in while this step's is written).
+/// The `parity` half of a per-thread count kept per step parity (`threads` entries a
+/// half): thread 0 folds last step's half in while this step's is written.
+pub(crate) fn parity_half(threads: usize, parity: usize) -> Range<usize> {
+    parity * threads..parity * threads + threads
+}
+
+/// Thread t's entry in the `parity` half of a count (see [`parity_half`]).
 fn half(a: &Arrays, parity: usize, t: usize) -> Range<usize> {
-    let k = parity * (a.skipped.1 / 2) + t;
+    let k = parity_half(a.skipped.1 / 2, parity).start + t;
     k..k + 1
 }
 
@@ -463,7 +471,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
 /// kick.
 ///
 /// No barrier separates this from the next step's kick, so it reads other threads'
-/// grains only in arrays no kick writes (slot forces, radii, the list).
+/// grains only in arrays no kick writes (the terms, radii, the list).
 pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u64, parity: usize) {
     unsafe {
         let bars = laws.bars_at(step);

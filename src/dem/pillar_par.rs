@@ -9,7 +9,7 @@
 use super::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
 use super::pillar::PillarSim;
 use super::pillar_arrays::{
-    SendPtr, Shared, StepLaws, phase_grains, phase_kick, phase_pack, phase_pairs,
+    SendPtr, Shared, StepLaws, parity_half, phase_grains, phase_kick, phase_pack, phase_pairs,
 };
 use super::pillar_phases::{CHUNK, Reverse};
 use super::simd::{Pos, Quad};
@@ -44,8 +44,8 @@ pub struct StepBuffers {
     /// Per grain: |f·v| and |T_μ ω| (W), summed per chunk into `power`.
     pub pow_t: Vec<f64>,
     pub pow_r: Vec<f64>,
-    /// Per thread: largest squared move since the list build (m²), slots skipped,
-    /// frozen grains.
+    /// Per thread: largest squared move since the list build (m²); per step parity
+    /// and thread (`pillar_arrays::parity_half`): slots skipped, frozen grains.
     pub moved2: Vec<f64>,
     pub skipped: Vec<u64>,
     pub frozen_count: Vec<usize>,
@@ -106,13 +106,11 @@ impl PillarSim {
         let barrier = SpinBarrier::new(threads);
         let shared = Shared(UnsafeCell::new(self.arrays(true)));
         let laws = StepLaws::of(self);
-        // What `arrays` would give for the frozen skip while the list stands (the
-        // fast steps below never rebuild it).
-        let freeze =
-            self.scratch.skip_frozen && self.params.damping_n == 0.0 && self.record.is_none();
+        // The frozen skip of a fast step: the terms always hold the list's forces there
+        // (fast steps never rebuild it).
+        let freeze = self.frozen_skip_allowed();
         let record = self.record.is_some();
-        let half = 0.5 * self.list.skin;
-        let rebuild_at = half * half;
+        let skin = self.list.skin;
         let no_fallback = threads == 1 || self.scratch.no_fallback;
         let sim: *mut PillarSim = self;
         let sim = SendPtr(sim);
@@ -165,7 +163,7 @@ impl PillarSim {
                     let slow = k == 0
                         || record
                         || step.is_multiple_of(REBALANCE_EVERY)
-                        || a.moved2.view(0..threads).iter().any(|&m| m > rebuild_at);
+                        || strayed(a.moved2.view(0..threads), skin);
                     if slow {
                         if t == 0 {
                             let s = &mut *sim.get();
@@ -372,10 +370,9 @@ impl PillarSim {
     /// Thread 0 between the kick and the forces: the list's rebuild test and rebuild,
     /// the step count.
     fn serial_before(&mut self) {
-        let b = &self.scratch.buffers;
-        let moved2 = b.moved2.iter().copied().fold(0.0, f64::max);
-        let half = 0.5 * self.list.skin;
-        if moved2 > half * half || self.list.x_ref.len() != self.grains.len() {
+        if strayed(&self.scratch.buffers.moved2, self.list.skin)
+            || self.list.x_ref.len() != self.grains.len()
+        {
             let g = &self.grains;
             self.list.build(&g.x, &g.y, &g.radius, Boundary::Open);
             self.scratch.buffers.slots_valid = false;
@@ -409,6 +406,14 @@ impl PillarSim {
     }
 }
 
+/// Whether some grain has moved more than half the list's `skin` (m) since the build,
+/// given each thread's largest squared move `moved2` (m²): the list must be rebuilt.
+/// Every thread asks this of the same numbers, so all take the same path.
+fn strayed(moved2: &[f64], skin: f64) -> bool {
+    let half = 0.5 * skin;
+    moved2.iter().any(|&m| m > half * half)
+}
+
 /// Last step's totals (bar forces and power in chunk order, the counts of the
 /// `parity` halves) into the simulation and its output interval (with `kick`), and the
 /// frozen marking's next choice. Touches only the fields it names, through `sim`.
@@ -438,8 +443,7 @@ unsafe fn fold_totals(sim: *mut PillarSim, kick: bool, parity: usize) {
             (*sim).bar_shear_force,
         ] = tot;
         let skipped: &mut Vec<u64> = &mut (*sim).scratch.buffers.skipped;
-        let threads = skipped.len() / 2;
-        let half = parity * threads..parity * threads + threads;
+        let half = parity_half(skipped.len() / 2, parity);
         let skipped = &mut skipped[half.clone()];
         (*sim).scratch.skipped_pairs += skipped.iter().sum::<u64>();
         skipped.fill(0);

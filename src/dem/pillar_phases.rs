@@ -106,7 +106,8 @@ pub fn mark_frozen(
     count
 }
 
-/// Where the pair phase puts each slot's force (f_x, f_y, T, 0): into its owner's term
+/// Where the pair phase puts each slot's force and torque (f_x, f_y, T, 0) (N, N, N m):
+/// into its owner's term
 /// and, with x and y negated, into its partner's, in an array of 2 × slots terms in
 /// which each grain's are contiguous, in the order the grain sums them (own slots, then
 /// those where it is the partner, each ascending). The sums then read memory in order

@@ -3,15 +3,14 @@
 //! fuses a multiply and an add on its own and vector lanes round as scalars do, so both
 //! versions give the same numbers bit for bit; AVX2 does four lanes at a time.
 //!
-//!
 //! A third level, `Avx512`, compiles the same 256-bit code with AVX-512 F/VL/DQ enabled:
 //! LLVM then has 32 vector registers instead of 16 (the pair kernels spilled), mask
 //! registers and three-input logic, for the same operations on the same lanes, so the
 //! same numbers (tested). It is used for the intrinsics kernels (`avx2_entry_point!`)
 //! only: the autovectorised loops of `multiversion!` turned slower with it. No 512-bit
-//! vectors:
-//! LLVM turned the pair kernels' indexed loads into AVX-512 gathers, which on AMD EPYC
-//! Zen 4 made the sheared-disk step 12–16 % slower than AVX2's loads and inserts.
+//! vectors: LLVM turned the pair kernels' indexed loads into AVX-512 gathers, which on
+//! AMD EPYC Zen 4 made the sheared-disk step 12–16 % slower than AVX2's loads and
+//! inserts.
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
