@@ -23,6 +23,7 @@ pub mod pillar;
 pub mod pillar_arrays;
 #[cfg(target_arch = "x86_64")]
 pub mod pillar_avx2;
+pub mod pillar_gather;
 pub mod pillar_kernels;
 pub mod pillar_par;
 pub mod pillar_phases;

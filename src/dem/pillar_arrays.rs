@@ -14,12 +14,13 @@ use super::contact::{CundallStrack, Hooke, SubstrateFriction};
 use super::pillar::{PillarSim, top_y_at};
 #[cfg(target_arch = "x86_64")]
 use super::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
+use super::pillar_gather::gather;
 use super::pillar_kernels::{
     Drift, DriftInputs, GrainConsts, SubstrateInputs, SubstrateState, kick_drift, pack_grains,
 };
 use super::pillar_phases::{
-    BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, TermSink, bar_contacts, gather,
-    mark_frozen, pair_slots, substrate_chunks,
+    BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, TermSink, bar_contacts, mark_frozen,
+    pair_slots, substrate_chunks,
 };
 use super::simd::{Level, Pos, Quad, level};
 use std::cell::UnsafeCell;
@@ -390,7 +391,6 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, laws: &StepLaws, bars: &Bars, parit
             out,
             resting(a, parity),
             a.y.part(r),
-            (a.start.all(), a.js.all()),
             &*a.rev,
             (bars.top, bars.bottom, laws.margin),
             a.radius.all(),
@@ -484,16 +484,7 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u
             a.fy.part(r.clone()),
             a.tq.part(r.clone()),
         );
-        gather(
-            r.clone(),
-            a.start.all(),
-            &*a.rev,
-            a.terms.all(),
-            fz,
-            fx,
-            fy,
-            tq,
-        );
+        gather(r.clone(), &*a.rev, a.terms.all(), fz, fx, fy, tq);
         let chunks = r.start / CHUNK..r.end.div_ceil(CHUNK);
         let sums = a.bar_sums.part(chunks.clone());
         // Own-range views only: other threads write their ranges of these arrays now.

@@ -21,8 +21,9 @@ use std::time::Instant;
 /// Per-step work the serial sections share with the phases (not state).
 #[derive(Debug, Clone, Default)]
 pub struct StepBuffers {
-    /// Each grain's contact terms, contiguous (`Reverse::terms_of`): per slot it takes
-    /// part in, the contact force (x, y, N) on it and the torque (N m), and a zero.
+    /// Each grain's contact terms, contiguous (`Reverse::terms_of`), padded to its
+    /// chunk's width with zeros: per slot it takes part in, the contact force (x, y, N)
+    /// on it and the torque (N m), and a zero.
     pub terms: Vec<Quad>,
     /// Whether `terms` holds this list's forces (a slot between resting grains is
     /// then left as it is).
@@ -71,10 +72,10 @@ struct Line<T>(T);
 const FALLBACK_WINDOW: u64 = 64;
 const FALLBACK_LONG_WAITS: usize = 16;
 /// Steps between rebalances of the threads' shares.
-const REBALANCE_EVERY: u64 = 32;
+const REBALANCE_EVERY: u64 = 128;
 /// Steps between timings of the phases for the rebalance (a clock read costs tens of
 /// nanoseconds, and a step of 1000 grains on two threads a few microseconds).
-const TIME_EVERY: u64 = 4;
+const TIME_EVERY: u64 = 16;
 
 impl PillarSim {
     /// Threads an `advance` uses: the `threads` setting, or (0) one per core up to one
@@ -326,14 +327,14 @@ impl PillarSim {
         let (n, slots) = (self.grains.len(), self.list.len());
         let b = &mut self.scratch.buffers;
         if b.reverse.start.len() != n + 1
-            || b.terms.len() != 2 * slots
+            || b.terms.len() != b.reverse.places
             || b.reverse.slot.len() != slots
         {
             b.slots_valid = false;
         }
         if !b.slots_valid {
             b.reverse = Reverse::build(n, &self.list.start, &self.list.j);
-            b.terms = vec![Quad::default(); 2 * slots];
+            b.terms = vec![Quad::default(); b.reverse.places];
             b.owner = (0..n)
                 .flat_map(|i| {
                     let r = self.list.start[i]..self.list.start[i + 1];
@@ -357,7 +358,7 @@ impl PillarSim {
                 && r.term_own
                     .iter()
                     .chain(&r.term_partner)
-                    .all(|&m| (m as usize) < 2 * slots),
+                    .all(|&m| (m as usize) < b.terms.len()),
             "term places within the terms"
         );
         let rec = self.record.is_some();

@@ -31,6 +31,18 @@ pub struct Reverse {
     /// [`TermSink`]): its owner's term and its partner's.
     pub term_own: Vec<u32>,
     pub term_partner: Vec<u32>,
+    /// The terms' layout, per [`CHUNK`] of grains: every grain of chunk c has
+    /// `width[c]` places (the most terms any of them has; the rest stay +0.0) from
+    /// `chunk_base[c]` on, grain after grain.
+    pub width: Vec<u32>,
+    pub chunk_base: Vec<u32>,
+    /// Places in all (real terms and padding).
+    pub places: usize,
+    /// Per place, the other grain of its term; the grain itself at the padding.
+    pub neighbour: Vec<u32>,
+    /// Per chunk, the lowest and highest grain among its grains' neighbours and
+    /// itself: only grains in that span can unmark one of its grains.
+    pub reach: Vec<(u32, u32)>,
 }
 
 impl Reverse {
@@ -43,7 +55,25 @@ impl Reverse {
         for k in 0..n {
             rs[k + 1] += rs[k];
         }
+        // Each grain's count of terms; a chunk's width is its largest, so the sums can
+        // run a fixed number of terms per grain through a whole chunk (no
+        // mispredicted loop exit per grain: that was most of their cost).
+        let count = |g: usize| start[g + 1] - start[g] + rs[g + 1] - rs[g];
+        let chunks = n.div_ceil(CHUNK);
+        let (mut width, mut chunk_base) = (Vec::with_capacity(chunks), Vec::with_capacity(chunks));
+        let mut places = 0u32;
+        for c in 0..chunks {
+            let grains = c * CHUNK..((c + 1) * CHUNK).min(n);
+            let w = grains.clone().map(count).max().unwrap_or(0);
+            chunk_base.push(places);
+            width.push(w);
+            places += w * grains.len() as u32;
+        }
+        let base = |g: usize| chunk_base[g / CHUNK] + (g % CHUNK) as u32 * width[g / CHUNK];
         let mut fill = rs.clone();
+        let mut neighbour: Vec<u32> = (0..n)
+            .flat_map(|g| std::iter::repeat_n(g as u32, width[g / CHUNK] as usize))
+            .collect();
         let (mut slot, mut other) = (vec![0u32; js.len()], vec![0u32; js.len()]);
         let (mut term_own, mut term_partner) = (vec![0u32; js.len()], vec![0u32; js.len()]);
         for i in 0..n {
@@ -52,25 +82,45 @@ impl Reverse {
                 let r = fill[j] as usize;
                 slot[r] = k as u32;
                 other[r] = i as u32;
-                // Grain g's terms start at start[g] + rs[g]: its own slots in order,
-                // then those where it is the partner, in order.
-                term_own[k] = k as u32 + rs[i];
-                term_partner[k] = start[j + 1] + r as u32;
+                // Grain g's terms start at its base: its own slots in order, then
+                // those where it is the partner, in order.
+                term_own[k] = base(i) + k as u32 - start[i];
+                term_partner[k] = base(j) + start[j + 1] - start[j] + (r as u32 - rs[j]);
+                neighbour[term_own[k] as usize] = j as u32;
+                neighbour[term_partner[k] as usize] = i as u32;
                 fill[j] += 1;
             }
         }
+        let reach = (0..chunks)
+            .map(|c| {
+                let grains = (c * CHUNK) as u32..((c + 1) * CHUNK).min(n) as u32;
+                let places = chunk_base[c] as usize
+                    ..chunk_base[c] as usize + width[c] as usize * grains.len();
+                let nb = neighbour[places].iter().copied();
+                let lo = nb.clone().min().unwrap_or(grains.start).min(grains.start);
+                (lo, nb.max().unwrap_or(grains.end - 1).max(grains.end - 1))
+            })
+            .collect();
         Reverse {
             start: rs,
             slot,
             other,
             term_own,
             term_partner,
+            width,
+            chunk_base,
+            places: places as usize,
+            neighbour,
+            reach,
         }
     }
 
-    /// Grain i's terms in the per-grain term array.
+    /// Grain i's terms in the per-grain term array (the padding after them excluded).
     pub fn terms_of(&self, start: &[u32], i: usize) -> Range<usize> {
-        (start[i] + self.start[i]) as usize..(start[i + 1] + self.start[i + 1]) as usize
+        let (c, w) = (i / CHUNK, self.width[i / CHUNK] as usize);
+        let from = self.chunk_base[c] as usize + (i % CHUNK) * w;
+        let count = start[i + 1] - start[i] + self.start[i + 1] - self.start[i];
+        from..from + count as usize
     }
     pub fn of(&self, j: usize) -> Range<usize> {
         self.start[j] as usize..self.start[j + 1] as usize
@@ -80,35 +130,62 @@ impl Reverse {
 /// Grains in `range` frozen this step (at rest, every partner at rest, clear of both
 /// bars by a margin of one step of bar travel); `frozen` and `y` hold the range's
 /// values, `resting` and `radius` every grain's. Returns how many.
-#[allow(clippy::too_many_arguments)]
+///
+/// Worked from the other side: the range's grains at rest and clear of the bars are
+/// marked, then every grain not at rest (anywhere) unmarks its partners in the range
+/// (`Reverse::neighbour`, the same relation both ways). Most grains rest where marking
+/// pays, so this touches a few partner lists instead of walking every grain's (that
+/// walk, a loop exit to mispredict per grain, cost a fifth of a quasistatic step).
 pub fn mark_frozen(
     range: Range<usize>,
     frozen: &mut [bool],
     resting: &[bool],
     y: &[f64],
-    (start, js): (&[u32], &[u32]),
     rev: &Reverse,
     (top, bottom, margin): (f64, f64, f64),
     radius: &[f64],
 ) -> usize {
-    let mut count = 0;
+    let lo = range.start;
+    let frozen = &mut frozen[..range.len()];
     for ((f, i), &yi) in frozen.iter_mut().zip(range).zip(y) {
-        let mut ok = resting[i] && top - yi > radius[i] + margin && yi - bottom > radius[i];
-        if ok {
-            ok = js[start[i] as usize..start[i + 1] as usize]
-                .iter()
-                .all(|&j| resting[j as usize])
-                && rev.other[rev.of(i)].iter().all(|&j| resting[j as usize]);
-        }
-        *f = ok;
-        count += ok as usize;
+        *f = resting[i] & (top - yi > radius[i] + margin) & (yi - bottom > radius[i]);
     }
-    count
+    // Only grains within the range's chunks' reach can unmark one of its grains.
+    let chunks = lo / CHUNK..(lo + frozen.len()).div_ceil(CHUNK);
+    let Some(first) = rev.reach[chunks.clone()].iter().map(|r| r.0).min() else {
+        return 0;
+    };
+    let last = rev.reach[chunks].iter().map(|r| r.1).max().unwrap_or(first);
+    let from = first as usize / 8 * 8;
+    let span = &resting[from..resting.len().min(last as usize + 1)];
+    // Eight rest flags (0 or 1) at a time: the grains not at rest are the zero bytes.
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    let n = resting.len();
+    for (w, flags) in span.chunks(8).enumerate() {
+        let mut word = [1u8; 8];
+        for (b, &r) in word.iter_mut().zip(flags) {
+            *b = r as u8;
+        }
+        let mut moving = !u64::from_le_bytes(word) & ONES;
+        while moving != 0 {
+            let g = from + w * 8 + (moving.trailing_zeros() / 8) as usize;
+            moving &= moving - 1;
+            debug_assert!(g < n);
+            let (c, width) = (g / CHUNK, rev.width[g / CHUNK] as usize);
+            let at = rev.chunk_base[c] as usize + (g % CHUNK) * width;
+            for &j in &rev.neighbour[at..at + width] {
+                if let Some(f) = frozen.get_mut((j as usize).wrapping_sub(lo)) {
+                    *f = false;
+                }
+            }
+        }
+    }
+    frozen.iter().filter(|&&f| f).count()
 }
 
 /// Where the pair phase puts each slot's force and torque (f_x, f_y, T, 0) (N, N, N m):
 /// into its owner's term
-/// and, with x and y negated, into its partner's, in an array of 2 × slots terms in
+/// and, with x and y negated, into its partner's, in an array of per-grain terms in
 /// which each grain's are contiguous, in the order the grain sums them (own slots, then
 /// those where it is the partner, each ascending). The sums then read memory in order
 /// instead of chasing the partner slots. Every thread's pair phase writes it at once;
@@ -260,40 +337,6 @@ pub fn slot_contact(
         0.0,
     ]);
     Some((f_n, f_t))
-}
-
-crate::multiversion! {
-/// Phase 3a: each grain's contact force and torque, the sum of its terms in order
-/// (own slots, then the slots where it is the partner, with x and y negated: the
-/// torque T_ij = −½ r_ij × F_t acts alike on both); `frozen`, `fx`, `fy`, `tq` hold the
-/// range's. Frozen grains keep last step's sums (their terms are unchanged).
-#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
-pub fn gather(
-    range: Range<usize>,
-    start: &[u32],
-    rev: &Reverse,
-    terms: &[Quad],
-    frozen: Option<&[bool]>,
-    fx: &mut [f64],
-    fy: &mut [f64],
-    tq: &mut [f64],
-) {
-    let lo = range.start;
-    for i in range {
-        if frozen.is_some_and(|f| f[i - lo]) {
-            continue;
-        }
-        let mut s = [0.0; 4];
-        for f in &terms[rev.terms_of(start, i)] {
-            for l in 0..4 {
-                s[l] += f.0[l];
-            }
-        }
-        fx[i - lo] = s[0];
-        fy[i - lo] = s[1];
-        tq[i - lo] = s[2];
-    }
-}
 }
 
 /// The bars as grains of infinite radius with 2 k_n and 2 k_t and friction μ_bar
