@@ -200,6 +200,9 @@ impl PillarSim {
             e.f64(v);
         }
         e.bytes(extra);
+        // Last: the step of the last list build (u64::MAX: none), which the skin's
+        // adaptation reads; a checkpoint of an earlier version ends before it.
+        e.u64(self.scratch.last_build.unwrap_or(u64::MAX));
         e.0
     }
 
@@ -226,6 +229,11 @@ impl PillarSim {
             substrate_power_rot: d.f64()?,
         };
         let extra = d.bytes()?;
+        let last_build = if d.done() {
+            None
+        } else {
+            Some(d.u64()?).filter(|&v| v != u64::MAX)
+        };
         if !d.done() {
             return Err("trailing bytes after the checkpoint".into());
         }
@@ -266,6 +274,7 @@ impl PillarSim {
             record: None,
             scratch: super::pillar::Scratch {
                 skip_frozen: true,
+                last_build,
                 ..Default::default()
             },
         };

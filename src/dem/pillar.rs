@@ -91,6 +91,31 @@ pub struct Scratch {
     pub no_fallback: bool,
     /// `advance` calls that finished on one thread because waits kept being long.
     pub fallbacks: u64,
+    /// Step of the last pair-list build in this session (for [`adapt_skin`]).
+    pub last_build: Option<u64>,
+}
+
+/// The pair list's skin, in units of the large diameter D: between these bounds, set
+/// at each build from the steps since the last one ([`adapt_skin`]).
+pub const SKIN_MIN: f64 = 0.01;
+pub const SKIN_MAX: f64 = 0.05;
+
+/// The skin (m) for the next build, from the current one and the steps since the last
+/// build: thicker when rebuilds come more often than every 200 steps, thinner when
+/// rarer than every 1000, within [`SKIN_MIN`] D .. [`SKIN_MAX`] D. A thin skin holds
+/// fewer slots, which the vector pair kernel pays for touching or not (0.15 D held 2.4
+/// slots per grain, 0.05 D 2.1, with 1.6 touching); a thick one rebuilds less often.
+/// The quasistatic `paper` pillar rebuilds every ~2e4 steps at 0.01 D (its run 3 %
+/// faster than at 0.05 D), a pillar loaded to ε = 0.02 every ~1100 (5 % faster than
+/// at 0.05 D, every ~5500); a fast-loaded N = 16,000 one every 12 steps at 0.01 D
+/// (40 % slower than at 0.05 D, every 57). The forces never depend on the skin: each grain's partners are kept sorted
+/// and non-touching slots add +0.0, so any skin gives the same numbers bit for bit.
+pub fn adapt_skin(skin: f64, d: f64, since_last_build: Option<u64>) -> f64 {
+    match since_last_build {
+        Some(k) if k < 200 => (skin * 1.5).min(SKIN_MAX * d),
+        Some(k) if k > 1000 => (skin / 1.5).max(SKIN_MIN * d),
+        _ => skin,
+    }
 }
 
 /// Marking frozen grains walks every grain's partners, which costs more than it
@@ -219,12 +244,8 @@ impl PillarSim {
         grains.sort_spatially(d);
         let n = grains.len();
         let mut s = PillarSim {
-            // A thin skin: the quasistatic pillar rebuilds rarely, and the vector pair
-            // kernel pays for every slot, touching or not (0.15 D held 2.4 slots per
-            // grain, 0.05 D 2.1; 1.6 touch). At 0.01 D the paper run rebuilds every
-            // ~3e4 steps instead of ~1e5 (a rebuild costs ~0.1 ms), and its steps are
-            // 2-4 % faster than at 0.05 D (`bench dem --checkpoint`).
-            list: PairList::new(0.01 * d),
+            // Thin to start with; `adapt_skin` thickens it where rebuilds come often.
+            list: PairList::new(SKIN_MIN * d),
             params,
             grains,
             bottom_y,

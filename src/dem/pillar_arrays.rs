@@ -120,6 +120,9 @@ pub(crate) struct Arrays {
     mark: bool,
     record: bool,
     kick: bool,
+    /// The list's skin (m): the rebuild test of every thread uses the skin the list
+    /// was built with, which a rebuild may change (`adapt_skin`).
+    pub(crate) skin: f64,
 }
 unsafe impl Send for Arrays {}
 unsafe impl Sync for Arrays {}
@@ -276,6 +279,7 @@ impl PillarSim {
             mark,
             record,
             kick,
+            skin: l.skin,
         }
     }
 }

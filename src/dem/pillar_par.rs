@@ -111,7 +111,6 @@ impl PillarSim {
         // (fast steps never rebuild it).
         let freeze = self.frozen_skip_allowed();
         let record = self.record.is_some();
-        let skin = self.list.skin;
         let no_fallback = threads == 1 || self.scratch.no_fallback;
         let sim: *mut PillarSim = self;
         let sim = SendPtr(sim);
@@ -164,7 +163,7 @@ impl PillarSim {
                     let slow = k == 0
                         || record
                         || step.is_multiple_of(REBALANCE_EVERY)
-                        || strayed(a.moved2.view(0..threads), skin);
+                        || strayed(a.moved2.view(0..threads), a.skin);
                     if slow {
                         if t == 0 {
                             let s = &mut *sim.get();
@@ -374,6 +373,12 @@ impl PillarSim {
         if strayed(&self.scratch.buffers.moved2, self.list.skin)
             || self.list.x_ref.len() != self.grains.len()
         {
+            let since = self
+                .scratch
+                .last_build
+                .and_then(|b| self.step.checked_sub(b));
+            self.list.skin = super::pillar::adapt_skin(self.list.skin, self.params.d_large, since);
+            self.scratch.last_build = Some(self.step);
             let g = &self.grains;
             self.list.build(&g.x, &g.y, &g.radius, Boundary::Open);
             self.scratch.buffers.slots_valid = false;

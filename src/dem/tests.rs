@@ -579,3 +579,60 @@ fn same_run_bits(base: &PillarSim, fast: &PillarSim) {
         fast.scratch.frozen_grain_steps
     );
 }
+
+/// The pair-list skin adapts to how often the list is rebuilt, and no number depends on
+/// it: each grain's partners are kept sorted and slots without contact add +0.0. A
+/// thread that tested for rebuilds against a stale skin would miss contacts here.
+#[test]
+fn the_skin_adapts_and_changes_no_number() {
+    use super::pillar::{SKIN_MAX, SKIN_MIN};
+    let mut p = PillarParams::fast();
+    p.bar_speed *= 20.0;
+    let start = packed_pillar(300, 9, p);
+    let d = start.params.d_large;
+    assert_eq!(start.list.skin, SKIN_MIN * d);
+    let mut thin = start.clone();
+    let mut thick = start.clone();
+    // Rebuilt at the next step with the thick skin.
+    thick.list.skin = SKIN_MAX * d;
+    thick.list.x_ref.clear();
+    let mut skins = vec![];
+    for _ in 0..20 {
+        thin.advance_with(200, 2);
+        thick.advance_with(200, 1);
+        skins.push((thin.list.skin / d, thick.list.skin / d));
+    }
+    // Both adapted (the fast-loaded pillar rebuilds often: the thin skin grew; the
+    // thick one may not shrink, but they took different paths).
+    assert!(skins.iter().any(|&(a, _)| a > SKIN_MIN), "{skins:?}");
+    assert!(skins.iter().any(|&(a, b)| a != b), "{skins:?}");
+    assert!(thin.list.builds != thick.list.builds);
+    let bits = |s: &PillarSim| -> Vec<u64> {
+        let g = &s.grains;
+        [&g.x, &g.y, &g.vx, &g.vy, &g.omega, &s.fx, &s.fy, &s.tq]
+            .iter()
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .chain([s.top_force.to_bits(), s.bottom_force.to_bits()])
+            .collect()
+    };
+    assert!(bits(&thin) == bits(&thick), "the skin changed the numbers");
+    assert!(thin.top_force > 0.0);
+    // And the list holds every touching pair.
+    let g = &thin.grains;
+    for i in 0..g.len() {
+        for j in i + 1..g.len() {
+            let (dx, dy) = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
+            if (dx * dx + dy * dy).sqrt() < g.radius[i] + g.radius[j] {
+                let (a, b) = (i.min(j), i.max(j));
+                let holds = |o: usize, q: usize| {
+                    let r = thin.list.start[o] as usize..thin.list.start[o + 1] as usize;
+                    thin.list.j[r].contains(&(q as u32))
+                };
+                assert!(
+                    holds(a, b) || holds(b, a),
+                    "pair {a}-{b} touching, not listed"
+                );
+            }
+        }
+    }
+}
