@@ -93,6 +93,10 @@ pub struct Scratch {
     pub fallbacks: u64,
     /// Step of the last pair-list build in this session (for [`adapt_skin`]).
     pub last_build: Option<u64>,
+    /// The largest move since its build (m) that any list saw at its rebuild, over
+    /// half its skin: 1 within a step's travel when every rebuild test used the
+    /// list's own skin (diagnostics, for the tests).
+    pub rebuild_overshoot: f64,
 }
 
 /// The pair list's skin, in units of the large diameter D: between these bounds, set
@@ -108,8 +112,9 @@ pub const SKIN_MAX: f64 = 0.05;
 /// The quasistatic `paper` pillar rebuilds every ~2e4 steps at 0.01 D (its run 3 %
 /// faster than at 0.05 D), a pillar loaded to ε = 0.02 every ~1100 (5 % faster than
 /// at 0.05 D, every ~5500); a fast-loaded N = 16,000 one every 12 steps at 0.01 D
-/// (40 % slower than at 0.05 D, every 57). The forces never depend on the skin: each grain's partners are kept sorted
-/// and non-touching slots add +0.0, so any skin gives the same numbers bit for bit.
+/// (40 % slower than at 0.05 D, every 57). The forces never depend on the skin: each
+/// grain's partners are kept sorted and non-touching slots add +0.0, so any skin gives
+/// the same numbers bit for bit.
 pub fn adapt_skin(skin: f64, d: f64, since_last_build: Option<u64>) -> f64 {
     match since_last_build {
         Some(k) if k < 200 => (skin * 1.5).min(SKIN_MAX * d),

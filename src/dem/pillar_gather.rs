@@ -41,7 +41,7 @@ pub fn gather(
         let c = g / CHUNK;
         let end = ((c + 1) * CHUNK).min(range.end);
         let w = rev.width[c] as usize;
-        let from = rev.chunk_base[c] as usize + (g % CHUNK) * w;
+        let from = rev.places_of(g).start;
         let t = &terms[from..from + (end - g) * w];
         let l = g - lo..end - lo;
         let out = (&mut fx[l.clone()], &mut fy[l.clone()], &mut tq[l.clone()]);
@@ -208,7 +208,9 @@ mod tests {
         }
         for i in 0..n {
             let own = (start[i]..start[i + 1]).map(|k| rev.term_own[k as usize]);
-            let partner = rev.of(i).map(|r| rev.term_partner[rev.slot[r] as usize]);
+            let partner = (0..js.len())
+                .filter(|&k| js[k] as usize == i)
+                .map(|k| rev.term_partner[k]);
             let places: Vec<usize> = own.chain(partner).map(|m| m as usize).collect();
             let range = rev.terms_of(&start, i);
             assert_eq!(places, range.clone().collect::<Vec<_>>(), "grain {i}");

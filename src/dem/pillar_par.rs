@@ -327,7 +327,7 @@ impl PillarSim {
         let b = &mut self.scratch.buffers;
         if b.reverse.start.len() != n + 1
             || b.terms.len() != b.reverse.places
-            || b.reverse.slot.len() != slots
+            || b.reverse.term_own.len() != slots
         {
             b.slots_valid = false;
         }
@@ -373,6 +373,16 @@ impl PillarSim {
         if strayed(&self.scratch.buffers.moved2, self.list.skin)
             || self.list.x_ref.len() != self.grains.len()
         {
+            if self.list.x_ref.len() == self.grains.len() {
+                let moved2 = self
+                    .scratch
+                    .buffers
+                    .moved2
+                    .iter()
+                    .fold(0.0, |a: f64, &b| a.max(b));
+                let ratio = moved2.sqrt() / (0.5 * self.list.skin);
+                self.scratch.rebuild_overshoot = self.scratch.rebuild_overshoot.max(ratio);
+            }
             let since = self
                 .scratch
                 .last_build

@@ -20,13 +20,11 @@ use std::ops::Range;
 /// Grains per reduction chunk.
 pub const CHUNK: usize = 32;
 
-/// For each grain j, the pair slots k of the half list whose partner is j (ascending),
-/// and the grain i that owns each: with the list's own slots, all of j's contacts.
+/// Where each grain's contact terms go: per grain j, how many slots of the half list
+/// name j as the partner (`start`, CSR offsets), and the padded per-grain layout.
 #[derive(Debug, Clone, Default)]
 pub struct Reverse {
     pub start: Vec<u32>,
-    pub slot: Vec<u32>,
-    pub other: Vec<u32>,
     /// Per slot of the list, where its force goes in the per-grain terms (see
     /// [`TermSink`]): its owner's term and its partner's.
     pub term_own: Vec<u32>,
@@ -74,14 +72,11 @@ impl Reverse {
         let mut neighbour: Vec<u32> = (0..n)
             .flat_map(|g| std::iter::repeat_n(g as u32, width[g / CHUNK] as usize))
             .collect();
-        let (mut slot, mut other) = (vec![0u32; js.len()], vec![0u32; js.len()]);
         let (mut term_own, mut term_partner) = (vec![0u32; js.len()], vec![0u32; js.len()]);
         for i in 0..n {
             for k in start[i] as usize..start[i + 1] as usize {
                 let j = js[k] as usize;
                 let r = fill[j] as usize;
-                slot[r] = k as u32;
-                other[r] = i as u32;
                 // Grain g's terms start at its base: its own slots in order, then
                 // those where it is the partner, in order.
                 term_own[k] = base(i) + k as u32 - start[i];
@@ -103,8 +98,6 @@ impl Reverse {
             .collect();
         Reverse {
             start: rs,
-            slot,
-            other,
             term_own,
             term_partner,
             width,
@@ -115,15 +108,19 @@ impl Reverse {
         }
     }
 
-    /// Grain i's terms in the per-grain term array (the padding after them excluded).
-    pub fn terms_of(&self, start: &[u32], i: usize) -> Range<usize> {
+    /// Grain i's places in the per-grain term array, its chunk's width of them (its
+    /// terms, then padding).
+    pub fn places_of(&self, i: usize) -> Range<usize> {
         let (c, w) = (i / CHUNK, self.width[i / CHUNK] as usize);
         let from = self.chunk_base[c] as usize + (i % CHUNK) * w;
-        let count = start[i + 1] - start[i] + self.start[i + 1] - self.start[i];
-        from..from + count as usize
+        from..from + w
     }
-    pub fn of(&self, j: usize) -> Range<usize> {
-        self.start[j] as usize..self.start[j + 1] as usize
+
+    /// Grain i's terms in the per-grain term array (the padding after them excluded).
+    pub fn terms_of(&self, start: &[u32], i: usize) -> Range<usize> {
+        let count = start[i + 1] - start[i] + self.start[i + 1] - self.start[i];
+        let from = self.places_of(i).start;
+        from..from + count as usize
     }
 }
 
@@ -160,7 +157,6 @@ pub fn mark_frozen(
     let span = &resting[from..resting.len().min(last as usize + 1)];
     // Eight rest flags (0 or 1) at a time: the grains not at rest are the zero bytes.
     const ONES: u64 = 0x0101_0101_0101_0101;
-    let n = resting.len();
     for (w, flags) in span.chunks(8).enumerate() {
         let mut word = [1u8; 8];
         for (b, &r) in word.iter_mut().zip(flags) {
@@ -170,10 +166,7 @@ pub fn mark_frozen(
         while moving != 0 {
             let g = from + w * 8 + (moving.trailing_zeros() / 8) as usize;
             moving &= moving - 1;
-            debug_assert!(g < n);
-            let (c, width) = (g / CHUNK, rev.width[g / CHUNK] as usize);
-            let at = rev.chunk_base[c] as usize + (g % CHUNK) * width;
-            for &j in &rev.neighbour[at..at + width] {
+            for &j in &rev.neighbour[rev.places_of(g)] {
                 if let Some(f) = frozen.get_mut((j as usize).wrapping_sub(lo)) {
                     *f = false;
                 }

@@ -582,7 +582,8 @@ fn same_run_bits(base: &PillarSim, fast: &PillarSim) {
 
 /// The pair-list skin adapts to how often the list is rebuilt, and no number depends on
 /// it: each grain's partners are kept sorted and slots without contact add +0.0. A
-/// thread that tested for rebuilds against a stale skin would miss contacts here.
+/// thread that tested for rebuilds against a stale skin would let a list outlive its
+/// skin (the overshoot check).
 #[test]
 fn the_skin_adapts_and_changes_no_number() {
     use super::pillar::{SKIN_MAX, SKIN_MIN};
@@ -616,6 +617,26 @@ fn the_skin_adapts_and_changes_no_number() {
             .collect()
     };
     assert!(bits(&thin) == bits(&thick), "the skin changed the numbers");
+    // Then slowly, in one long call each: rebuilds come rarely and the skins thin
+    // mid-call, where every thread must test against the list's new skin.
+    for s in [&mut thin, &mut thick] {
+        s.params.bar_speed /= 20.0;
+        s.scratch.rebuild_overshoot = 0.0;
+    }
+    let before = (thin.list.skin, thick.list.skin);
+    thin.advance_with(60_000, 2);
+    thick.advance_with(60_000, 2);
+    assert!(
+        thin.list.skin < before.0 && thick.list.skin < before.1,
+        "{before:?}"
+    );
+    assert!(bits(&thin) == bits(&thick), "the skin changed the numbers");
+    for s in [&thin, &thick] {
+        let o = s.scratch.rebuild_overshoot;
+        // Within a step or two of travel past half the skin (1.01 here; a stale,
+        // thicker skin let one run on to the next slow step: 1.12).
+        assert!(o > 0.9 && o < 1.05, "a list outlived its skin: {o}");
+    }
     assert!(thin.top_force > 0.0);
     // And the list holds every touching pair.
     let g = &thin.grains;
