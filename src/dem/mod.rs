@@ -30,8 +30,12 @@ pub mod pillar_phases;
 pub mod shear;
 #[cfg(target_arch = "x86_64")]
 pub mod shear_avx2;
+#[cfg(target_arch = "x86_64")]
+mod shear_avx512;
 pub mod shear_checkpoint;
 pub mod shear_integrate;
+#[cfg(target_arch = "x86_64")]
+mod shear_integrate_avx2;
 pub mod shear_near;
 pub mod shear_order;
 pub mod shear_pairs;

@@ -312,8 +312,6 @@ impl ShearSim {
                 evaluate::<false>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
             }
         }
-        // Packed for this evaluation only: anything may change the state before the next.
-        packed.fresh = false;
     }
 
     /// The virial sums Σ f ⊗ r_ij (Eqs. 12–13) and the contact count of the current
@@ -356,10 +354,7 @@ impl ShearSim {
         if self.resort_every > 0 && self.step > 0 && self.step.is_multiple_of(self.resort_every) {
             self.resort();
         }
-        let dt = self.p.dt;
         let n = self.g.len();
-        let rotate = self.rotate;
-        let pack = self.kernel == ShearKernel::Slots && Packed::used_for(&self.p);
         let (g, pr) = (&self.g, &mut self.pred);
         for v in [&mut pr.x, &mut pr.y, &mut pr.vx, &mut pr.vy, &mut pr.w] {
             v.resize(n, 0.0);
@@ -368,14 +363,21 @@ impl ShearSim {
             pr.inv_m = g.mass.iter().map(|m| 1.0 / m).collect();
             pr.inv_i = g.inertia.iter().map(|i| 1.0 / i).collect();
         }
-        // f_0 of Eq. 21 moves to the predictor's buffers; the evaluation below
-        // overwrites every force with f({r̃_1, ṽ_1}).
+        // f_0 of Eq. 21 moves to the predictor's buffers; the evaluations below
+        // overwrite every force.
         std::mem::swap(&mut pr.f0x, &mut self.fx);
         std::mem::swap(&mut pr.f0y, &mut self.fy);
         std::mem::swap(&mut pr.t0, &mut self.tq);
         for v in [&mut self.fx, &mut self.fy, &mut self.tq] {
             v.resize(n, 0.0);
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == ShearKernel::Slots && Packed::used_for(&self.p) {
+            self.step_packed();
+            return;
+        }
+        let (dt, rotate) = (self.p.dt, self.rotate);
+        let (g, pr) = (&self.g, &mut self.pred);
         predict(
             dt,
             rotate,
@@ -387,11 +389,8 @@ impl ShearSim {
             &mut pr.vx,
             &mut pr.vy,
             &mut pr.w,
-            pack.then_some((&mut self.packed, &g.radius[..])),
         );
-        self.step += 1;
-        self.time = self.step as f64 * dt;
-        self.gamma += self.p.rate * dt;
+        self.advance_clock();
         self.evaluate(true);
         let (g, pr) = (&mut self.g, &self.pred);
         correct(
@@ -406,9 +405,91 @@ impl ShearSim {
             &mut g.vx,
             &mut g.vy,
             &mut g.omega,
-            pack.then_some((&mut self.packed, &g.radius[..])),
         );
         self.evaluate(false);
+    }
+
+    /// The step's clock: step count, time and strain at t + Δt.
+    fn advance_clock(&mut self) {
+        self.step += 1;
+        self.time = self.step as f64 * self.p.dt;
+        self.gamma += self.p.rate * self.p.dt;
+    }
+
+    /// `step` with the AVX2 kernel (α = 2): the same operations in the same order,
+    /// the state handed between integrator and kernel packed grain by grain
+    /// (`shear_integrate_avx2`). f_0 is in `pred.f0x/f0y/t0`.
+    #[cfg(target_arch = "x86_64")]
+    fn step_packed(&mut self) {
+        use super::shear_integrate_avx2::{Now, correct_packed, predict_packed, unpack_forces};
+        let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
+        // The clock first: the near list's stray test, made as the predictor writes
+        // the positions, is for the boundary at t + Δt.
+        self.advance_clock();
+        let b = self.boundary();
+        let (g, pr) = (&self.g, &mut self.pred);
+        let strayed = predict_packed(
+            dt,
+            rotate,
+            (&g.x, &g.y, &g.vx, &g.vy, &g.omega),
+            &g.radius,
+            (&pr.inv_m, &pr.inv_i),
+            (&pr.f0x, &pr.f0y, &pr.t0),
+            &mut self.packed,
+            self.slots.stray_test(&self.list, n, b),
+        );
+        self.evaluate_packed::<false>(strayed);
+        let (g, pr) = (&mut self.g, &self.pred);
+        let now = Now {
+            x: &mut g.x,
+            y: &mut g.y,
+            theta: &mut g.theta,
+            vx: &mut g.vx,
+            vy: &mut g.vy,
+            w: &mut g.omega,
+            r: &g.radius,
+            f0: (&pr.f0x, &pr.f0y, &pr.t0),
+        };
+        let (f1, test) = (&self.slots.acc, self.slots.stray_test(&self.list, n, b));
+        let inv = (&pr.inv_m[..], &pr.inv_i[..]);
+        let strayed = correct_packed(dt, rotate, inv, now, f1, &mut self.packed, test);
+        self.evaluate_packed::<true>(strayed);
+        let forces = (&mut self.fx[..], &mut self.fy[..], &mut self.tq[..]);
+        unpack_forces(&self.slots.acc[..n], forces);
+    }
+
+    /// Forces at the state `self.packed` holds (the predicted one unless `TRACK`, which
+    /// also keeps the contact bookkeeping) into `self.slots.acc`, packed; `strayed` is
+    /// the near list's stray test made on its positions (`Slots::sync_tested`).
+    #[cfg(target_arch = "x86_64")]
+    fn evaluate_packed<const TRACK: bool>(&mut self, strayed: Option<bool>) {
+        let b = self.boundary();
+        let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
+        let n = self.g.len();
+        if !TRACK && !self.slots.current(&self.list, n, b, strayed) {
+            // The predicted positions, as arrays, only for a re-selection.
+            let pr = &mut self.pred;
+            pr.x.clear();
+            pr.y.clear();
+            pr.x.extend(self.packed.pos.iter().map(|p| p.0[0]));
+            pr.y.extend(self.packed.pos.iter().map(|p| p.0[1]));
+        }
+        let (x, y) = if TRACK {
+            (&self.g.x, &self.g.y)
+        } else {
+            (&self.pred.x, &self.pred.y)
+        };
+        let r = &self.g.radius;
+        self.slots
+            .sync_tested(&mut self.list, r, (x, y), b, strayed);
+        let hist = &mut self.list.shear[..];
+        super::shear_slots::evaluate_packed::<TRACK>(
+            &self.packed,
+            &mut self.slots,
+            hist,
+            &pp,
+            &mut self.coll,
+        );
     }
 
     /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each

@@ -16,64 +16,61 @@
 
 use super::avx2::{neg4, transpose};
 use super::shear::Collisions;
-use super::shear_integrate::{Packed, Pos, Quad};
+use super::shear_integrate::{Pos, Quad};
 use super::shear_near::{History, Slots};
-use super::shear_pairs::{PairParams, StateSlices};
+use super::shear_pairs::PairParams;
 use std::arch::x86_64::*;
 
 crate::avx2_entry_point! {
-/// As `shear_slots::evaluate` (α = 2 only): forces and torques into `fx`, `fy`, `tq`,
-/// with `TRACK` the history and collision counts.
+/// As `shear_slots::evaluate` (α = 2 only), on a state packed grain by grain:
+/// the force and torque sums (f_x, f_y, T, 0) into `acc` (overwritten), with `TRACK`
+/// the history and collision counts.
 ///
 /// # Safety
 /// The processor must have AVX2. `slots` must come from `Slots::sync` for these grains
-/// (indices < n, tables padded to a multiple of four), and every slice of `st` and the
-/// force arrays must have length n, as `shear_slots::evaluate` (the one caller) asserts;
-/// `packed` is refilled unless it holds this state (`Packed::fill`).
+/// (indices < n, tables padded to a multiple of four), and `pos` and `vel` must hold n
+/// grains, as `shear_slots` (the one caller) asserts.
 pub(crate) unsafe fn evaluate<const TRACK: bool>(
-    st: StateSlices,
+    pos: &[Pos],
+    vel: &[Quad],
     slots: &Slots,
-    packed: &mut Packed,
     acc: &mut Vec<Quad>,
     hist: &mut History,
     pp: &PairParams,
-    fx: &mut [f64],
-    fy: &mut [f64],
-    tq: &mut [f64],
     coll: &mut Collisions,
 ) {
     let n = slots.n;
     debug_assert!(pp.alpha == 2.0 && hist.near.len() >= slots.len());
-    packed.fill(st);
-    let (pos, vel) = (&packed.pos[..], &packed.vel[..]);
+    debug_assert!(pos.len() == n && vel.len() == n);
     acc.clear();
     acc.resize(n, Quad::default());
     // SAFETY: AVX2 is present (this function's contract); `Slots::sync` checked every
     // index against n and padded the tables to a multiple of four.
     unsafe {
-        if pp.cdrot {
-            slots_x4::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll);
-        } else {
-            slots_x4::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll);
+        use super::shear_avx512::slots_x8;
+        // Eight slots at a time where the processor has AVX-512 (the level is Avx512
+        // only then); the same numbers.
+        let wide = super::simd::level() == super::simd::Level::Avx512;
+        match (wide, pp.cdrot) {
+            (true, true) => slots_x8::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll),
+            (true, false) => slots_x8::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll),
+            (false, true) => slots_x4::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll),
+            (false, false) => slots_x4::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll),
         }
     }
-    for i in 0..n {
-        let [a, b, c, _] = acc[i].0;
-        (fx[i], fy[i], tq[i]) = (a, b, c);
-    }
-
 }
 }
 
-/// Contact events of the four slots from k on (`touch` bits; see `History::update`).
-/// Out of line: rare, and inlined it would crowd the hot loop's registers.
+/// Contact events of the `count` slots from k on (`touch` bits, separations `dx`, `dy`
+/// by lane; see `History::update`). Out of line: rare, and inlined it would crowd the
+/// hot loop's registers.
 #[cold]
 #[inline(never)]
-fn contact_events(
+pub(crate) fn contact_events(
     k: usize,
     count: usize,
     touch: u32,
-    (dx, dy): (&[f64; 4], &[f64; 4]),
+    (dx, dy): (&[f64], &[f64]),
     hist: &mut History,
     now: f64,
     coll: &mut Collisions,

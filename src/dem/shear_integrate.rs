@@ -5,16 +5,13 @@
 pub use super::simd::{Pos, Quad};
 
 /// A state packed grain by grain for the AVX2 force kernel: (x, y) (d_s) and
-/// (v_x, v_y, ω, R) (d_s/τ_e, d_s/τ_e, 1/τ_e, d_s); the kernel's force sums are
-/// (f_x, f_y, T, 0) (m d_s/τ_e², m d_s²/τ_e²). The integrator writes it
-/// while it writes the state (`fresh`), which spares the kernel a pass over the arrays.
-/// A cache: never part of a simulation's value.
+/// (v_x, v_y, ω, R) (d_s/τ_e, d_s/τ_e, 1/τ_e, d_s). The packed integrator
+/// (`shear_integrate_avx2`) writes it as it steps; `fill` packs the arrays' state for an
+/// evaluation outside a step. A cache: never part of a simulation's value.
 #[derive(Debug, Clone, Default)]
 pub struct Packed {
     pub(crate) pos: Vec<Pos>,
     pub(crate) vel: Vec<Quad>,
-    /// Holds the state the next force evaluation is for.
-    pub(crate) fresh: bool,
 }
 
 impl PartialEq for Packed {
@@ -24,19 +21,17 @@ impl PartialEq for Packed {
 }
 
 impl Packed {
-    /// Whether the force evaluations of `p` use the AVX2 kernel (and so read this).
+    /// Whether the steps of `p` run packed: the AVX2 force kernel (α = 2) and the
+    /// packed integrator. Read once per step: the level is global, and tests switch it.
     pub fn used_for(p: &super::shear::ShearParams) -> bool {
         cfg!(target_arch = "x86_64")
             && p.alpha == 2.0
             && super::simd::level() >= super::simd::Level::Avx2
     }
 
-    /// Pack the state (x, y, v_x, v_y, ω, R) unless the integrator already did.
+    /// Pack the state (x, y, v_x, v_y, ω, R).
     pub fn fill(&mut self, (x, y, vx, vy, w, r): super::shear_pairs::StateSlices) {
         let n = x.len();
-        if std::mem::take(&mut self.fresh) && self.pos.len() == n && self.vel.len() == n {
-            return;
-        }
         self.pos.clear();
         self.pos.extend(x.iter().zip(y).map(|(&a, &b)| Pos([a, b])));
         self.vel.clear();
@@ -45,10 +40,9 @@ impl Packed {
     }
 
     /// Room for n grains, to be written by index.
-    fn reserve(&mut self, n: usize) -> (&mut [Pos], &mut [Quad]) {
+    pub(crate) fn reserve(&mut self, n: usize) -> (&mut [Pos], &mut [Quad]) {
         self.pos.resize(n, Pos::default());
         self.vel.resize(n, Quad::default());
-        self.fresh = true;
         (&mut self.pos[..n], &mut self.vel[..n])
     }
 }
@@ -58,8 +52,8 @@ pub type Slices5<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [f64], &'a [f64]);
 
 crate::multiversion! {
 /// Eqs. 21–22 (and the spin analogue of 21): the predicted state (p*) from the state
-/// at t and its forces f0 (units d_s = m = τ_e = 1). Spins stay 0 when `!rotate`. With
-/// `pack` (and the radii), the predicted state also goes out packed for the kernel.
+/// at t and its forces f0 (units d_s = m = τ_e = 1). Spins stay 0 when `!rotate`.
+/// (`shear_integrate_avx2::predict` is the same, packed.)
 #[allow(clippy::too_many_arguments)]
 pub fn predict(
     dt: f64,
@@ -72,7 +66,6 @@ pub fn predict(
     pvx: &mut [f64],
     pvy: &mut [f64],
     pw: &mut [f64],
-    pack: Option<(&mut Packed, &[f64])>,
 ) {
     let ((x, y, vx, vy, w), (inv_m, inv_i), (f0x, f0y, t0)) = (state, inv, f0);
     let n = x.len();
@@ -85,10 +78,6 @@ pub fn predict(
         &mut pvy[..n],
         &mut pw[..n],
     );
-    let mut pk = pack.map(|(pk, r)| {
-        let (pos, vel) = pk.reserve(n);
-        (pos, vel, &r[..n])
-    });
     for i in 0..n {
         pvx[i] = vx[i] + f0x[i] * dt * inv_m[i];
         pvy[i] = vy[i] + f0y[i] * dt * inv_m[i];
@@ -99,17 +88,14 @@ pub fn predict(
         } else {
             0.0
         };
-        if let Some((pos, vel, r)) = &mut pk {
-            pos[i] = Pos([px[i], py[i]]);
-            vel[i] = Quad([pvx[i], pvy[i], pw[i], r[i]]);
-        }
     }
 }
 }
 
 crate::multiversion! {
 /// Eqs. 23–24 (and their spin analogues): the state at t + Δt from the forces at t
-/// (f0) and at the predicted state (f1); with `pack`, also packed for the force kernel.
+/// (f0) and at the predicted state (f1). (`shear_integrate_avx2::correct` is the same,
+/// packed.)
 #[allow(clippy::too_many_arguments)]
 pub fn correct(
     dt: f64,
@@ -123,7 +109,6 @@ pub fn correct(
     vx: &mut [f64],
     vy: &mut [f64],
     w: &mut [f64],
-    pack: Option<(&mut Packed, &[f64])>,
 ) {
     let ((inv_m, inv_i), (f0x, f0y, t0), (f1x, f1y, t1)) = (inv, f0, f1);
     let n = x.len();
@@ -148,14 +133,6 @@ pub fn correct(
             let w0 = w[i];
             w[i] = w0 + (t0[i] + t1[i]) * dt * (0.5 * inv_i[i]);
             theta[i] += (w0 + w[i]) * dt * 0.5;
-        }
-    }
-    if let Some((pk, r)) = pack {
-        let (pos, vel) = pk.reserve(n);
-        let r = &r[..n];
-        for i in 0..n {
-            pos[i] = Pos([x[i], y[i]]);
-            vel[i] = Quad([vx[i], vy[i], w[i], r[i]]);
         }
     }
 }

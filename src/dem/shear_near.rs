@@ -18,8 +18,8 @@ pub const NEAR_SKIN: f64 = 0.05;
 /// The near list: slot k is the Verlet list's slot `sel[k]`, with its (i, j), 1/d_ij,
 /// d_ij² and contact history (see [`History`]). Indices are checked against `n` when
 /// selected, which lets the kernels index without bounds checks. The arrays are padded
-/// to a multiple of four slots with pairs that never touch (d_ij² = −1), so the AVX2
-/// kernel has no tail.
+/// to a multiple of eight slots with pairs that never touch (d_ij² = −1), so the AVX2
+/// and AVX-512 kernels have no tail.
 #[derive(Debug, Clone, Default)]
 pub struct Slots {
     pub(crate) i: Vec<u32>,
@@ -54,6 +54,16 @@ pub struct Slots {
     all_dij: Vec<f64>,
 }
 
+/// See [`Slots::stray_test`]: positions at the last selection (d_s), the shear since
+/// (Δγ) and the squared distance a grain may stray (d_s²).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StrayTest<'a> {
+    pub x_ref: &'a [f64],
+    pub y_ref: &'a [f64],
+    pub dgamma: f64,
+    pub lim: f64,
+}
+
 /// A cache of the pair list: two simulations never differ by it.
 impl PartialEq for Slots {
     fn eq(&self, _: &Self) -> bool {
@@ -70,18 +80,58 @@ impl Slots {
     /// the near list alone, and at a selection the Verlet list must hold every pair
     /// within R_i + R_j + NEAR_SKIN, a stricter test than its own.
     pub fn sync(&mut self, list: &mut PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
-        let n = r.len();
+        let strayed = self
+            .stray_test(list, r.len(), b)
+            .map(|t| strays(x, y, t.x_ref, t.y_ref, t.dgamma, t.lim));
+        self.sync_tested(list, r, (x, y), b, strayed);
+    }
+
+    /// As [`Slots::sync`], the stray test made by the caller: `strayed` is its answer
+    /// for these positions when [`Slots::stray_test`] gave one (the packed integrator
+    /// makes it as it writes them), else `None`.
+    pub fn sync_tested(
+        &mut self,
+        list: &mut PairList,
+        r: &[f64],
+        (x, y): (&[f64], &[f64]),
+        b: Boundary,
+        strayed: Option<bool>,
+    ) {
+        if !self.current(list, r.len(), b, strayed) {
+            list.update_within(x, y, r, b, NEAR_SKIN);
+            self.select(list, r, (x, y), b);
+        }
+    }
+
+    /// Whether the selection holds for n grains in boundary `b` whose stray test
+    /// ([`Slots::stray_test`]) answered `strayed`; else `sync_tested` re-selects, and
+    /// reads the positions.
+    pub fn current(&self, list: &PairList, n: usize, b: Boundary, strayed: Option<bool>) -> bool {
+        strayed == Some(false) && self.stray_test(list, n, b).is_some()
+    }
+
+    /// The stray test that keeps this selection for n grains in boundary `b`: some
+    /// grain strayed when (x − x_ref − Δγ y_ref)² + (y − y_ref)² > `lim` (d_s²). `None`
+    /// when the list must be re-selected whatever the positions.
+    pub(crate) fn stray_test(
+        &self,
+        list: &PairList,
+        n: usize,
+        b: Boundary,
+    ) -> Option<StrayTest<'_>> {
         let dgamma = strain_since(b, self.offset_ref);
         let current = self.builds == list.builds
             && self.builds != 0
             && self.n == n
             && self.x_ref.len() == n
-            && stray_limit(NEAR_SKIN, dgamma, self.reach)
-                .is_some_and(|lim| !strays(x, y, &self.x_ref, &self.y_ref, dgamma, lim));
-        if !current {
-            list.update_within(x, y, r, b, NEAR_SKIN);
-            self.select(list, r, (x, y), b);
-        }
+            && self.y_ref.len() == n;
+        let lim = stray_limit(NEAR_SKIN, dgamma, self.reach).filter(|_| current)?;
+        Some(StrayTest {
+            x_ref: &self.x_ref,
+            y_ref: &self.y_ref,
+            dgamma,
+            lim,
+        })
     }
 
     /// Forget the selection (the Verlet list's history was changed behind its back).
@@ -118,7 +168,7 @@ impl Slots {
             self.all_inv_dij
                 .extend(self.all_dij.iter().map(|d| 1.0 / d));
         }
-        let padded = total.next_multiple_of(4);
+        let padded = total.next_multiple_of(8);
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
             v.resize(padded, 0);
         }
@@ -155,7 +205,7 @@ impl Slots {
         for a in 0..n {
             self.start[a + 1] += self.start[a];
         }
-        let padded = m.next_multiple_of(4);
+        let padded = m.next_multiple_of(8);
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
             v[m..padded].fill(0);
         }

@@ -99,14 +99,12 @@ pub fn evaluate<const TRACK: bool>(
     let harmonic = pp.alpha == 2.0;
     #[cfg(target_arch = "x86_64")]
     if harmonic && super::simd::level() >= super::simd::Level::Avx2 {
-        let mut acc = std::mem::take(&mut slots.acc);
-        // SAFETY: the processor has AVX2 (checked at run time).
-        slots.with_history(all_hist, |slots, hist| unsafe {
-            super::shear_avx2::evaluate::<TRACK>(
-                st, slots, packed, &mut acc, hist, pp, fx, fy, tq, coll,
-            );
-        });
-        slots.acc = acc;
+        packed.fill(st);
+        evaluate_packed::<TRACK>(packed, slots, all_hist, pp, coll);
+        for (i, f) in slots.acc.iter().enumerate().take(n) {
+            let [a, b, c, _] = f.0;
+            (fx[i], fy[i], tq[i]) = (a, b, c);
+        }
         return;
     }
     for v in [&mut *fx, &mut *fy, &mut *tq] {
@@ -129,6 +127,44 @@ pub fn evaluate<const TRACK: bool>(
             sums::<TRACK>(si, sj, &sep, &frc, (hist, b0), pp.now, fx, fy, tq, coll);
         }
     });
+}
+
+/// As [`evaluate`] (α = 2, AVX2 only) on a state packed grain by grain: the force and
+/// torque sums (f_x, f_y, T, 0) per grain into `slots.acc`. The packed integrator
+/// (`shear_integrate_avx2`) reads them there, sparing a pass that would spread them
+/// into arrays. Same numbers as [`evaluate`].
+#[cfg(target_arch = "x86_64")]
+pub fn evaluate_packed<const TRACK: bool>(
+    packed: &super::shear_integrate::Packed,
+    slots: &mut Slots,
+    all_hist: &mut [f64],
+    pp: &PairParams,
+    coll: &mut Collisions,
+) {
+    let n = slots.n;
+    assert!(
+        std::is_x86_feature_detected!("avx2")
+            && pp.alpha == 2.0
+            && packed.pos.len() == n
+            && packed.vel.len() == n
+            && slots.hist.len() >= slots.len(),
+        "packed state does not match the slot table, or no AVX2"
+    );
+    let mut acc = std::mem::take(&mut slots.acc);
+    // SAFETY: the processor has AVX2 and the packed state holds the slots' n grains
+    // (both checked above); `Slots::sync` checked the slots' indices.
+    slots.with_history(all_hist, |slots, hist| unsafe {
+        super::shear_avx2::evaluate::<TRACK>(
+            &packed.pos,
+            &packed.vel,
+            slots,
+            &mut acc,
+            hist,
+            pp,
+            coll,
+        );
+    });
+    slots.acc = acc;
 }
 
 /// Reads `a[m]` without a bounds check.

@@ -1,0 +1,353 @@
+//! The integrator of vagberg-sheared-disks Eqs. 21–24 for the AVX2 force kernel, four
+//! grains at a time: the same operations as `shear_integrate::{predict, correct}`, lane
+//! for lane and in the same order (no fused multiply-add), so the same numbers bit for
+//! bit. Each writes the state it makes straight into the packed records the force
+//! kernel reads (transposed in registers), and `correct` reads the predicted state's
+//! force sums from the kernel's packed records: two passes over the grains a step
+//! instead of four, the arrays of the predicted velocities never written.
+
+use super::avx2::transpose;
+use super::shear_integrate::{Pos, Quad, Slices5};
+use super::shear_near::StrayTest;
+use std::arch::x86_64::*;
+
+/// Four lanes of `s` from `i` on.
+///
+/// # Safety
+/// `i + 4 <= s.len()`.
+#[inline(always)]
+unsafe fn ld(s: &[f64], i: usize) -> __m256d {
+    debug_assert!(i + 4 <= s.len());
+    unsafe { _mm256_loadu_pd(s.as_ptr().add(i)) }
+}
+
+/// Four lanes into `s` from `i` on.
+///
+/// # Safety
+/// `i + 4 <= s.len()`.
+#[inline(always)]
+unsafe fn st(s: &mut [f64], i: usize, v: __m256d) {
+    debug_assert!(i + 4 <= s.len());
+    unsafe { _mm256_storeu_pd(s.as_mut_ptr().add(i), v) }
+}
+
+/// Grains i..i+4 packed: positions (x, y) and records (v_x, v_y, ω, R).
+///
+/// # Safety
+/// `i + 4 <=` both lengths.
+#[inline(always)]
+unsafe fn pack4(pos: &mut [Pos], vel: &mut [Quad], i: usize, [x, y, vx, vy, w, r]: [__m256d; 6]) {
+    debug_assert!(i + 4 <= pos.len() && i + 4 <= vel.len());
+    unsafe {
+        // [x0 y0 x2 y2] and [x1 y1 x3 y3], then the 128-bit halves in grain order.
+        let (lo, hi) = (_mm256_unpacklo_pd(x, y), _mm256_unpackhi_pd(x, y));
+        let p = pos.as_mut_ptr().add(i) as *mut f64;
+        _mm256_storeu_pd(p, _mm256_permute2f128_pd(lo, hi, 0x20));
+        _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd(lo, hi, 0x31));
+        let (a, b, c, d) = transpose(vx, vy, w, r);
+        let q = vel.as_mut_ptr().add(i);
+        for (k, v) in [a, b, c, d].into_iter().enumerate() {
+            _mm256_store_pd((*q.add(k)).0.as_mut_ptr(), v);
+        }
+    }
+}
+
+/// Lanes of grains i..i+4 at (x, y) that strayed by `test` (see `Slots::stray_test`;
+/// the same operations as `verlet::strays`, so the same answer), or'd into `far`.
+///
+/// # Safety
+/// `i + 4 <=` the lengths of the test's arrays.
+#[inline(always)]
+unsafe fn strays4(test: &Option<StrayTest>, i: usize, x: __m256d, y: __m256d, far: &mut __m256d) {
+    if let Some(t) = test {
+        // SAFETY: this function's contract.
+        unsafe {
+            let (xr, yr) = (ld(t.x_ref, i), ld(t.y_ref, i));
+            let ux = _mm256_sub_pd(
+                _mm256_sub_pd(x, xr),
+                _mm256_mul_pd(_mm256_set1_pd(t.dgamma), yr),
+            );
+            let uy = _mm256_sub_pd(y, yr);
+            let d2 = _mm256_add_pd(_mm256_mul_pd(ux, ux), _mm256_mul_pd(uy, uy));
+            let out = _mm256_cmp_pd::<_CMP_GT_OQ>(d2, _mm256_set1_pd(t.lim));
+            *far = _mm256_or_pd(*far, out);
+        }
+    }
+}
+
+/// Whether grain i at (x, y) strayed by `test` (as `strays4`, one lane).
+fn strays1(test: &Option<StrayTest>, i: usize, x: f64, y: f64) -> bool {
+    test.is_some_and(|t| {
+        let ux = x - t.x_ref[i] - t.dgamma * t.y_ref[i];
+        let uy = y - t.y_ref[i];
+        ux * ux + uy * uy > t.lim
+    })
+}
+
+/// Whether any lane of `far` is set, or `tail`; `None` without a test.
+///
+/// # Safety
+/// AVX present.
+#[inline(always)]
+unsafe fn answer(test: &Option<StrayTest>, far: __m256d, tail: bool) -> Option<bool> {
+    // SAFETY: this function's contract.
+    let any = unsafe { _mm256_movemask_pd(far) } != 0;
+    test.map(|_| any || tail)
+}
+
+crate::avx2_entry_point! {
+/// Eqs. 21–22 (and the spin analogue of 21), as `shear_integrate::predict`: the
+/// predicted state packed into `pos`, `vel` (with the radii `r`). Spins stay 0 when `!rotate`. Makes
+/// the near list's stray `test` on the predicted positions: `Some(strayed)` with one.
+///
+/// # Safety
+/// The processor must have AVX2, and every slice (the test's too) must have the length
+/// of `state.0` (`predict_packed`, the one caller, asserts it).
+unsafe fn predict_x4(
+    dt: f64,
+    rotate: bool,
+    state: Slices5,
+    r: &[f64],
+    inv: (&[f64], &[f64]),
+    f0: (&[f64], &[f64], &[f64]),
+    pos: &mut [Pos],
+    vel: &mut [Quad],
+    test: Option<StrayTest>,
+) -> Option<bool> {
+    let ((x, y, vx, vy, w), (inv_m, inv_i), (f0x, f0y, t0)) = (state, inv, f0);
+    let n = x.len();
+    let body = n - n % 4;
+    // SAFETY: AVX2 present (this function's contract).
+    let mut far = unsafe { _mm256_setzero_pd() };
+    // SAFETY: i + 4 <= n for every i below, and every slice has length n.
+    unsafe {
+        let dt4 = _mm256_set1_pd(dt);
+        let add = _mm256_add_pd;
+        let mul = _mm256_mul_pd;
+        for i in (0..body).step_by(4) {
+            let (vxi, vyi) = (ld(vx, i), ld(vy, i));
+            let im = ld(inv_m, i);
+            let pvx = add(vxi, mul(mul(ld(f0x, i), dt4), im));
+            let pvy = add(vyi, mul(mul(ld(f0y, i), dt4), im));
+            let pxi = add(ld(x, i), mul(vxi, dt4));
+            let pyi = add(ld(y, i), mul(vyi, dt4));
+            let pw = if rotate {
+                add(ld(w, i), mul(mul(ld(t0, i), dt4), ld(inv_i, i)))
+            } else {
+                _mm256_setzero_pd()
+            };
+            strays4(&test, i, pxi, pyi, &mut far);
+            pack4(pos, vel, i, [pxi, pyi, pvx, pvy, pw, ld(r, i)]);
+        }
+    }
+    let mut tail = false;
+    for i in body..n {
+        let pvx = vx[i] + f0x[i] * dt * inv_m[i];
+        let pvy = vy[i] + f0y[i] * dt * inv_m[i];
+        let (px, py) = (x[i] + vx[i] * dt, y[i] + vy[i] * dt);
+        let pw = if rotate {
+            w[i] + t0[i] * dt * inv_i[i]
+        } else {
+            0.0
+        };
+        pos[i] = Pos([px, py]);
+        vel[i] = Quad([pvx, pvy, pw, r[i]]);
+        tail |= strays1(&test, i, px, py);
+    }
+    // SAFETY: AVX2 present (this function's contract).
+    unsafe { answer(&test, far, tail) }
+}
+}
+
+/// The state at t and its forces, as `correct_x4` reads and writes them.
+pub(crate) struct Now<'a> {
+    pub x: &'a mut [f64],
+    pub y: &'a mut [f64],
+    pub theta: &'a mut [f64],
+    pub vx: &'a mut [f64],
+    pub vy: &'a mut [f64],
+    pub w: &'a mut [f64],
+    pub r: &'a [f64],
+    pub f0: (&'a [f64], &'a [f64], &'a [f64]),
+}
+
+crate::avx2_entry_point! {
+/// Eqs. 23–24 (and their spin analogues), as `shear_integrate::correct`: the state at
+/// t + Δt from the forces at t (`now.f0`) and the packed force sums at the predicted
+/// state (`f1`, (f_x, f_y, T, 0) per grain), written to the arrays and packed into
+/// `pos`, `vel`. Makes the near list's stray `test` on the new positions, as
+/// `predict_x4`.
+///
+/// # Safety
+/// The processor must have AVX2, and every slice (the test's too) must have the length
+/// of `now.x` (`correct_packed`, the one caller, asserts it).
+unsafe fn correct_x4(
+    dt: f64,
+    rotate: bool,
+    inv: (&[f64], &[f64]),
+    now: Now,
+    f1: &[Quad],
+    pos: &mut [Pos],
+    vel: &mut [Quad],
+    test: Option<StrayTest>,
+) -> Option<bool> {
+    let Now { x, y, theta, vx, vy, w, r, f0: (f0x, f0y, t0) } = now;
+    let (inv_m, inv_i) = inv;
+    let n = x.len();
+    let body = n - n % 4;
+    // SAFETY: AVX2 present (this function's contract).
+    let mut far = unsafe { _mm256_setzero_pd() };
+    // SAFETY: i + 4 <= n for every i below, and every slice has length n.
+    unsafe {
+        let (dt4, half) = (_mm256_set1_pd(dt), _mm256_set1_pd(0.5));
+        let add = _mm256_add_pd;
+        let mul = _mm256_mul_pd;
+        for i in (0..body).step_by(4) {
+            let f = |k: usize| _mm256_load_pd(f1.as_ptr().add(i + k).cast::<f64>());
+            let (f1x, f1y, t1, _) = transpose(f(0), f(1), f(2), f(3));
+            let (vx0, vy0) = (ld(vx, i), ld(vy, i));
+            let hm = mul(half, ld(inv_m, i));
+            let vx1 = add(vx0, mul(mul(add(ld(f0x, i), f1x), dt4), hm));
+            let vy1 = add(vy0, mul(mul(add(ld(f0y, i), f1y), dt4), hm));
+            let xi = add(ld(x, i), mul(mul(add(vx0, vx1), dt4), half));
+            let yi = add(ld(y, i), mul(mul(add(vy0, vy1), dt4), half));
+            st(vx, i, vx1);
+            st(vy, i, vy1);
+            st(x, i, xi);
+            st(y, i, yi);
+            strays4(&test, i, xi, yi, &mut far);
+            let mut wi = ld(w, i);
+            if rotate {
+                let w0 = wi;
+                let hi = mul(half, ld(inv_i, i));
+                wi = add(w0, mul(mul(add(ld(t0, i), t1), dt4), hi));
+                st(w, i, wi);
+                st(theta, i, add(ld(theta, i), mul(mul(add(w0, wi), dt4), half)));
+            }
+            pack4(pos, vel, i, [xi, yi, vx1, vy1, wi, ld(r, i)]);
+        }
+    }
+    let mut tail = false;
+    for i in body..n {
+        let [f1x, f1y, t1, _] = f1[i].0;
+        let (vx0, vy0) = (vx[i], vy[i]);
+        vx[i] = vx0 + (f0x[i] + f1x) * dt * (0.5 * inv_m[i]);
+        vy[i] = vy0 + (f0y[i] + f1y) * dt * (0.5 * inv_m[i]);
+        x[i] += (vx0 + vx[i]) * dt * 0.5;
+        y[i] += (vy0 + vy[i]) * dt * 0.5;
+        if rotate {
+            let w0 = w[i];
+            w[i] = w0 + (t0[i] + t1) * dt * (0.5 * inv_i[i]);
+            theta[i] += (w0 + w[i]) * dt * 0.5;
+        }
+        pos[i] = Pos([x[i], y[i]]);
+        vel[i] = Quad([vx[i], vy[i], w[i], r[i]]);
+        tail |= strays1(&test, i, x[i], y[i]);
+    }
+    // SAFETY: AVX2 present (this function's contract).
+    unsafe { answer(&test, far, tail) }
+}
+}
+
+/// Eqs. 21–22 packed (see `predict_x4`); panics unless every slice has n = `state.0`'s
+/// length and the processor has AVX2.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn predict_packed(
+    dt: f64,
+    rotate: bool,
+    state: Slices5,
+    r: &[f64],
+    inv: (&[f64], &[f64]),
+    f0: (&[f64], &[f64], &[f64]),
+    packed: &mut super::shear_integrate::Packed,
+    test: Option<StrayTest>,
+) -> Option<bool> {
+    let n = state.0.len();
+    let lens = [
+        state.1, state.2, state.3, state.4, r, inv.0, inv.1, f0.0, f0.1, f0.2,
+    ];
+    assert!(
+        std::is_x86_feature_detected!("avx2")
+            && lens.iter().all(|s| s.len() == n)
+            && test.is_none_or(|t| t.x_ref.len() == n && t.y_ref.len() == n),
+        "predict_packed: slices of unequal length, or no AVX2"
+    );
+    let (pos, vel) = packed.reserve(n);
+    // SAFETY: AVX2 present and every length n (checked above).
+    unsafe { predict_x4(dt, rotate, state, r, inv, f0, pos, vel, test) }
+}
+
+/// Eqs. 23–24 packed (see `correct_x4`); panics unless every slice has n = `now.x`'s
+/// length and the processor has AVX2.
+pub(crate) fn correct_packed(
+    dt: f64,
+    rotate: bool,
+    inv: (&[f64], &[f64]),
+    now: Now,
+    f1: &[Quad],
+    packed: &mut super::shear_integrate::Packed,
+    test: Option<StrayTest>,
+) -> Option<bool> {
+    let n = now.x.len();
+    let lens = [
+        now.y.len(),
+        now.theta.len(),
+        now.vx.len(),
+        now.vy.len(),
+        now.w.len(),
+        now.r.len(),
+        now.f0.0.len(),
+        now.f0.1.len(),
+        now.f0.2.len(),
+        inv.0.len(),
+        inv.1.len(),
+        f1.len(),
+    ];
+    assert!(
+        std::is_x86_feature_detected!("avx2")
+            && lens.iter().all(|&l| l == n)
+            && test.is_none_or(|t| t.x_ref.len() == n && t.y_ref.len() == n),
+        "correct_packed: slices of unequal length, or no AVX2"
+    );
+    let (pos, vel) = packed.reserve(n);
+    // SAFETY: AVX2 present and every length n (checked above).
+    unsafe { correct_x4(dt, rotate, inv, now, f1, pos, vel, test) }
+}
+
+crate::avx2_entry_point! {
+/// The packed force sums (f_x, f_y, T, ·) of each grain into the arrays `fx`, `fy`,
+/// `tq`, four grains per transpose.
+///
+/// # Safety
+/// The processor must have AVX2, and `fx`, `fy`, `tq` must have the length of `f`
+/// (`unpack_forces`, the one caller, asserts it).
+unsafe fn unpack_x4(f: &[Quad], fx: &mut [f64], fy: &mut [f64], tq: &mut [f64]) {
+    let n = f.len();
+    let body = n - n % 4;
+    // SAFETY: i + 4 <= n for every i below, and every slice has length n.
+    unsafe {
+        for i in (0..body).step_by(4) {
+            let q = |k: usize| _mm256_load_pd(f.as_ptr().add(i + k).cast::<f64>());
+            let (a, b, c, _) = transpose(q(0), q(1), q(2), q(3));
+            st(fx, i, a);
+            st(fy, i, b);
+            st(tq, i, c);
+        }
+    }
+    for i in body..n {
+        [fx[i], fy[i], tq[i], _] = f[i].0;
+    }
+}
+}
+
+/// The packed force sums `f` into the arrays (see `unpack_x4`); panics unless the
+/// lengths agree and the processor has AVX2.
+pub(crate) fn unpack_forces(f: &[Quad], (fx, fy, tq): (&mut [f64], &mut [f64], &mut [f64])) {
+    let n = f.len();
+    assert!(
+        std::is_x86_feature_detected!("avx2") && fx.len() == n && fy.len() == n && tq.len() == n,
+        "unpack_forces: slices of unequal length, or no AVX2"
+    );
+    // SAFETY: AVX2 present and every length n (checked above).
+    unsafe { unpack_x4(f, fx, fy, tq) }
+}
