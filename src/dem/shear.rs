@@ -450,12 +450,17 @@ impl ShearSim {
             r: &g.radius,
             f0: (&pr.f0x, &pr.f0y, &pr.t0),
         };
-        let (f1, test) = (&self.slots.acc, self.slots.stray_test(&self.list, n, b));
+        // The predicted state's sums, read (and zeroed) by the corrector.
+        let mut f1 = std::mem::take(&mut self.slots.acc);
+        let test = self.slots.stray_test(&self.list, n, b);
         let inv = (&pr.inv_m[..], &pr.inv_i[..]);
-        let strayed = correct_packed(dt, rotate, inv, now, f1, &mut self.packed, test);
+        let strayed = correct_packed(dt, rotate, inv, now, &mut f1[..n], &mut self.packed, test);
+        self.slots.acc = f1;
+        self.slots.acc_zeroed = true;
         self.evaluate_packed::<true>(strayed);
         let forces = (&mut self.fx[..], &mut self.fy[..], &mut self.tq[..]);
-        unpack_forces(&self.slots.acc[..n], forces);
+        unpack_forces(&mut self.slots.acc[..n], forces);
+        self.slots.acc_zeroed = true;
     }
 
     /// Forces at the state `self.packed` holds (the predicted one unless `TRACK`, which

@@ -29,12 +29,14 @@ crate::avx2_entry_point! {
 /// # Safety
 /// The processor must have AVX2. `slots` must come from `Slots::sync` for these grains
 /// (indices < n, tables padded to a multiple of four), and `pos` and `vel` must hold n
-/// grains, as `shear_slots` (the one caller) asserts.
+/// grains, as `shear_slots` (the one caller) asserts. `zeroed`: `acc` already holds
+/// zeros (for n grains; else it is refilled).
 pub(crate) unsafe fn evaluate<const TRACK: bool>(
     pos: &[Pos],
     vel: &[Quad],
     slots: &Slots,
     acc: &mut Vec<Quad>,
+    zeroed: bool,
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
@@ -42,8 +44,11 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
     let n = slots.n;
     debug_assert!(pp.alpha == 2.0 && hist.near.len() >= slots.len());
     debug_assert!(pos.len() == n && vel.len() == n);
-    acc.clear();
-    acc.resize(n, Quad::default());
+    debug_assert!(!zeroed || acc.iter().all(|q| q.0 == [0.0; 4]));
+    if !(zeroed && acc.len() == n) {
+        acc.clear();
+        acc.resize(n, Quad::default());
+    }
     // SAFETY: AVX2 is present (this function's contract); `Slots::sync` checked every
     // index against n and padded the tables to a multiple of four.
     unsafe {
@@ -156,8 +161,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
         let mut dxs = [0.0f64; 4];
         let mut dys = [0.0f64; 4];
         // Stage 1: separations, contact test, history, roots. Stage 2: forces and sums.
-        // (Issuing the next group's stage 1 before this group's stage 2 measured no
-        // faster.) Macros, not closures: a closure may stay an out-of-line call taking its
+        // Macros, not closures: a closure may stay an out-of-line call taking its
         // vectors through memory.
         macro_rules! stage1 {
             ($k:expr) => {{
@@ -281,11 +285,23 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                 }
             }};
         }
+        // Stage 1 for a block of 16 groups, then stage 2 for them: the processor's
+        // window then overlaps more of the groups' long chains (3 % faster than
+        // alternating; the AVX-512 kernel's notes).
+        const G: usize = 16;
+        let mut block = [const { std::mem::MaybeUninit::<Stage1>::uninit() }; G];
         let padded = len.next_multiple_of(4);
-        for k in (0..padded).step_by(4) {
-            let cur = stage1!(k);
-            if cur.mask != 0 {
-                stage2!(k, &cur);
+        for k0 in (0..padded).step_by(4 * G) {
+            let groups = ((padded - k0) / 4).min(G);
+            for (g, b) in block.iter_mut().enumerate().take(groups) {
+                b.write(stage1!(k0 + 4 * g));
+            }
+            for (g, b) in block.iter().enumerate().take(groups) {
+                // SAFETY: written just above (g < groups).
+                let cur = b.assume_init_ref();
+                if cur.mask != 0 {
+                    stage2!(k0 + 4 * g, cur);
+                }
             }
         }
     }

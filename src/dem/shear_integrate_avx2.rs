@@ -174,8 +174,8 @@ pub(crate) struct Now<'a> {
 crate::avx2_entry_point! {
 /// Eqs. 23–24 (and their spin analogues), as `shear_integrate::correct`: the state at
 /// t + Δt from the forces at t (`now.f0`) and the packed force sums at the predicted
-/// state (`f1`, (f_x, f_y, T, 0) per grain), written to the arrays and packed into
-/// `pos`, `vel`. Makes the near list's stray `test` on the new positions, as
+/// state (`f1`, (f_x, f_y, T, ·) per grain, left zeroed for the next evaluation),
+/// written to the arrays and packed into `pos`, `vel`. Makes the near list's stray `test` on the new positions, as
 /// `predict_x4`.
 ///
 /// # Safety
@@ -186,7 +186,7 @@ unsafe fn correct_x4(
     rotate: bool,
     inv: (&[f64], &[f64]),
     now: Now,
-    f1: &[Quad],
+    f1: &mut [Quad],
     pos: &mut [Pos],
     vel: &mut [Quad],
     test: Option<StrayTest>,
@@ -203,8 +203,12 @@ unsafe fn correct_x4(
         let add = _mm256_add_pd;
         let mul = _mm256_mul_pd;
         for i in (0..body).step_by(4) {
-            let f = |k: usize| _mm256_load_pd(f1.as_ptr().add(i + k).cast::<f64>());
+            let q = f1.as_mut_ptr().add(i).cast::<f64>();
+            let f = |k: usize| _mm256_load_pd(q.add(4 * k));
             let (f1x, f1y, t1, _) = transpose(f(0), f(1), f(2), f(3));
+            for k in 0..4 {
+                _mm256_store_pd(q.add(4 * k), _mm256_setzero_pd());
+            }
             let (vx0, vy0) = (ld(vx, i), ld(vy, i));
             let hm = mul(half, ld(inv_m, i));
             let vx1 = add(vx0, mul(mul(add(ld(f0x, i), f1x), dt4), hm));
@@ -229,7 +233,7 @@ unsafe fn correct_x4(
     }
     let mut tail = false;
     for i in body..n {
-        let [f1x, f1y, t1, _] = f1[i].0;
+        let [f1x, f1y, t1, _] = std::mem::take(&mut f1[i]).0;
         let (vx0, vy0) = (vx[i], vy[i]);
         vx[i] = vx0 + (f0x[i] + f1x) * dt * (0.5 * inv_m[i]);
         vy[i] = vy0 + (f0y[i] + f1y) * dt * (0.5 * inv_m[i]);
@@ -284,7 +288,7 @@ pub(crate) fn correct_packed(
     rotate: bool,
     inv: (&[f64], &[f64]),
     now: Now,
-    f1: &[Quad],
+    f1: &mut [Quad],
     packed: &mut super::shear_integrate::Packed,
     test: Option<StrayTest>,
 ) -> Option<bool> {
@@ -316,33 +320,37 @@ pub(crate) fn correct_packed(
 
 crate::avx2_entry_point! {
 /// The packed force sums (f_x, f_y, T, ·) of each grain into the arrays `fx`, `fy`,
-/// `tq`, four grains per transpose.
+/// `tq`, four grains per transpose, leaving `f` zeroed for the next evaluation.
 ///
 /// # Safety
 /// The processor must have AVX2, and `fx`, `fy`, `tq` must have the length of `f`
 /// (`unpack_forces`, the one caller, asserts it).
-unsafe fn unpack_x4(f: &[Quad], fx: &mut [f64], fy: &mut [f64], tq: &mut [f64]) {
+unsafe fn unpack_x4(f: &mut [Quad], fx: &mut [f64], fy: &mut [f64], tq: &mut [f64]) {
     let n = f.len();
     let body = n - n % 4;
     // SAFETY: i + 4 <= n for every i below, and every slice has length n.
     unsafe {
         for i in (0..body).step_by(4) {
-            let q = |k: usize| _mm256_load_pd(f.as_ptr().add(i + k).cast::<f64>());
+            let p = f.as_mut_ptr().add(i).cast::<f64>();
+            let q = |k: usize| _mm256_load_pd(p.add(4 * k));
             let (a, b, c, _) = transpose(q(0), q(1), q(2), q(3));
+            for k in 0..4 {
+                _mm256_store_pd(p.add(4 * k), _mm256_setzero_pd());
+            }
             st(fx, i, a);
             st(fy, i, b);
             st(tq, i, c);
         }
     }
     for i in body..n {
-        [fx[i], fy[i], tq[i], _] = f[i].0;
+        [fx[i], fy[i], tq[i], _] = std::mem::take(&mut f[i]).0;
     }
 }
 }
 
-/// The packed force sums `f` into the arrays (see `unpack_x4`); panics unless the
-/// lengths agree and the processor has AVX2.
-pub(crate) fn unpack_forces(f: &[Quad], (fx, fy, tq): (&mut [f64], &mut [f64], &mut [f64])) {
+/// The packed force sums `f` into the arrays, `f` left zeroed (see `unpack_x4`);
+/// panics unless the lengths agree and the processor has AVX2.
+pub(crate) fn unpack_forces(f: &mut [Quad], (fx, fy, tq): (&mut [f64], &mut [f64], &mut [f64])) {
     let n = f.len();
     assert!(
         std::is_x86_feature_detected!("avx2") && fx.len() == n && fy.len() == n && tq.len() == n,

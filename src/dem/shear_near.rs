@@ -48,6 +48,9 @@ pub struct Slots {
     pub selections: u64,
     /// Force sums of the AVX2 kernel (scratch).
     pub(crate) acc: Vec<super::shear_integrate::Quad>,
+    /// `acc` holds zeros for n grains: the packed integrator zeroes the sums as it
+    /// reads them, which spares the kernel a pass.
+    pub(crate) acc_zeroed: bool,
     /// The Verlet list flattened: i, 1/d_ij and d_ij per slot (d_s).
     all_i: Vec<u32>,
     all_inv_dij: Vec<f64>,

@@ -151,6 +151,7 @@ pub fn evaluate_packed<const TRACK: bool>(
         "packed state does not match the slot table, or no AVX2"
     );
     let mut acc = std::mem::take(&mut slots.acc);
+    let zeroed = std::mem::take(&mut slots.acc_zeroed);
     // SAFETY: the processor has AVX2 and the packed state holds the slots' n grains
     // (both checked above); `Slots::sync` checked the slots' indices.
     slots.with_history(all_hist, |slots, hist| unsafe {
@@ -159,6 +160,7 @@ pub fn evaluate_packed<const TRACK: bool>(
             &packed.vel,
             slots,
             &mut acc,
+            zeroed,
             hist,
             pp,
             coll,
