@@ -9,10 +9,12 @@
 //! by n γ̇ L, which is the Lees–Edwards rule without any remapping of stored state.
 
 use super::grains::{Grains, LARGE, SMALL};
-use super::shear_integrate::{Packed, correct, predict};
+use super::shear_integrate::{Packed, Quad, correct, predict};
 use super::shear_near::Slots;
 use super::shear_pairs::{PairParams, pair_loop};
 use super::shear_slots::evaluate;
+#[cfg(target_arch = "x86_64")]
+use super::shear_slots::evaluate_packed;
 use super::verlet::{Boundary, PairList};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
@@ -141,8 +143,12 @@ pub struct ShearSim {
     pub slots: Slots,
     /// Which force kernel runs (both give the same numbers bit for bit).
     pub kernel: ShearKernel,
-    /// The state to evaluate next, packed for the AVX2 kernel by the integrator.
+    /// The state to evaluate next, packed for the AVX2 kernel by the integrator
+    /// (the predicted state, in a step).
     pub packed: Packed,
+    /// The state at t + Δt packed by the corrector, while the kernel still reads the
+    /// predicted one from `packed`.
+    pub packed_now: Packed,
 }
 
 /// The sheared disks' force kernels: the same numbers, different speed.
@@ -227,6 +233,7 @@ impl ShearSim {
             slots: Slots::default(),
             kernel: ShearKernel::default(),
             packed: Packed::default(),
+            packed_now: Packed::default(),
         };
         s.refresh();
         s
@@ -427,6 +434,7 @@ impl ShearSim {
         // the positions, is for the boundary at t + Δt.
         self.advance_clock();
         let b = self.boundary();
+        let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
         let (g, pr) = (&self.g, &mut self.pred);
         let strayed = predict_packed(
             dt,
@@ -436,42 +444,9 @@ impl ShearSim {
             (&pr.inv_m, &pr.inv_i),
             (&pr.f0x, &pr.f0y, &pr.t0),
             &mut self.packed,
-            self.slots.stray_test(&self.list, n, b),
+            self.slots.stray_test(self.list.builds, n, b),
         );
-        self.evaluate_packed::<false>(strayed);
-        let (g, pr) = (&mut self.g, &self.pred);
-        let now = Now {
-            x: &mut g.x,
-            y: &mut g.y,
-            theta: &mut g.theta,
-            vx: &mut g.vx,
-            vy: &mut g.vy,
-            w: &mut g.omega,
-            r: &g.radius,
-            f0: (&pr.f0x, &pr.f0y, &pr.t0),
-        };
-        // The predicted state's sums, read (and zeroed) by the corrector.
-        let mut f1 = std::mem::take(&mut self.slots.acc);
-        let test = self.slots.stray_test(&self.list, n, b);
-        let inv = (&pr.inv_m[..], &pr.inv_i[..]);
-        let strayed = correct_packed(dt, rotate, inv, now, &mut f1[..n], &mut self.packed, test);
-        self.slots.acc = f1;
-        self.slots.acc_zeroed = true;
-        self.evaluate_packed::<true>(strayed);
-        let forces = (&mut self.fx[..], &mut self.fy[..], &mut self.tq[..]);
-        unpack_forces(&mut self.slots.acc[..n], forces);
-        self.slots.acc_zeroed = true;
-    }
-
-    /// Forces at the state `self.packed` holds (the predicted one unless `TRACK`, which
-    /// also keeps the contact bookkeeping) into `self.slots.acc`, packed; `strayed` is
-    /// the near list's stray test made on its positions (`Slots::sync_tested`).
-    #[cfg(target_arch = "x86_64")]
-    fn evaluate_packed<const TRACK: bool>(&mut self, strayed: Option<bool>) {
-        let b = self.boundary();
-        let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
-        let n = self.g.len();
-        if !TRACK && !self.slots.current(&self.list, n, b, strayed) {
+        if !self.slots.current(&self.list, n, b, strayed) {
             // The predicted positions, as arrays, only for a re-selection.
             let pr = &mut self.pred;
             pr.x.clear();
@@ -479,22 +454,61 @@ impl ShearSim {
             pr.x.extend(self.packed.pos.iter().map(|p| p.0[0]));
             pr.y.extend(self.packed.pos.iter().map(|p| p.0[1]));
         }
-        let (x, y) = if TRACK {
-            (&self.g.x, &self.g.y)
-        } else {
-            (&self.pred.x, &self.pred.y)
+        let ShearSim {
+            g,
+            pred: pr,
+            list,
+            slots,
+            coll,
+            packed,
+            packed_now,
+            fx,
+            fy,
+            tq,
+            ..
+        } = self;
+        let r = &g.radius;
+        slots.sync_tested(list, r, (&pr.x, &pr.y), b, strayed);
+        // Forces at the predicted state; Eqs. 23–24 for each range of grains as its
+        // sums are complete, while the kernel goes on (the corrector's memory traffic
+        // overlaps the kernel's arithmetic). The state at t + Δt goes to `packed_now`:
+        // the kernel still reads the predicted one.
+        let builds = list.builds;
+        packed_now.reserve(n);
+        let (mut tested, mut far) = (true, false);
+        let mut correct = |range: std::ops::Range<usize>, f1: &mut [Quad], s: &Slots| {
+            let test = s.stray_test(builds, n, b).map(|t| t.range(range.clone()));
+            tested &= test.is_some();
+            let rr = || range.clone();
+            let now = Now {
+                x: &mut g.x[rr()],
+                y: &mut g.y[rr()],
+                theta: &mut g.theta[rr()],
+                vx: &mut g.vx[rr()],
+                vy: &mut g.vy[rr()],
+                w: &mut g.omega[rr()],
+                r: &g.radius[rr()],
+                f0: (&pr.f0x[rr()], &pr.f0y[rr()], &pr.t0[rr()]),
+            };
+            let inv = (&pr.inv_m[rr()], &pr.inv_i[rr()]);
+            let out = (&mut packed_now.pos[rr()], &mut packed_now.vel[rr()]);
+            far |= correct_packed(dt, rotate, inv, now, f1, out, test) == Some(true);
         };
-        let r = &self.g.radius;
-        self.slots
-            .sync_tested(&mut self.list, r, (x, y), b, strayed);
-        let hist = &mut self.list.shear[..];
-        super::shear_slots::evaluate_packed::<TRACK>(
-            &self.packed,
-            &mut self.slots,
-            hist,
-            &pp,
-            &mut self.coll,
-        );
+        let hist = &mut list.shear[..];
+        evaluate_packed::<false>(packed, slots, hist, &pp, coll, &mut correct);
+        // Every predicted sum was read and zeroed by the corrector.
+        slots.acc_zeroed = true;
+        let strayed = tested.then_some(far);
+        slots.sync_tested(list, &g.radius, (&g.x, &g.y), b, strayed);
+        // Forces at t + Δt (f_0 of the next step), spread into the arrays (and zeroed)
+        // range by range as they are complete.
+        let mut unpack = |range: std::ops::Range<usize>, f: &mut [Quad], _: &Slots| {
+            let rr = || range.clone();
+            unpack_forces(f, (&mut fx[rr()], &mut fy[rr()], &mut tq[rr()]));
+        };
+        let hist = &mut list.shear[..];
+        evaluate_packed::<true>(packed_now, slots, hist, &pp, coll, &mut unpack);
+        slots.acc_zeroed = true;
     }
 
     /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each

@@ -21,6 +21,13 @@ use super::shear_near::{History, Slots};
 use super::shear_pairs::PairParams;
 use std::arch::x86_64::*;
 
+/// Called by the kernels as the force sums of grains `range` are complete (every slot
+/// with such a grain done), with those sums and the near list: each range once, in
+/// order, together covering every grain. The held sums may be read and changed (the
+/// packed integrator corrects those grains and zeroes their sums while the kernel goes
+/// on with the rest: its memory traffic then overlaps the kernel's arithmetic).
+pub(crate) type Done<'a> = &'a mut dyn FnMut(std::ops::Range<usize>, &mut [Quad], &Slots);
+
 crate::avx2_entry_point! {
 /// As `shear_slots::evaluate` (α = 2 only), on a state packed grain by grain:
 /// the force and torque sums (f_x, f_y, T, 0) into `acc` (overwritten), with `TRACK`
@@ -30,7 +37,8 @@ crate::avx2_entry_point! {
 /// The processor must have AVX2. `slots` must come from `Slots::sync` for these grains
 /// (indices < n, tables padded to a multiple of four), and `pos` and `vel` must hold n
 /// grains, as `shear_slots` (the one caller) asserts. `zeroed`: `acc` already holds
-/// zeros (for n grains; else it is refilled).
+/// zeros (for n grains; else it is refilled). `done`: see [`Done`]; its ranges must not
+/// reach the grains it is not given.
 pub(crate) unsafe fn evaluate<const TRACK: bool>(
     pos: &[Pos],
     vel: &[Quad],
@@ -40,6 +48,7 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
+    done: Done,
 ) {
     let n = slots.n;
     debug_assert!(pp.alpha == 2.0 && hist.near.len() >= slots.len());
@@ -57,10 +66,10 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
         // only then); the same numbers.
         let wide = super::simd::level() == super::simd::Level::Avx512;
         match (wide, pp.cdrot) {
-            (true, true) => slots_x8::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll),
-            (true, false) => slots_x8::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll),
-            (false, true) => slots_x4::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll),
-            (false, false) => slots_x4::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll),
+            (true, true) => slots_x8::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll, done),
+            (true, false) => slots_x8::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll, done),
+            (false, true) => slots_x4::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll, done),
+            (false, false) => slots_x4::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll, done),
         }
     }
 }
@@ -146,6 +155,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
+    done: Done,
 ) {
     unsafe {
         let (ll, inv_l) = (_mm256_set1_pd(pp.ll), _mm256_set1_pd(pp.inv_l));
@@ -157,7 +167,9 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
         let len = slots.len();
         let (si, sj) = (slots.i.as_ptr(), slots.j.as_ptr());
         let (inv_dij_p, dij2_p) = (slots.inv_dij.as_ptr(), slots.dij2.as_ptr());
-        let (pos, vel, acc) = (pos.as_ptr(), vel.as_ptr(), acc.as_mut_ptr());
+        let (n, sums) = (acc.len(), acc);
+        let (pos, vel) = (pos.as_ptr(), vel.as_ptr());
+        let mut acc: *mut Quad;
         let mut dxs = [0.0f64; 4];
         let mut dys = [0.0f64; 4];
         // Stage 1: separations, contact test, history, roots. Stage 2: forces and sums.
@@ -291,7 +303,9 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
         const G: usize = 16;
         let mut block = [const { std::mem::MaybeUninit::<Stage1>::uninit() }; G];
         let padded = len.next_multiple_of(4);
+        let mut complete = 0;
         for k0 in (0..padded).step_by(4 * G) {
+            acc = sums.as_mut_ptr();
             let groups = ((padded - k0) / 4).min(G);
             for (g, b) in block.iter_mut().enumerate().take(groups) {
                 b.write(stage1!(k0 + 4 * g));
@@ -303,6 +317,20 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                     stage2!(k0 + 4 * g, cur);
                 }
             }
+            // Slots are in order of i (and j > i): grains below the next slot's i are done.
+            let next = k0 + 4 * G;
+            let limit = if next < len {
+                *si.add(next) as usize
+            } else {
+                n
+            };
+            if limit > complete {
+                done(complete..limit, &mut sums[complete..limit], slots);
+                complete = limit;
+            }
+        }
+        if complete < n {
+            done(complete..n, &mut sums[complete..n], slots);
         }
     }
 }

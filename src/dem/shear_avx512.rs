@@ -268,7 +268,8 @@ unsafe fn forces8<const CDROT: bool>(
 }
 
 /// As `shear_avx2::slots_x4`, eight slots at a time: the force sums into `acc` (zeroed
-/// by the caller), with `TRACK` the history and collision counts.
+/// by the caller), with `TRACK` the history and collision counts; `done` as the sums of
+/// each block's grains are complete.
 ///
 /// # Safety
 /// The processor must have AVX-512 F, VL and DQ; every slot index (padding included,
@@ -283,6 +284,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
+    done: super::shear_avx2::Done,
 ) {
     let c = Consts {
         ll: _mm512_set1_pd(pp.ll),
@@ -292,7 +294,8 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         minus_kd: _mm512_set1_pd(-pp.kd),
         one: _mm512_set1_pd(1.0),
     };
-    let (pos, vel, acc) = (pos.as_ptr(), vel.as_ptr(), acc.as_mut_ptr());
+    let (n, sums) = (acc.len(), acc);
+    let (pos, vel) = (pos.as_ptr(), vel.as_ptr());
     let zero = _mm512_setzero_pd();
     let mut a = Seps {
         dx: [zero; GROUPS],
@@ -301,8 +304,11 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         r2: [zero; GROUPS],
         touch: [0; GROUPS],
     };
-    let padded = slots.len().next_multiple_of(8);
+    let len = slots.len();
+    let padded = len.next_multiple_of(8);
+    let mut complete = 0;
     for k0 in (0..padded).step_by(8 * GROUPS) {
+        let acc = sums.as_mut_ptr();
         let groups = ((padded - k0) / 8).min(GROUPS);
         for g in 0..groups {
             // SAFETY: k0 + 8 g + 8 <= padded, and this function's contract.
@@ -316,5 +322,19 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
                 unsafe { forces8::<CDROT>(vel, acc, slots, k0 + 8 * g, &c, s) };
             }
         }
+        // Slots are in order of i (and j > i): grains below the next slot's i are done.
+        let next = k0 + 8 * GROUPS;
+        let limit = if next < len {
+            slots.i[next] as usize
+        } else {
+            n
+        };
+        if limit > complete {
+            done(complete..limit, &mut sums[complete..limit], slots);
+            complete = limit;
+        }
+    }
+    if complete < n {
+        done(complete..n, &mut sums[complete..n], slots);
     }
 }

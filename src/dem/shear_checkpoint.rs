@@ -116,6 +116,7 @@ impl ShearSim {
             slots: Default::default(),
             kernel: Default::default(),
             packed: Default::default(),
+            packed_now: Default::default(),
         };
         Ok((sim, extra))
     }

@@ -281,15 +281,16 @@ pub(crate) fn predict_packed(
     unsafe { predict_x4(dt, rotate, state, r, inv, f0, pos, vel, test) }
 }
 
-/// Eqs. 23–24 packed (see `correct_x4`); panics unless every slice has n = `now.x`'s
-/// length and the processor has AVX2.
+/// Eqs. 23–24 packed (see `correct_x4`) for the grains of the slices (any range of
+/// grains: the packed state goes to `pos`, `vel`); panics unless every slice has
+/// n = `now.x`'s length and the processor has AVX2.
 pub(crate) fn correct_packed(
     dt: f64,
     rotate: bool,
     inv: (&[f64], &[f64]),
     now: Now,
     f1: &mut [Quad],
-    packed: &mut super::shear_integrate::Packed,
+    (pos, vel): (&mut [Pos], &mut [Quad]),
     test: Option<StrayTest>,
 ) -> Option<bool> {
     let n = now.x.len();
@@ -306,6 +307,8 @@ pub(crate) fn correct_packed(
         inv.0.len(),
         inv.1.len(),
         f1.len(),
+        pos.len(),
+        vel.len(),
     ];
     assert!(
         std::is_x86_feature_detected!("avx2")
@@ -313,7 +316,6 @@ pub(crate) fn correct_packed(
             && test.is_none_or(|t| t.x_ref.len() == n && t.y_ref.len() == n),
         "correct_packed: slices of unequal length, or no AVX2"
     );
-    let (pos, vel) = packed.reserve(n);
     // SAFETY: AVX2 present and every length n (checked above).
     unsafe { correct_x4(dt, rotate, inv, now, f1, pos, vel, test) }
 }

@@ -67,6 +67,17 @@ pub(crate) struct StrayTest<'a> {
     pub lim: f64,
 }
 
+impl<'a> StrayTest<'a> {
+    /// The test for grains `r` alone (their references).
+    pub(crate) fn range(&self, r: std::ops::Range<usize>) -> StrayTest<'a> {
+        StrayTest {
+            x_ref: &self.x_ref[r.clone()],
+            y_ref: &self.y_ref[r],
+            ..*self
+        }
+    }
+}
+
 /// A cache of the pair list: two simulations never differ by it.
 impl PartialEq for Slots {
     fn eq(&self, _: &Self) -> bool {
@@ -84,7 +95,7 @@ impl Slots {
     /// within R_i + R_j + NEAR_SKIN, a stricter test than its own.
     pub fn sync(&mut self, list: &mut PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
         let strayed = self
-            .stray_test(list, r.len(), b)
+            .stray_test(list.builds, r.len(), b)
             .map(|t| strays(x, y, t.x_ref, t.y_ref, t.dgamma, t.lim));
         self.sync_tested(list, r, (x, y), b, strayed);
     }
@@ -110,20 +121,16 @@ impl Slots {
     /// ([`Slots::stray_test`]) answered `strayed`; else `sync_tested` re-selects, and
     /// reads the positions.
     pub fn current(&self, list: &PairList, n: usize, b: Boundary, strayed: Option<bool>) -> bool {
-        strayed == Some(false) && self.stray_test(list, n, b).is_some()
+        strayed == Some(false) && self.stray_test(list.builds, n, b).is_some()
     }
 
     /// The stray test that keeps this selection for n grains in boundary `b`: some
     /// grain strayed when (x − x_ref − Δγ y_ref)² + (y − y_ref)² > `lim` (d_s²). `None`
     /// when the list must be re-selected whatever the positions.
-    pub(crate) fn stray_test(
-        &self,
-        list: &PairList,
-        n: usize,
-        b: Boundary,
-    ) -> Option<StrayTest<'_>> {
+    /// (`builds`: the Verlet list's `PairList::builds`.)
+    pub(crate) fn stray_test(&self, builds: u64, n: usize, b: Boundary) -> Option<StrayTest<'_>> {
         let dgamma = strain_since(b, self.offset_ref);
-        let current = self.builds == list.builds
+        let current = self.builds == builds
             && self.builds != 0
             && self.n == n
             && self.x_ref.len() == n

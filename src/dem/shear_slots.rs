@@ -100,7 +100,7 @@ pub fn evaluate<const TRACK: bool>(
     #[cfg(target_arch = "x86_64")]
     if harmonic && super::simd::level() >= super::simd::Level::Avx2 {
         packed.fill(st);
-        evaluate_packed::<TRACK>(packed, slots, all_hist, pp, coll);
+        evaluate_packed::<TRACK>(packed, slots, all_hist, pp, coll, &mut |_, _, _| {});
         for (i, f) in slots.acc.iter().enumerate().take(n) {
             let [a, b, c, _] = f.0;
             (fx[i], fy[i], tq[i]) = (a, b, c);
@@ -130,16 +130,18 @@ pub fn evaluate<const TRACK: bool>(
 }
 
 /// As [`evaluate`] (α = 2, AVX2 only) on a state packed grain by grain: the force and
-/// torque sums (f_x, f_y, T, 0) per grain into `slots.acc`. The packed integrator
+/// torque sums (f_x, f_y, T, ·) per grain into `slots.acc`, handed to `done` range by
+/// range as they are complete (see `shear_avx2::Done`). The packed integrator
 /// (`shear_integrate_avx2`) reads them there, sparing a pass that would spread them
 /// into arrays. Same numbers as [`evaluate`].
 #[cfg(target_arch = "x86_64")]
-pub fn evaluate_packed<const TRACK: bool>(
+pub(crate) fn evaluate_packed<const TRACK: bool>(
     packed: &super::shear_integrate::Packed,
     slots: &mut Slots,
     all_hist: &mut [f64],
     pp: &PairParams,
     coll: &mut Collisions,
+    done: super::shear_avx2::Done,
 ) {
     let n = slots.n;
     assert!(
@@ -164,6 +166,7 @@ pub fn evaluate_packed<const TRACK: bool>(
             hist,
             pp,
             coll,
+            done,
         );
     });
     slots.acc = acc;
