@@ -28,6 +28,10 @@ use std::arch::x86_64::*;
 /// on with the rest: its memory traffic then overlaps the kernel's arithmetic).
 pub(crate) type Done<'a> = &'a mut dyn FnMut(std::ops::Range<usize>, &mut [Quad], &Slots);
 
+/// The least grains per [`Done`] call but the last: fewer calls, each long enough for
+/// its loops (48–96 measured 2 % faster than a call per block of slots).
+pub(crate) const DONE_MIN: usize = 48;
+
 crate::avx2_entry_point! {
 /// As `shear_slots::evaluate` (α = 2 only), on a state packed grain by grain:
 /// the force and torque sums (f_x, f_y, T, 0) into `acc` (overwritten), with `TRACK`
@@ -324,7 +328,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
             } else {
                 n
             };
-            if limit > complete {
+            if limit >= complete + DONE_MIN {
                 done(complete..limit, &mut sums[complete..limit], slots);
                 complete = limit;
             }

@@ -329,7 +329,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         } else {
             n
         };
-        if limit > complete {
+        if limit >= complete + super::shear_avx2::DONE_MIN {
             done(complete..limit, &mut sums[complete..limit], slots);
             complete = limit;
         }

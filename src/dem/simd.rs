@@ -7,10 +7,11 @@
 //! LLVM then has 32 vector registers instead of 16 (the pair kernels spilled), mask
 //! registers and three-input logic, for the same operations on the same lanes, so the
 //! same numbers (tested). It is used for the intrinsics kernels (`avx2_entry_point!`)
-//! only: the autovectorised loops of `multiversion!` turned slower with it. No 512-bit
-//! vectors: LLVM turned the pair kernels' indexed loads into AVX-512 gathers, which on
-//! AMD EPYC Zen 4 made the sheared-disk step 12–16 % slower than AVX2's loads and
-//! inserts.
+//! only: the autovectorised loops of `multiversion!` turned slower with it. 512-bit
+//! vectors only where written by hand: the sheared disks' force kernel `shear_avx512`
+//! (loads and shuffles, no gathers; AVX-512 gathers, which LLVM made of the pair
+//! kernels' indexed loads, made the sheared-disk step 12–16 % slower on AMD EPYC Zen 4,
+//! and hand-written ones were 9 % slower on the project's Intel machines).
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
