@@ -729,3 +729,42 @@ fn a_box_smaller_than_twice_the_list_reach_is_refused() {
     assert!(e.contains("box of side") && e.contains("more disks"), "{e}");
     assert!(params(64, 0.82, Dissipation::Cd, 1e-3).validate().is_ok());
 }
+
+/// The near list's skin thins where selections are rare (slow shear) and thickens where
+/// the flow forces them within a few steps (fast shear), and changes no number: runs
+/// started at the thinnest and the thickest skin stay bit-identical.
+#[test]
+fn the_near_list_skin_adapts_and_changes_no_number() {
+    use pillar_pipe::dem::shear_near::{NEAR_SKIN_MAX, NEAR_SKIN_MIN};
+    let bits = |s: &ShearSim| {
+        let g = &s.g;
+        [&g.x, &g.y, &g.vx, &g.vy, &g.omega, &s.fx, &s.tq]
+            .iter()
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .collect::<Vec<_>>()
+    };
+    for (rate, steps) in [(1e-4, 3000), (3e-2, 600)] {
+        let start = ShearSim::new(params(300, 0.82, Dissipation::Cdrot, rate));
+        let (mut thin, mut thick) = (start.clone(), start);
+        thin.slots.set_skin(NEAR_SKIN_MIN);
+        thick.slots.set_skin(NEAR_SKIN_MAX);
+        for _ in 0..steps {
+            thin.step();
+            thick.step();
+        }
+        assert_eq!(bits(&thin), bits(&thick), "γ̇ = {rate}");
+        assert_eq!(thin.coll, thick.coll, "γ̇ = {rate}");
+        let (a, b) = (thin.slots.skin(), thick.slots.skin());
+        if rate < 1e-3 {
+            assert!(
+                b < 0.5 * NEAR_SKIN_MAX,
+                "slow shear kept a thick skin: {a} {b}"
+            );
+        } else {
+            assert!(
+                a > 2.0 * NEAR_SKIN_MIN,
+                "fast shear kept the thinnest skin: {a} {b}"
+            );
+        }
+    }
+}

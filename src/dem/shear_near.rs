@@ -1,8 +1,10 @@
 //! The sheared disks' near list: the pairs of the Verlet list ([`PairList`], skin 0.3
-//! d_s) that are within a much thinner skin ([`NEAR_SKIN`]), flattened for the force
+//! d_s) that are within a much thinner skin (0.01–0.05 d_s), flattened for the force
 //! kernels. Rebuilding the Verlet list needs the cell grid; re-selecting from it is one
-//! pass over its slots, so the near list can afford a skin a sixth as thick and be
-//! re-selected often, and the kernels then test about 1.9 pairs per grain instead of 2.6.
+//! pass over its slots, so the near list can afford a thin skin and be re-selected
+//! often, and the kernels then test about 1.9 pairs per grain instead of 2.6. The skin
+//! adapts at each selection ([`Slots::skin`]): thinner when selections are rare, thicker
+//! when the flow forces them within a few steps (fast shear).
 //!
 //! Exact: the near list keeps the Verlet list's order, holds every pair that can touch
 //! before the next re-selection (the same displacement bound as the Verlet list, with
@@ -12,8 +14,17 @@
 use super::shear::{Collisions, angle_bin};
 use super::verlet::{Boundary, MinImage, PairList, strain_since, stray_limit, strays};
 
-/// Extra distance beyond contact kept in the near list (d_s).
-pub const NEAR_SKIN: f64 = 0.05;
+/// Extra distance beyond contact kept in the near list (d_s): the range its skin adapts
+/// in, and where it starts.
+pub const NEAR_SKIN_MIN: f64 = 0.01;
+pub const NEAR_SKIN_MAX: f64 = 0.05;
+
+/// Evaluations between selections below which the skin thickens, above which it thins
+/// (×1.5 or ÷1.5 at a selection). A selection costs about the kernel's time for 5–10
+/// evaluations; each 0.01 d_s of skin about 2 % of every evaluation (measured at
+/// N = 1024, φ = 0.82: the thinnest skin was the fastest at γ̇τ_e = 1e-4, by 4–7 %).
+const SELECT_SOON: u64 = 30;
+const SELECT_LATE: u64 = 120;
 
 /// The near list: slot k is the Verlet list's slot `sel[k]`, with its (i, j), 1/d_ij,
 /// d_ij² and contact history (see [`History`]). Indices are checked against `n` when
@@ -38,8 +49,12 @@ pub struct Slots {
     pub(crate) n: usize,
     /// The Verlet list (`PairList::builds`) this selection came from; none when 0.
     builds: u64,
+    /// The skin of this selection (d_s); 0 before the first.
+    skin: f64,
+    /// Evaluations that found the selection current since it was made.
+    since: u64,
     /// Positions and Lees–Edwards offset at the selection, and its reach
-    /// 2 R_max + NEAR_SKIN (d_s).
+    /// 2 R_max + skin (d_s).
     x_ref: Vec<f64>,
     y_ref: Vec<f64>,
     offset_ref: f64,
@@ -88,11 +103,11 @@ impl PartialEq for Slots {
 impl Slots {
     /// Make the near list valid for the state (x, y) (d_s) in boundary `b`: re-select
     /// when the Verlet list was rebuilt, when forced by [`Slots::invalidate`], or when
-    /// some grain strayed more than (NEAR_SKIN − |Δγ| reach)/2 from the affine flow since
+    /// some grain strayed more than (skin − |Δγ| reach)/2 from the affine flow since
     /// the last selection (the bound of [`PairList::needs_rebuild_sheared`]). The Verlet list itself is
     /// checked (and rebuilt if need be) only then: between selections the kernels read
     /// the near list alone, and at a selection the Verlet list must hold every pair
-    /// within R_i + R_j + NEAR_SKIN, a stricter test than its own.
+    /// within R_i + R_j + skin, a stricter test than its own.
     pub fn sync(&mut self, list: &mut PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
         let strayed = self
             .stray_test(list.builds, r.len(), b)
@@ -111,10 +126,36 @@ impl Slots {
         b: Boundary,
         strayed: Option<bool>,
     ) {
-        if !self.current(list, r.len(), b, strayed) {
-            list.update_within(x, y, r, b, NEAR_SKIN);
-            self.select(list, r, (x, y), b);
+        if self.current(list, r.len(), b, strayed) {
+            self.since += 1;
+            return;
         }
+        self.skin = if self.skin == 0.0 {
+            NEAR_SKIN_MAX
+        } else if self.since < SELECT_SOON {
+            (self.skin * 1.5).min(NEAR_SKIN_MAX)
+        } else if self.since > SELECT_LATE {
+            (self.skin / 1.5).max(NEAR_SKIN_MIN)
+        } else {
+            self.skin
+        };
+        self.since = 0;
+        list.update_within(x, y, r, b, self.skin);
+        self.select(list, r, (x, y), b);
+    }
+
+    /// The skin of the current selection (d_s; 0 before the first).
+    pub fn skin(&self) -> f64 {
+        self.skin
+    }
+
+    /// Start the next selection at `skin` (d_s, within the adaptive range): for tests
+    /// that the skin changes no number.
+    pub fn set_skin(&mut self, skin: f64) {
+        self.skin = skin.clamp(NEAR_SKIN_MIN, NEAR_SKIN_MAX);
+        // Neither soon nor late: the next selection keeps it.
+        self.since = SELECT_SOON;
+        self.builds = 0;
     }
 
     /// Whether the selection holds for n grains in boundary `b` whose stray test
@@ -135,7 +176,7 @@ impl Slots {
             && self.n == n
             && self.x_ref.len() == n
             && self.y_ref.len() == n;
-        let lim = stray_limit(NEAR_SKIN, dgamma, self.reach).filter(|_| current)?;
+        let lim = stray_limit(self.skin, dgamma, self.reach).filter(|_| current)?;
         Some(StrayTest {
             x_ref: &self.x_ref,
             y_ref: &self.y_ref,
@@ -193,7 +234,7 @@ impl Slots {
             let (a, c) = (self.all_i[k] as usize, list.j[k] as usize);
             let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
             let dij = self.all_dij[k];
-            let reach = dij + NEAR_SKIN;
+            let reach = dij + self.skin;
             let h = list.shear[k];
             // Pairs with history stay, however far: their contact ends here. (Written
             // as "not beyond" so a NaN separation stays in, as the straight loop sees it.)
@@ -227,7 +268,7 @@ impl Slots {
         self.y_ref.clear();
         self.y_ref.extend_from_slice(y);
         self.offset_ref = b.offset();
-        self.reach = 2.0 * r.iter().cloned().fold(0.0, f64::max) + NEAR_SKIN;
+        self.reach = 2.0 * r.iter().cloned().fold(0.0, f64::max) + self.skin;
         debug_assert!(self.i.len() >= padded && self.j.len() >= padded);
         self.n = n;
         self.builds = list.builds;
