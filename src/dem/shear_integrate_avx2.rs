@@ -2,9 +2,13 @@
 //! grains at a time: the same operations as `shear_integrate::{predict, correct}`, lane
 //! for lane and in the same order (no fused multiply-add), so the same numbers bit for
 //! bit. Each writes the state it makes straight into the packed records the force
-//! kernel reads (transposed in registers), and `correct` reads the predicted state's
-//! force sums from the kernel's packed records: two passes over the grains a step
-//! instead of four, the arrays of the predicted velocities never written.
+//! kernel reads (transposed in registers) and makes the near list's stray test as it
+//! writes the positions; `correct` reads the predicted state's force sums from the
+//! kernel's packed records and zeroes them for the next evaluation, and runs range by
+//! range as the kernel completes each range of grains (`shear_avx2::Done`), as does the
+//! spreading of the final sums into arrays (`unpack_forces`): their memory traffic then
+//! overlaps the kernel's arithmetic. The arrays of the predicted velocities are never
+//! written.
 
 use super::avx2::transpose;
 use super::shear_integrate::{Pos, Quad, Slices5};
@@ -97,8 +101,9 @@ unsafe fn answer(test: &Option<StrayTest>, far: __m256d, tail: bool) -> Option<b
 
 crate::avx2_entry_point! {
 /// Eqs. 21–22 (and the spin analogue of 21), as `shear_integrate::predict`: the
-/// predicted state packed into `pos`, `vel` (with the radii `r`). Spins stay 0 when `!rotate`. Makes
-/// the near list's stray `test` on the predicted positions: `Some(strayed)` with one.
+/// predicted state packed into `pos`, `vel` (with the radii `r`). Spins stay 0 when
+/// `!rotate`. Makes the near list's stray `test` on the predicted positions:
+/// `Some(strayed)` with one.
 ///
 /// # Safety
 /// The processor must have AVX2, and every slice (the test's too) must have the length
@@ -175,8 +180,8 @@ crate::avx2_entry_point! {
 /// Eqs. 23–24 (and their spin analogues), as `shear_integrate::correct`: the state at
 /// t + Δt from the forces at t (`now.f0`) and the packed force sums at the predicted
 /// state (`f1`, (f_x, f_y, T, ·) per grain, left zeroed for the next evaluation),
-/// written to the arrays and packed into `pos`, `vel`. Makes the near list's stray `test` on the new positions, as
-/// `predict_x4`.
+/// written to the arrays and packed into `pos`, `vel` (any range of grains). Makes the
+/// near list's stray `test` on the new positions, as `predict_x4`.
 ///
 /// # Safety
 /// The processor must have AVX2, and every slice (the test's too) must have the length

@@ -104,10 +104,10 @@ impl Slots {
     /// Make the near list valid for the state (x, y) (d_s) in boundary `b`: re-select
     /// when the Verlet list was rebuilt, when forced by [`Slots::invalidate`], or when
     /// some grain strayed more than (skin − |Δγ| reach)/2 from the affine flow since
-    /// the last selection (the bound of [`PairList::needs_rebuild_sheared`]). The Verlet list itself is
-    /// checked (and rebuilt if need be) only then: between selections the kernels read
-    /// the near list alone, and at a selection the Verlet list must hold every pair
-    /// within R_i + R_j + skin, a stricter test than its own.
+    /// the last selection (the bound of [`PairList::needs_rebuild_sheared`]). The
+    /// Verlet list itself is checked (and rebuilt if need be) only then: between
+    /// selections the kernels read the near list alone, and at a selection the Verlet
+    /// list must hold every pair within R_i + R_j + skin, a stricter test than its own.
     pub fn sync(&mut self, list: &mut PairList, r: &[f64], (x, y): (&[f64], &[f64]), b: Boundary) {
         let strayed = self
             .stray_test(list.builds, r.len(), b)
