@@ -130,8 +130,13 @@ impl Slots {
             self.since += 1;
             return;
         }
+        // Adapted only where grains (or the flow) ended the selection: after a rebuild
+        // of the Verlet list behind its back (a re-sort) `since` says nothing.
+        let moved = self.builds == list.builds && self.builds != 0;
         self.skin = if self.skin == 0.0 {
             NEAR_SKIN_MAX
+        } else if !moved {
+            self.skin
         } else if self.since < SELECT_SOON {
             (self.skin * 1.5).min(NEAR_SKIN_MAX)
         } else if self.since > SELECT_LATE {
