@@ -14,7 +14,7 @@ use super::shear_near::Slots;
 use super::shear_pairs::{PairParams, pair_loop};
 use super::shear_slots::evaluate;
 #[cfg(target_arch = "x86_64")]
-use super::shear_slots::evaluate_packed;
+use super::shear_slots::{evaluate_packed, evaluate_packed_into};
 use super::verlet::{Boundary, PairList};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
@@ -428,7 +428,7 @@ impl ShearSim {
     /// (`shear_integrate_avx2`). f_0 is in `pred.f0x/f0y/t0`.
     #[cfg(target_arch = "x86_64")]
     fn step_packed(&mut self) {
-        use super::shear_integrate_avx2::{Now, correct_packed, predict_packed, unpack_forces};
+        use super::shear_integrate_avx2::{Now, correct_packed, predict_packed};
         let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
         // The clock first: the near list's stray test, made as the predictor writes
         // the positions, is for the boundary at t + Δt.
@@ -500,15 +500,11 @@ impl ShearSim {
         slots.acc_zeroed = true;
         let strayed = tested.then_some(far);
         slots.sync_tested(list, &g.radius, (&g.x, &g.y), b, strayed);
-        // Forces at t + Δt (f_0 of the next step), spread into the arrays (and zeroed)
-        // range by range as they are complete.
-        let mut unpack = |range: std::ops::Range<usize>, f: &mut [Quad], _: &Slots| {
-            let rr = || range.clone();
-            unpack_forces(f, (&mut fx[rr()], &mut fy[rr()], &mut tq[rr()]));
-        };
+        // Forces at t + Δt (f_0 of the next step), spread into the arrays range by
+        // range as they are complete.
         let hist = &mut list.shear[..];
-        evaluate_packed::<true>(packed_now, slots, hist, &pp, coll, &mut unpack);
-        slots.acc_zeroed = true;
+        let forces = (&mut fx[..], &mut fy[..], &mut tq[..]);
+        evaluate_packed_into::<true>(packed_now, slots, hist, &pp, coll, forces);
     }
 
     /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each

@@ -158,8 +158,7 @@ impl Slots {
     /// that the skin changes no number.
     pub fn set_skin(&mut self, skin: f64) {
         self.skin = skin.clamp(NEAR_SKIN_MIN, NEAR_SKIN_MAX);
-        // Neither soon nor late: the next selection keeps it.
-        self.since = SELECT_SOON;
+        // A forced selection (not ended by grains) keeps the skin.
         self.builds = 0;
     }
 

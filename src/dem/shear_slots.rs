@@ -100,11 +100,7 @@ pub fn evaluate<const TRACK: bool>(
     #[cfg(target_arch = "x86_64")]
     if harmonic && super::simd::level() >= super::simd::Level::Avx2 {
         packed.fill(st);
-        evaluate_packed::<TRACK>(packed, slots, all_hist, pp, coll, &mut |_, _, _| {});
-        for (i, f) in slots.acc.iter().enumerate().take(n) {
-            let [a, b, c, _] = f.0;
-            (fx[i], fy[i], tq[i]) = (a, b, c);
-        }
+        evaluate_packed_into::<TRACK>(packed, slots, all_hist, pp, coll, (fx, fy, tq));
         return;
     }
     for v in [&mut *fx, &mut *fy, &mut *tq] {
@@ -170,6 +166,26 @@ pub(crate) fn evaluate_packed<const TRACK: bool>(
         );
     });
     slots.acc = acc;
+}
+
+/// [`evaluate_packed`] with the sums spread into `fx`, `fy`, `tq` (overwritten) range by
+/// range as they are complete, and left zeroed for the next evaluation.
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn evaluate_packed_into<const TRACK: bool>(
+    packed: &super::shear_integrate::Packed,
+    slots: &mut Slots,
+    all_hist: &mut [f64],
+    pp: &PairParams,
+    coll: &mut Collisions,
+    (fx, fy, tq): (&mut [f64], &mut [f64], &mut [f64]),
+) {
+    use super::shear_integrate_avx2::unpack_forces;
+    let mut unpack =
+        |r: std::ops::Range<usize>, f: &mut [super::shear_integrate::Quad], _: &Slots| {
+            unpack_forces(f, (&mut fx[r.clone()], &mut fy[r.clone()], &mut tq[r]));
+        };
+    evaluate_packed::<TRACK>(packed, slots, all_hist, pp, coll, &mut unpack);
+    slots.acc_zeroed = true;
 }
 
 /// Reads `a[m]` without a bounds check.
