@@ -20,6 +20,17 @@ pub enum RunsCmd {
         #[arg(required = true, num_args = 2..)]
         ids: Vec<String>,
     },
+    /// Check cached stage outputs against their recorded sizes and SHA-256: the stages
+    /// of one run (default `latest`) or, with --all, every cache entry. A damaged entry
+    /// is moved aside (so no run serves it) and the command fails.
+    Verify {
+        /// Run id, unique id prefix, or `latest`.
+        #[arg(conflicts_with = "all")]
+        id: Option<String>,
+        /// Every entry in RUNS_DIR/cache, not one run's stages.
+        #[arg(long)]
+        all: bool,
+    },
 }
 
 /// A path relative to the working directory when it lies below it (shorter to read).
@@ -34,14 +45,33 @@ pub fn run_pipeline(opt: pillar_pipe::pipeline::RunOptions) -> Result<()> {
     use pillar_pipe::pipeline::{runner::Status, runs};
     let quiet = opt.quiet;
     let mut print = |e: &pillar_pipe::pipeline::StageEvent| {
-        if quiet {
-            return;
+        // What concerns the cache's integrity or why the run stalls goes to stderr,
+        // also with --quiet.
+        let (name, note) = (&e.stage.name, e.note.as_deref().unwrap_or(""));
+        match e.status {
+            Status::Waiting => {
+                return eprintln!("waiting for stage '{name}' (computed by {note})");
+            }
+            Status::BrokeLock => {
+                return eprintln!("broke the stale lock of stage '{name}': {note}");
+            }
+            Status::Damaged => {
+                return eprintln!("warning: cached stage '{name}' is damaged, recomputing: {note}");
+            }
+            Status::Unverifiable => {
+                return eprintln!(
+                    "warning: cached stage '{name}' cannot be verified, recomputing: {note}"
+                );
+            }
+            _ if quiet => return,
+            _ => {}
         }
         let what = match e.status {
             Status::Running => "running".to_string(),
             Status::Cached => format!("cached     {}", shown(e.dir)),
             Status::Computed => format!("computed   {:.2} s -> {}", e.elapsed_s, shown(e.dir)),
             Status::WouldRun => format!("would run  {}", shown(e.dir)),
+            _ => return,
         };
         println!(
             "[{}/{}] {:24} {:10} {what}",
@@ -93,6 +123,71 @@ pub fn runs(what: RunsCmd, dir: &std::path::Path) -> Result<()> {
                 .collect::<pillar_pipe::Result<Vec<_>>>()?;
             print!("{}", views::compare_text(&ms));
         }
+        RunsCmd::Verify { id, all } => verify(id, all, dir)?,
+    }
+    Ok(())
+}
+
+/// `runs verify`: one line per entry, the damaged ones moved aside; fails if any was.
+fn verify(id: Option<String>, all: bool, dir: &std::path::Path) -> Result<()> {
+    use pillar_pipe::pipeline::cache::{Cache, Verdict};
+    use pillar_pipe::pipeline::runs;
+    let cache = Cache {
+        dir: dir.join("cache"),
+    };
+    // (label, entry name, key the run expects)
+    let mut todo: Vec<(String, String, Option<String>)> = Vec::new();
+    if all {
+        let (live, _) = cache.entries()?;
+        todo.extend(live.into_iter().map(|n| (n.clone(), n, None)));
+    } else {
+        let m = runs::find(dir, id.as_deref().unwrap_or("latest"))?;
+        println!("run {}", m.run_id);
+        for st in &m.stages {
+            let name = std::path::Path::new(&st.dir)
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            todo.push((st.name.clone(), name, Some(st.key.clone())));
+        }
+    }
+    let label = |(l, n, _): &(String, String, Option<String>)| {
+        if all { l.clone() } else { format!("{l} ({n})") }
+    };
+    let width = todo
+        .iter()
+        .map(|t| label(t).chars().count())
+        .max()
+        .unwrap_or(0);
+    let mut damaged = 0;
+    for t in &todo {
+        let (name, key) = (&t.1, &t.2);
+        let c = cache.verify_entry(name, key.as_deref())?;
+        let line = match &c.verdict {
+            Verdict::Ok(r) => format!(
+                "OK            {} files, sha256",
+                r.output_files.as_ref().map_or(0, |f| f.len())
+            ),
+            Verdict::Missing => "MISSING       not in the cache (cleared?)".into(),
+            Verdict::Unverifiable(why) => format!("UNVERIFIABLE  {why}; never served"),
+            Verdict::Damaged(what) => {
+                damaged += 1;
+                let fate = match &c.moved {
+                    Ok(to) => format!("moved to {}", shown(to)),
+                    Err(why) => why.clone(),
+                };
+                format!("DAMAGED       {what}; {fate}")
+            }
+        };
+        println!("{:width$}  {line}", label(t));
+    }
+    for a in &cache.entries()?.1 {
+        println!("kept aside    {}", shown(&cache.dir.join(a)));
+    }
+    if damaged > 0 {
+        anyhow::bail!(
+            "{damaged} damaged cache entr{} (moved aside; the next run recomputes them)",
+            if damaged == 1 { "y" } else { "ies" }
+        );
     }
     Ok(())
 }

@@ -187,6 +187,9 @@ enum Cmd {
         /// Validate the pipeline and show which stages are cached; run nothing.
         #[arg(long)]
         dry_run: bool,
+        /// Check cached outputs' SHA-256 before using them (by default only their sizes).
+        #[arg(long)]
+        verify: bool,
     },
     /// Tracked pipeline runs: list, show, compare.
     Runs {
@@ -428,6 +431,7 @@ fn run(cli: Cli) -> Result<()> {
             quiet,
             runs_dir,
             dry_run,
+            verify,
         } => run_pipeline(pillar_pipe::pipeline::RunOptions {
             pipeline,
             sets: set,
@@ -435,6 +439,7 @@ fn run(cli: Cli) -> Result<()> {
             quiet,
             runs_dir,
             dry_run,
+            verify,
         })?,
         Cmd::Runs { what, runs_dir } => runs(what, &runs_dir)?,
         Cmd::Bench { what } => cli_bench::bench(what)?,

@@ -32,6 +32,8 @@ pub struct Ctx<'a> {
     pub done: &'a BTreeMap<String, Done>,
     pub quiet: bool,
     pub run_id: &'a str,
+    /// The stage's cache directory (its final name; the stage writes elsewhere).
+    pub dir: &'a Path,
 }
 
 /// What the stage produced: output files (relative), metrics, its report.
@@ -96,7 +98,7 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let mut o: stages::simulate::SimulateOptions = typed(&s.name, &s.params)?;
             o.packing = s.files.get("packing").cloned();
             o.quiet = q;
-            let r = simulate_resumable(out, &mut o)?;
+            let r = simulate_resumable(out, ctx.dir, &mut o)?;
             let rel: BTreeMap<String, String> = r
                 .tables
                 .iter()
@@ -232,25 +234,21 @@ fn sum<T: serde::Serialize>(r: &T) -> Json {
 }
 
 /// Run a simulation so that a killed pipeline resumes it: the work happens in a
-/// directory beside the cache named by the run's options (`.work-simulate-<hash>`, not
-/// swept with the stage's temporary directory), with checkpoints; a rerun continues
-/// from the last one, and the finished tables are then moved into the stage's `out`.
+/// directory beside the cache named after the stage's (`.work-simulate-<hash>` for
+/// `simulate-<hash>`, so the stage's key, which covers its options, the packing and
+/// the tool build, names it, and the stage's lock covers it; not swept with the stage's
+/// temporary directory), with checkpoints; a rerun continues from the last one, and the
+/// finished tables are then moved into the stage's `out`.
 fn simulate_resumable(
     out: &Path,
+    stage_dir: &Path,
     o: &mut stages::simulate::SimulateOptions,
 ) -> Result<stages::simulate::SimulateReport> {
-    let cache = out.parent().unwrap_or(out);
-    let mut key = serde_json::to_value(&*o).unwrap_or_default();
-    if let Some(m) = key.as_object_mut() {
-        m.remove("quiet");
-        m.remove("resume");
-    }
-    if let Some(p) = &o.packing {
-        key["packing_sha256"] = json!(crate::io::sha256_file(p)?);
-    }
-    key["tool"] = json!(super::cache::build_id());
-    let hash = crate::io::hash::sha256_bytes(key.to_string().as_bytes());
-    let work = cache.join(format!(".work-simulate-{}", &hash[..16]));
+    let cache = stage_dir.parent().unwrap_or(stage_dir);
+    let name = stage_dir
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let work = cache.join(format!(".work-{name}"));
     if o.checkpoint_every == 0 {
         // About a minute of work between checkpoints at either preset.
         o.checkpoint_every = 2_000_000 / (o.n as u64 / 200).max(1);

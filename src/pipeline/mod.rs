@@ -11,6 +11,7 @@
 pub mod cache;
 pub mod exec;
 pub mod graph;
+pub mod lock;
 pub mod params;
 pub mod parse;
 pub mod record;

@@ -1,8 +1,9 @@
 //! `pillar-pipe run`: load the pipeline, compute every stage's cache key, reuse or
 //! compute each stage in order, then record the run under `runs/<id>/`.
 
-use super::cache::{Cache, StageRecord, stage_key};
+use super::cache::{Cache, CacheEvent, Check, Claim, StageRecord, stage_key};
 use super::exec::{Ctx, Done, execute};
+use super::lock::LockEvent;
 use super::record::{manifest, place_reports, write_manifest};
 use super::runs::{self, RunManifest, StageRun};
 use super::{Pipeline, Stage};
@@ -24,6 +25,8 @@ pub struct RunOptions {
     pub runs_dir: PathBuf,
     /// Validate and show what would run; write nothing.
     pub dry_run: bool,
+    /// Check cached outputs' SHA-256, not only their sizes, before serving them.
+    pub verify: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,6 +35,14 @@ pub enum Status {
     Cached,
     Computed,
     WouldRun,
+    /// Another process computes the stage; `note` names it.
+    Waiting,
+    /// A stale lock was broken; `note` says whose and why.
+    BrokeLock,
+    /// The cached entry failed its check and was moved aside; `note` says what and where.
+    Damaged,
+    /// The cached entry's record has no sizes or hashes; it is recomputed.
+    Unverifiable,
 }
 
 /// One line of progress for the caller to print.
@@ -42,6 +53,8 @@ pub struct StageEvent<'a> {
     pub status: Status,
     pub elapsed_s: f64,
     pub dir: &'a Path,
+    /// Details for `Waiting`, `BrokeLock`, `Damaged`, `Unverifiable`.
+    pub note: Option<String>,
 }
 
 /// Stages matching `--force` and everything downstream of them.
@@ -147,6 +160,7 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
                 status,
                 elapsed_s: 0.0,
                 dir: &cache.path(s.kind.name(), &k.key),
+                note: None,
             });
         }
         return Ok(m);
@@ -163,15 +177,46 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
         let kind = s.kind.name();
         let dir = cache.path(kind, &k.key);
         let t = Instant::now();
-        let hit = if force.contains(&s.name) {
-            None
+        let how = if opt.verify {
+            Check::Sha256
         } else {
-            cache.lookup(kind, &k.key)
+            Check::Sizes
         };
-        let cached = hit.is_some();
-        let record = match hit {
-            Some(r) => r,
-            None => {
+        let mut say = |status, note: String| {
+            on_event(&StageEvent {
+                index: i + 1,
+                total,
+                stage: s,
+                status,
+                elapsed_s: 0.0,
+                dir: &dir,
+                note: Some(note),
+            });
+        };
+        let claim = cache.claim(
+            kind,
+            &k.key,
+            force.contains(&s.name),
+            how,
+            &mut |e| match e {
+                CacheEvent::Lock(LockEvent::Waiting(h)) => say(Status::Waiting, h.holder()),
+                CacheEvent::Lock(LockEvent::BrokeStale(h, why)) => say(
+                    Status::BrokeLock,
+                    format!(
+                        "{} ({why})",
+                        h.map_or_else(|| "unreadable lock".into(), |h| h.holder())
+                    ),
+                ),
+                CacheEvent::Damaged(what, to) => say(
+                    Status::Damaged,
+                    format!("{what}; moved to {}", to.display()),
+                ),
+                CacheEvent::Unverifiable(why) => say(Status::Unverifiable, why.to_string()),
+            },
+        );
+        let (record, cached, because) = match claim {
+            Ok(Claim::Cached(r)) => (Ok(*r), true, None),
+            Ok(Claim::Compute { lock, because }) => {
                 on_event(&StageEvent {
                     index: i + 1,
                     total,
@@ -179,14 +224,16 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
                     status: Status::Running,
                     elapsed_s: 0.0,
                     dir: &dir,
+                    note: None,
                 });
                 let ctx = Ctx {
                     pipeline: &p,
                     done: &done,
                     quiet: opt.quiet,
                     run_id: &id,
+                    dir: &dir,
                 };
-                let computed = cache.compute(kind, &k.key, |tmp, _| {
+                let computed = cache.compute(kind, &k.key, &lock, |tmp, _| {
                     let pr = execute(s, &ctx, tmp)?;
                     Ok(StageRecord {
                         kind: kind.into(),
@@ -197,6 +244,7 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
                         upstream: k.upstream.clone(),
                         files: k.files.clone(),
                         outputs: pr.outputs,
+                        output_files: None,
                         metrics: pr.metrics,
                         summary: pr.summary,
                         elapsed_s: t.elapsed().as_secs_f64(),
@@ -204,18 +252,20 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
                         computed_in_run: id.clone(),
                     })
                 });
-                match computed {
-                    Ok(r) => r,
-                    Err(e) => {
-                        let msg = format!("stage '{}' ({kind}) failed: {e}", s.name);
-                        m.status = "failed".into();
-                        m.failed_stage = Some(s.name.clone());
-                        m.error = Some(msg.clone());
-                        m.elapsed_s = t0.elapsed().as_secs_f64();
-                        write_manifest(&run_dir, &m)?;
-                        return Err(Error::Other(msg));
-                    }
-                }
+                (computed, false, because)
+            }
+            Err(e) => (Err(e), false, None),
+        };
+        let record = match record {
+            Ok(r) => r,
+            Err(e) => {
+                let msg = format!("stage '{}' ({kind}) failed: {e}", s.name);
+                m.status = "failed".into();
+                m.failed_stage = Some(s.name.clone());
+                m.error = Some(msg.clone());
+                m.elapsed_s = t0.elapsed().as_secs_f64();
+                write_manifest(&run_dir, &m)?;
+                return Err(Error::Other(msg));
             }
         };
         let elapsed_s = t.elapsed().as_secs_f64();
@@ -230,6 +280,7 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
             },
             elapsed_s,
             dir: &dir,
+            note: None,
         });
         if !record.metrics.as_object().is_none_or(|o| o.is_empty()) {
             m.metrics.insert(s.name.clone(), record.metrics.clone());
@@ -244,6 +295,8 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
                 .display()
                 .to_string(),
             cached,
+            verified: if cached { how.name() } else { "computed" }.into(),
+            recomputed_because: because,
             elapsed_s,
             compute_s: record.elapsed_s,
             outputs: record.outputs.clone(),

@@ -33,6 +33,13 @@ pub struct StageRun {
     /// Output directory, relative to the runs directory.
     pub dir: String,
     pub cached: bool,
+    /// How the output was checked: "sizes" or "sha256" (a cache hit), "computed".
+    /// Empty in manifests written before outputs were verified.
+    #[serde(default)]
+    pub verified: String,
+    /// Why a cached entry was not used (damaged, unverifiable); it was recomputed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recomputed_because: Option<String>,
     /// Time spent in this run (near zero when cached).
     pub elapsed_s: f64,
     /// Time the computation took when it ran.
@@ -97,6 +104,13 @@ pub fn now_iso() -> String {
     let (s, ms) = now();
     let (y, m, d, h, mi, sec) = utc(s);
     format!("{y:04}-{m:02}-{d:02}T{h:02}:{mi:02}:{sec:02}.{ms:03}Z")
+}
+
+/// Now as a compact UTC stamp for file names, `YYYYmmddTHHMMSS.mmmZ`.
+pub fn now_stamp() -> String {
+    let (s, ms) = now();
+    let (y, m, d, h, mi, sec) = utc(s);
+    format!("{y:04}{m:02}{d:02}T{h:02}{mi:02}{sec:02}.{ms:03}Z")
 }
 
 /// A new run directory `YYYYmmdd-HHMMSS-mmm-<config>`: sorts by start time (UTC, to the
