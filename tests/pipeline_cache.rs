@@ -81,7 +81,11 @@ fn damaged_cache_entries_are_found_moved_aside_and_recomputed() {
     );
     assert!(err.contains(&expect), "no '{expect}' in:\n{err}");
     let m = latest(&runs);
-    assert_eq!(computed(&m), ["experiment.ingest"], "kinematics' key is unchanged");
+    assert_eq!(
+        computed(&m),
+        ["experiment.ingest"],
+        "kinematics' key is unchanged"
+    );
     let ingest = stage(&m, "experiment.ingest");
     assert_eq!(ingest["verified"], "computed");
     assert!(
@@ -92,7 +96,11 @@ fn damaged_cache_entries_are_found_moved_aside_and_recomputed() {
         "{ingest}"
     );
     assert_eq!(stage(&m, "experiment.kinematics")["verified"], "sizes");
-    assert_eq!(std::fs::read(&tracks).unwrap(), original, "recomputed alike");
+    assert_eq!(
+        std::fs::read(&tracks).unwrap(),
+        original,
+        "recomputed alike"
+    );
     let aside = dot_entries(&runs, ".damaged-ingest-");
     assert_eq!(aside.len(), 1, "kept for inspection");
     let kept = runs.join("cache").join(&aside[0]).join("tracks.parquet");
@@ -303,7 +311,10 @@ fn stale_locks_are_broken_and_live_ones_waited_for() {
     };
     let (t, err) = run(Some("1.5"));
     holder.join().unwrap();
-    assert!(err.contains("waiting for stage 'experiment.ingest'"), "{err}");
+    assert!(
+        err.contains("waiting for stage 'experiment.ingest'"),
+        "{err}"
+    );
     assert!(!err.contains("broke"), "a live lock was broken: {err}");
     assert!(t >= Duration::from_millis(2500), "{t:?}");
 }

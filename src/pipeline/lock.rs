@@ -164,9 +164,11 @@ impl StageLock {
         {
             Ok(mut f) => {
                 // A reader that catches the file still empty sees it as held and unreadable.
-                f.write_all(text.as_bytes())
-                    .and_then(|()| f.sync_all())
-                    .map_err(|e| Error::io(path, e))?;
+                if let Err(e) = f.write_all(text.as_bytes()).and_then(|()| f.sync_all()) {
+                    // An empty lock would hold every waiter for the stale limit.
+                    let _ = std::fs::remove_file(path);
+                    return Err(Error::io(path, e));
+                }
                 Ok(Attempt::Taken(Self::start(path, info)))
             }
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {

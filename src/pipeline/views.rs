@@ -182,10 +182,11 @@ pub fn show_text(m: &RunManifest, runs_dir: &Path) -> String {
             vec![
                 st.name.clone(),
                 st.kind.clone(),
-                if st.cached {
-                    "cached".into()
-                } else {
-                    "computed".into()
+                match (st.cached, st.verified.as_str()) {
+                    (false, _) => "computed".into(),
+                    // Manifests from before outputs were verified record nothing.
+                    (true, "") => "cached".into(),
+                    (true, how) => format!("cached ({how} checked)"),
                 },
                 format!(
                     "{:.2} s",
