@@ -356,7 +356,10 @@ mod tests {
         let Attempt::Held(Some(info), _) = StageLock::try_take(&p).unwrap() else {
             panic!("held lock taken twice")
         };
-        assert_eq!((info.host, info.pid), (hostname(), std::process::id()));
+        assert_eq!(
+            (info.host.as_str(), info.pid),
+            (hostname(), std::process::id())
+        );
         drop(l);
         assert!(!p.exists());
         assert_eq!(std::fs::read_dir(&d).unwrap().count(), 0, "nothing left");
