@@ -242,8 +242,9 @@ fn simulate_resumable(
     let cache = out.parent().unwrap_or(out);
     let mut key = serde_json::to_value(&*o).unwrap_or_default();
     if let Some(m) = key.as_object_mut() {
-        m.remove("quiet");
-        m.remove("resume");
+        for k in stages::simulate::RUN_ONLY {
+            m.remove(k);
+        }
     }
     if let Some(p) = &o.packing {
         key["packing_sha256"] = json!(crate::io::sha256_file(p)?);
@@ -251,10 +252,6 @@ fn simulate_resumable(
     key["tool"] = json!(super::cache::build_id());
     let hash = crate::io::hash::sha256_bytes(key.to_string().as_bytes());
     let work = cache.join(format!(".work-simulate-{}", &hash[..16]));
-    if o.checkpoint_every == 0 {
-        // About a minute of work between checkpoints at either preset.
-        o.checkpoint_every = 2_000_000 / (o.n as u64 / 200).max(1);
-    }
     let finished = work.join(stages::simulate::MANIFEST).exists();
     o.resume = !finished && work.join("checkpoint.bin").exists();
     if !finished && !o.resume && work.exists() {
