@@ -43,6 +43,10 @@ pub struct PillarArgs {
     /// Steps between checkpoints (0: none).
     #[arg(long, default_value_t = 0)]
     checkpoint_every: u64,
+    /// Seconds of wall time between checkpoints (0: none): a kill loses at most this
+    /// much work. SIGINT and SIGTERM always save a checkpoint before stopping.
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    checkpoint_interval: f64,
     /// Continue the unfinished run in DIR from its last checkpoint.
     #[arg(long, value_name = "DIR", conflicts_with = "output")]
     resume: Option<PathBuf>,
@@ -118,6 +122,10 @@ pub struct ShearArgs {
     /// Steps between checkpoints (0: none).
     #[arg(long, default_value_t = 0)]
     checkpoint_every: u64,
+    /// Seconds of wall time between checkpoints (0: none): a kill loses at most this
+    /// much work. SIGINT and SIGTERM always save a checkpoint before stopping.
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    checkpoint_interval: f64,
     /// Continue the unfinished run in DIR from its last checkpoint.
     #[arg(long, value_name = "DIR", conflicts_with = "output")]
     resume: Option<PathBuf>,
@@ -163,6 +171,7 @@ pub fn simulate(cmd: SimulateCmd) -> Result<()> {
         output_every: a.output_every,
         forces_every: a.forces_every,
         checkpoint_every: a.checkpoint_every,
+        checkpoint_interval: a.checkpoint_interval,
         resume,
         quiet: a.quiet,
         halt_after: a.halt_after,
@@ -227,6 +236,7 @@ fn shear(a: ShearArgs) -> Result<()> {
         rate_end: a.rate_end,
         window: a.window,
         checkpoint_every: a.checkpoint_every,
+        checkpoint_interval: a.checkpoint_interval,
         resume,
         quiet: a.quiet,
         halt_after: a.halt_after,
@@ -265,6 +275,10 @@ pub struct SweepArgs {
     /// Checkpoint each run every this many steps (0: none); a rerun resumes them.
     #[arg(long, default_value_t = 0)]
     checkpoint_every: u64,
+    /// Seconds of wall time between each run's checkpoints (0: none). SIGINT and
+    /// SIGTERM always make the runs under way save one before the sweep stops.
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    checkpoint_interval: f64,
     /// Runs at a time (each is single-threaded; default: the cores).
     #[arg(long)]
     jobs: Option<usize>,
@@ -286,6 +300,7 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
         strain: a.strain,
         seed: a.seed,
         checkpoint_every: a.checkpoint_every,
+        checkpoint_interval: a.checkpoint_interval,
         quiet: true,
         ..Default::default()
     };

@@ -56,6 +56,10 @@ pub enum Error {
     NotImplemented(String),
     #[error("{0}")]
     Other(String),
+    /// Stopped by SIGINT or SIGTERM after saving what can be resumed; `what` says where
+    /// the work stands (the CLI adds the command that continues it).
+    #[error("stopped by {}: {what}", crate::interrupt::name(*signal))]
+    Interrupted { signal: i32, what: String },
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
@@ -78,6 +82,13 @@ impl Error {
             name: name.into(),
             msg: msg.into(),
         }
+    }
+    /// The error of a run stopped by the pending signal, if one is pending.
+    pub fn interrupted(what: impl Into<String>) -> Option<Self> {
+        crate::interrupt::requested().map(|signal| Error::Interrupted {
+            signal,
+            what: what.into(),
+        })
     }
     pub fn polars(context: impl Into<String>, source: polars::error::PolarsError) -> Self {
         Error::Polars {

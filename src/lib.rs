@@ -12,6 +12,7 @@ pub mod bench;
 pub mod error;
 pub mod fit;
 pub mod geom;
+pub mod interrupt;
 pub mod io;
 pub mod kinematics;
 pub mod neighbors;

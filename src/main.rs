@@ -238,10 +238,66 @@ fn parse_pair(s: &str) -> std::result::Result<(f64, f64), String> {
 }
 
 fn main() {
+    pillar_pipe::interrupt::install();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
+        if let Some(signal) = interrupted(&e) {
+            eprintln!("stopped: {e:#}");
+            eprintln!("continue with: {}", resume_command(std::env::args()));
+            std::process::exit(pillar_pipe::interrupt::exit_code(signal));
+        }
         eprintln!("error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// The signal, where the error is a run stopped by SIGINT or SIGTERM.
+fn interrupted(e: &anyhow::Error) -> Option<i32> {
+    e.chain().find_map(|c| match c.downcast_ref() {
+        Some(pillar_pipe::error::Error::Interrupted { signal, .. }) => Some(*signal),
+        _ => None,
+    })
+}
+
+/// The command that continues a stopped one: `simulate … -o DIR` becomes
+/// `simulate … --resume DIR` (the options must stay those of the run); `run` and
+/// `sweep` continue when typed again.
+fn resume_command(args: impl Iterator<Item = String>) -> String {
+    let args: Vec<String> = args.collect();
+    let simulate = args.get(1).is_some_and(|a| a == "simulate");
+    let mut out = vec!["pillar-pipe".to_string()];
+    let mut it = args.iter().skip(1);
+    while let Some(a) = it.next() {
+        let dir = if !simulate {
+            None
+        } else if a == "-o" || a == "--output" {
+            it.next().cloned()
+        } else if let Some(d) = a.strip_prefix("--output=") {
+            Some(d.to_string())
+        } else {
+            a.strip_prefix("-o")
+                .filter(|d| !d.is_empty() && !a.starts_with("--"))
+                .map(str::to_string)
+        };
+        match dir {
+            Some(d) => out.extend(["--resume".to_string(), d]),
+            None => out.push(a.clone()),
+        }
+    }
+    out.iter()
+        .map(|a| shell_quote(a))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn shell_quote(a: &str) -> String {
+    let plain = !a.is_empty()
+        && a.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-./=,:+@%".contains(c));
+    if plain {
+        a.to_string()
+    } else {
+        format!("'{}'", a.replace('\'', "'\\''"))
     }
 }
 

@@ -249,10 +249,6 @@ fn simulate_resumable(
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     let work = cache.join(format!(".work-{name}"));
-    if o.checkpoint_every == 0 {
-        // About a minute of work between checkpoints at either preset.
-        o.checkpoint_every = 2_000_000 / (o.n as u64 / 200).max(1);
-    }
     let finished = work.join(stages::simulate::MANIFEST).exists();
     o.resume = !finished && work.join("checkpoint.bin").exists();
     if !finished && !o.resume && work.exists() {

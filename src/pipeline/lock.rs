@@ -264,6 +264,10 @@ impl StageLock {
                 events(LockEvent::Waiting(i));
                 announced = Some(i.token.clone());
             }
+            // Ctrl-C while waiting stops the run like any other stage would.
+            if let Some(e) = Error::interrupted("stopped while waiting for another process") {
+                return Err(e);
+            }
             std::thread::sleep(POLL);
         }
     }

@@ -103,6 +103,12 @@ fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
             for k in s.upstream.keys().chain(s.files.keys()) {
                 o.remove(k);
             }
+            // How often a simulation checkpoints changes none of its numbers.
+            if s.kind == super::Kind::Simulate {
+                for k in crate::stages::simulate::RUN_ONLY {
+                    o.remove(k);
+                }
+            }
         }
         let upstream = s
             .upstream
@@ -258,6 +264,14 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
         };
         let record = match record {
             Ok(r) => r,
+            Err(Error::Interrupted { signal, what }) => {
+                let what = format!(
+                    "stage '{}' ({kind}): {what}; {}",
+                    s.name,
+                    interrupted_note(i, total)
+                );
+                return Err(stop_interrupted(&mut m, &run_dir, t0, signal, what));
+            }
             Err(e) => {
                 let msg = format!("stage '{}' ({kind}) failed: {e}", s.name);
                 m.status = "failed".into();
@@ -304,10 +318,47 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
         done.insert(s.name.clone(), Done { record, dir });
         m.elapsed_s = t0.elapsed().as_secs_f64();
         write_manifest(&run_dir, &m)?;
+        if let Some(signal) = crate::interrupt::requested()
+            && i + 1 < total
+        {
+            let what = format!(
+                "after stage '{}'; {}",
+                s.name,
+                interrupted_note(i + 1, total)
+            );
+            return Err(stop_interrupted(&mut m, &run_dir, t0, signal, what));
+        }
     }
     m.report = place_reports(&p, &done, &run_dir)?;
     m.status = "ok".into();
     m.elapsed_s = t0.elapsed().as_secs_f64();
     write_manifest(&run_dir, &m)?;
     Ok(m)
+}
+
+fn interrupted_note(finished: usize, total: usize) -> String {
+    format!(
+        "{finished} of {total} stages finished and cached; running the pipeline again continues \
+         (a simulation from its last checkpoint)"
+    )
+}
+
+/// Record a run stopped by a signal in its manifest and make the error that says so.
+fn stop_interrupted(
+    m: &mut RunManifest,
+    run_dir: &Path,
+    t0: Instant,
+    signal: i32,
+    what: String,
+) -> Error {
+    m.status = "interrupted".into();
+    m.error = Some(format!(
+        "stopped by {}: {what}",
+        crate::interrupt::name(signal)
+    ));
+    m.elapsed_s = t0.elapsed().as_secs_f64();
+    if let Err(e) = write_manifest(run_dir, m) {
+        return e;
+    }
+    Error::Interrupted { signal, what }
 }

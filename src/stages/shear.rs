@@ -53,6 +53,9 @@ pub struct ShearOptions {
     pub window: f64,
     /// Steps between checkpoints (0: none).
     pub checkpoint_every: u64,
+    /// Wall-time seconds between checkpoints (0: none), so that a kill loses at most
+    /// that much work; SIGINT and SIGTERM always save one before stopping.
+    pub checkpoint_interval: f64,
     /// Continue the unfinished run in the output directory.
     pub resume: bool,
     pub quiet: bool,
@@ -81,6 +84,7 @@ impl Default for ShearOptions {
             rate_end: None,
             window: 1000.0,
             checkpoint_every: 0,
+            checkpoint_interval: 60.0,
             resume: false,
             quiet: false,
             halt_after: None,
@@ -147,7 +151,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let (ckpt, parts_dir) = (out.join("checkpoint.bin"), out.join(".parts"));
     let physics = {
         let mut v = serde_json::to_value(opt).expect("json");
-        for k in ["resume", "quiet", "checkpoint_every"] {
+        for k in super::simulate::RUN_ONLY {
             v.as_object_mut().expect("object").remove(k);
         }
         v.to_string()
@@ -221,6 +225,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let field_every =
         ((steady_samples / super::shear_steady::FIELD_SNAPSHOTS as f64).floor() as u64).max(1);
     let bar = super::progress(total, "shear", opt.quiet);
+    let mut clock =
+        crate::interrupt::CheckpointClock::new(opt.checkpoint_every, opt.checkpoint_interval);
     // A resumed run's current step was recorded and checkpointed before the stop.
     let mut fresh = !opt.resume;
     loop {
@@ -267,11 +273,11 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             frame += 1;
             bar.set_position(sim.step);
         }
+        // The clock and the signal flag are read every 64 steps (a step is ~20 µs).
         if fresh
-            && opt.checkpoint_every > 0
             && sim.step > 0
-            && sim.step.is_multiple_of(opt.checkpoint_every)
             && sim.step < total
+            && (clock.due_by_steps(sim.step) || (sim.step.is_multiple_of(64) && clock.due_now()))
         {
             flush_tracks(&mut tracks, &parts_dir, parts)?;
             parts += 1;
@@ -294,6 +300,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             e.f64s(&tracks.meta.boxes.iter().map(|b| b.xy).collect::<Vec<_>>());
             let bytes = sim.save(&e.0);
             super::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
+            clock.saved();
+            if let Some(e) = Error::interrupted(format!(
+                "checkpoint saved at step {} of {total} in {}",
+                sim.step,
+                ckpt.display()
+            )) {
+                return Err(e);
+            }
         }
         fresh = true;
         if sim.step >= total {

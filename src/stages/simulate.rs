@@ -9,6 +9,7 @@ use crate::dem::forces::ContactRecord;
 use crate::dem::params::PillarParams;
 use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};
+use crate::interrupt::CheckpointClock;
 use crate::io::{atomic_write_str, sidecar_path};
 use crate::tracks::TracksMeta;
 use serde::{Deserialize, Serialize};
@@ -37,6 +38,9 @@ pub struct SimulateOptions {
     pub forces_every: u64,
     /// Steps between checkpoints (0: none); rounded up to a multiple of output_every.
     pub checkpoint_every: u64,
+    /// Wall-time seconds between checkpoints (0: none), so that a kill loses at most
+    /// that much work; SIGINT and SIGTERM always save one before stopping.
+    pub checkpoint_interval: f64,
     /// Continue the unfinished run in the output directory from its checkpoint.
     pub resume: bool,
     pub quiet: bool,
@@ -62,6 +66,7 @@ impl Default for SimulateOptions {
             output_every: None,
             forces_every: 5,
             checkpoint_every: 0,
+            checkpoint_interval: 60.0,
             resume: false,
             quiet: false,
             halt_after: None,
@@ -70,11 +75,15 @@ impl Default for SimulateOptions {
     }
 }
 
+/// Options that say how a run proceeds, not what it computes: a resumed run may change
+/// them, and they enter no cache key.
+pub const RUN_ONLY: [&str; 4] = ["resume", "quiet", "checkpoint_every", "checkpoint_interval"];
+
 impl SimulateOptions {
     /// The options that determine the numbers (a resume must match these).
     fn physics(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(self).expect("options serialise");
-        for k in ["resume", "quiet", "checkpoint_every"] {
+        for k in RUN_ONLY {
             v.as_object_mut().expect("object").remove(k);
         }
         v
@@ -299,11 +308,48 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         c.refresh_forces();
         record_frame(&c, &mut buf, &mut prog);
     }
+    let mut clock = CheckpointClock::new(ck_every, opt.checkpoint_interval);
+    // Steps per call of `advance` between looks at the clock and the signal flag, kept
+    // near a quarter of a second; where the calls split a frame changes no number.
+    let mut chunk: u64 = 64;
+    let checkpoint =
+        |sim: &PillarSim, buf: &mut Buffers, prog: &mut Progress, clock: &mut CheckpointClock| {
+            buf.flush(&parts_dir, prog.parts)?;
+            prog.parts += 1;
+            let saved = prog.elapsed_before;
+            prog.elapsed_before += t0.elapsed().as_secs_f64();
+            let bytes = sim.save(&prog.encode());
+            prog.elapsed_before = saved;
+            super::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
+            clock.saved();
+            match Error::interrupted(format!(
+                "checkpoint saved at step {} of {total} in {}",
+                sim.step,
+                ckpt.display()
+            )) {
+                Some(e) => Err(e),
+                None => Ok(()),
+            }
+        };
     while sim.step < total {
-        // Run to the next output frame (or the end) in one go, so the threads of
+        // Run to the next output frame (or the end) in chunks, so the threads of
         // `advance` live for many steps; the last step records forces when due.
         let stop = ((sim.step / out_every + 1) * out_every).min(total);
-        sim.advance(stop - sim.step - 1);
+        while sim.step + 1 < stop {
+            let n = (stop - 1 - sim.step).min(chunk);
+            let t = std::time::Instant::now();
+            sim.advance(n);
+            let took = t.elapsed().as_secs_f64();
+            if n == chunk && took < 0.1 {
+                chunk = chunk.saturating_mul(2);
+            } else if took > 0.4 {
+                chunk = (chunk / 2).max(1);
+            }
+            if sim.step + 1 < stop && clock.due_now() {
+                checkpoint(&sim, &mut buf, &mut prog, &mut clock)?;
+                bar.set_position(sim.step);
+            }
+        }
         if stop.is_multiple_of(out_every) && prog.frames.is_multiple_of(opt.forces_every) {
             sim.record = Some(ContactRecord::default());
         }
@@ -312,14 +358,8 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         sim.record = None;
         sim.interval = Interval::default();
         bar.set_position(sim.step);
-        if ck_every > 0 && sim.step % ck_every == 0 && sim.step < total {
-            buf.flush(&parts_dir, prog.parts)?;
-            prog.parts += 1;
-            let saved = prog.elapsed_before;
-            prog.elapsed_before += t0.elapsed().as_secs_f64();
-            let bytes = sim.save(&prog.encode());
-            prog.elapsed_before = saved;
-            super::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
+        if (clock.due_by_steps(sim.step) || clock.due_now()) && sim.step < total {
+            checkpoint(&sim, &mut buf, &mut prog, &mut clock)?;
         }
     }
     bar.finish_and_clear();

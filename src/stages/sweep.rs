@@ -59,6 +59,9 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
             .map(|&(phi, q, rate)| {
                 let dir = run_dir(out, phi, q, rate);
                 let reused = dir.join("manifest.json").exists();
+                if !reused && let Some(e) = Error::interrupted("not started") {
+                    return Err(e);
+                }
                 if !reused {
                     let o = ShearOptions {
                         phi,
@@ -68,8 +71,9 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
                         resume: dir.join("checkpoint.bin").exists(),
                         ..opt.base.clone()
                     };
-                    run(&dir, &o).map_err(|e| {
-                        Error::Other(format!("run φ = {phi}, Q = {q}, γ̇ = {rate:e}: {e}"))
+                    run(&dir, &o).map_err(|e| match e {
+                        Error::Interrupted { .. } => e,
+                        e => Error::Other(format!("run φ = {phi}, Q = {q}, γ̇ = {rate:e}: {e}")),
                     })?;
                 }
                 let p = dir.join("summary.json");
@@ -81,6 +85,21 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
             .collect()
     });
     bar.finish_and_clear();
+    let stopped = results
+        .iter()
+        .filter(|r| matches!(r, Err(Error::Interrupted { .. })))
+        .count();
+    if let (true, Some(signal)) = (stopped > 0, crate::interrupt::requested()) {
+        let finished = results.iter().filter(|r| r.is_ok()).count();
+        return Err(Error::Interrupted {
+            signal,
+            what: format!(
+                "{finished} of {} runs finished; the runs under way saved checkpoints and the \
+                 same sweep command continues them",
+                grid.len()
+            ),
+        });
+    }
     // One row per run, in grid order (deterministic whatever the scheduling).
     let mut cols: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     let mut reused = 0;

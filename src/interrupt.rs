@@ -1,0 +1,113 @@
+//! Graceful interruption. SIGINT (Ctrl-C) and SIGTERM (what Slurm sends at a time limit
+//! or preemption, and what a shutdown sends) only raise a flag; long loops poll it at
+//! their step boundaries, save a checkpoint and return [`Error::Interrupted`], and the
+//! CLI prints how to continue. A second signal ends the process at once (exit 128 +
+//! signal), as users expect of a second Ctrl-C.
+//!
+//! Polling rather than unwinding from the handler keeps every write atomic: a run is
+//! stopped only between steps, where its state is whole.
+//!
+//! [`Error::Interrupted`]: crate::error::Error::Interrupted
+
+use std::sync::atomic::{AtomicI32, Ordering};
+
+/// The first signal received (0: none).
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+
+/// SIGINT's number (POSIX: 2 everywhere).
+pub const SIGINT: i32 = 2;
+/// SIGTERM's number (POSIX: 15 everywhere).
+pub const SIGTERM: i32 = 15;
+
+/// Route SIGINT and SIGTERM to the flag. Called once by the binary; the library never
+/// installs handlers of its own (a program embedding it keeps its own).
+pub fn install() {
+    #[cfg(unix)]
+    for sig in [libc::SIGINT, libc::SIGTERM] {
+        // SAFETY: `sa` is fully initialised (zeroed, then its mask emptied) before
+        // `sigaction` reads it; the handler only touches an atomic and calls the
+        // async-signal-safe `write` and `_exit`.
+        unsafe {
+            let mut sa: libc::sigaction = std::mem::zeroed();
+            sa.sa_sigaction = handler as *const () as libc::sighandler_t;
+            libc::sigemptyset(&mut sa.sa_mask);
+            // Restart interrupted reads and writes: the run stops at its next step
+            // boundary, not with an EINTR error in the middle of writing a table.
+            sa.sa_flags = libc::SA_RESTART;
+            libc::sigaction(sig, &sa, std::ptr::null_mut());
+        }
+    }
+}
+
+#[cfg(unix)]
+extern "C" fn handler(sig: libc::c_int) {
+    if SIGNAL.swap(sig, Ordering::SeqCst) != 0 {
+        // SAFETY: `_exit` is async-signal-safe and takes any status.
+        unsafe { libc::_exit(128 + sig) }
+    }
+    let msg: &[u8] = b"\npillar-pipe: stopping at the next safe point (long runs save a checkpoint first); send the signal again to stop at once\n";
+    // SAFETY: `write` is async-signal-safe; the buffer is a static byte string.
+    unsafe {
+        libc::write(2, msg.as_ptr().cast(), msg.len());
+    }
+}
+
+/// The signal that asked the process to stop, if any.
+pub fn requested() -> Option<i32> {
+    match SIGNAL.load(Ordering::Relaxed) {
+        0 => None,
+        s => Some(s),
+    }
+}
+
+/// `SIGINT`, `SIGTERM`, or `signal N`.
+pub fn name(sig: i32) -> String {
+    match sig {
+        SIGINT => "SIGINT".into(),
+        SIGTERM => "SIGTERM".into(),
+        s => format!("signal {s}"),
+    }
+}
+
+/// The conventional exit status of a process stopped by `sig`.
+pub fn exit_code(sig: i32) -> i32 {
+    128 + sig
+}
+
+/// When a long run saves its state: every `every` steps, every `interval` seconds of
+/// wall time (so a SIGKILL loses at most that much work), and at once when a signal asks
+/// the process to stop. Where checkpoints fall never changes a number: runs resume
+/// bit-exactly from any step.
+#[derive(Debug, Clone)]
+pub struct CheckpointClock {
+    every: u64,
+    interval: f64,
+    last: std::time::Instant,
+}
+
+impl CheckpointClock {
+    /// `every` in steps and `interval` in seconds; 0 switches either off.
+    pub fn new(every: u64, interval: f64) -> Self {
+        CheckpointClock {
+            every,
+            interval,
+            last: std::time::Instant::now(),
+        }
+    }
+
+    /// Whether a checkpoint is due after `step` for the step count alone.
+    pub fn due_by_steps(&self, step: u64) -> bool {
+        self.every > 0 && step.is_multiple_of(self.every)
+    }
+
+    /// Whether a checkpoint is due now for the wall time or a signal.
+    pub fn due_now(&self) -> bool {
+        requested().is_some()
+            || (self.interval > 0.0 && self.last.elapsed().as_secs_f64() >= self.interval)
+    }
+
+    /// Call after each checkpoint written.
+    pub fn saved(&mut self) {
+        self.last = std::time::Instant::now();
+    }
+}
