@@ -419,3 +419,40 @@ fn lammps_dump_without_image_flags_warns_and_stays_wrapped() {
     ]);
     assert!(ok && !text.contains("wrapped"), "{text}");
 }
+
+/// Issue 24: an ingest whose tracks cannot be written (a file-size limit) leaves no
+/// table, no sidecar and no temporary file, and states the cause once.
+#[test]
+fn failed_tracks_write_leaves_no_sidecar() {
+    let dir = tmpdir("ingest-efbig");
+    let input = dir.join("in.csv");
+    let mut s = String::from("frame,particle,x,y,radius\n");
+    for f in 0..20 {
+        for p in 0..200 {
+            // Distinct, incompressible values: the Parquet output too outgrows the limit.
+            let h = (f * 200 + p) as u64 * 2_654_435_761 % 1_000_000_007;
+            s += &format!(
+                "{f},{p},{},{},0.5\n",
+                h as f64 / 7e7,
+                (h % 65_537) as f64 / 3e3
+            );
+        }
+    }
+    std::fs::write(&input, s).unwrap();
+    for name in ["t.csv", "t.parquet"] {
+        let out = dir.join(name);
+        let (ok, text) = common::cli_file_limit(
+            16,
+            &[
+                "ingest",
+                input.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert!(!ok, "{name}: {text}");
+        assert_eq!(common::file_names(&dir), ["in.csv"], "{name}: {text}");
+        assert!(text.contains(out.to_str().unwrap()), "{name}: {text}");
+        assert_eq!(text.matches("File too large").count(), 1, "{name}: {text}");
+    }
+}

@@ -333,3 +333,47 @@ fn lammps_image_flags_give_the_unwrapped_velocities() {
     }
     assert!(crossed >= 3, "{crossed} grains with an image velocity");
 }
+
+/// Issue 24: a kinematics output that cannot be written (a file-size limit) leaves no
+/// table, no sidecar and no temporary file, exits non-zero, and the message names the
+/// output and states the cause once.
+#[test]
+fn failed_kinematics_write_leaves_no_sidecar_and_states_the_cause_once() {
+    let dir = tmpdir("kin-efbig");
+    let input = plain_csv(&dir, false);
+    for name in ["k.parquet", "k.csv"] {
+        let before = common::file_names(&dir);
+        let out = dir.join(name);
+        let (ok, text) = common::cli_file_limit(
+            16,
+            &[
+                "kinematics",
+                input.to_str().unwrap(),
+                "--lag",
+                "1",
+                "-o",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert!(!ok, "{name}: {text}");
+        assert_eq!(common::file_names(&dir), before, "{name}: {text}");
+        assert!(text.contains(out.to_str().unwrap()), "{name}: {text}");
+        assert_eq!(
+            text.matches("File too large").count(),
+            1,
+            "{name}: the cause should appear once: {text}"
+        );
+        assert!(!text.contains("panicked"), "{name}: {text}");
+        // The same command without the limit writes both.
+        let (ok, text) = run(&[
+            "kinematics",
+            input.to_str().unwrap(),
+            "--lag",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+        assert!(out.is_file() && dir.join(format!("{name}.meta.json")).is_file());
+    }
+}
