@@ -150,7 +150,12 @@ mod tests {
         };
         assert!(write_with_sidecar(&t, "{}", fail).is_err());
         assert!(files(&dir).is_empty(), "{:?}", files(&dir));
-        write_with_sidecar(&t, "{\"v\": 1}", || atomic_write_str(&t, "a\n1\n")).unwrap();
+        // While the table is written (where a kill would stop it) there is no sidecar.
+        let table = || {
+            assert!(!sidecar_path(&t).exists(), "sidecar before its table");
+            atomic_write_str(&t, "a\n1\n")
+        };
+        write_with_sidecar(&t, "{\"v\": 1}", table).unwrap();
         assert_eq!(files(&dir), ["t.csv", "t.csv.meta.json"]);
         assert!(write_with_sidecar(&t, "{\"v\": 2}", fail).is_err());
         assert_eq!(files(&dir), ["t.csv", "t.csv.meta.json"]);
