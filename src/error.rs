@@ -39,17 +39,18 @@ pub enum Error {
     /// A parameter (flag, pipeline key) outside its domain.
     #[error("invalid parameter '{name}': {msg}")]
     Param { name: String, msg: String },
-    #[error("{path}: {source}")]
+    // The cause is part of the message and deliberately not also a `source()`: the CLI
+    // prints the chain (`{:#}`), which would state it twice (issue 24), and the library
+    // formats these errors into others with `{e}`, which needs it in the message.
+    #[error("{path}: {cause}")]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
-    #[error("{context}: {source}")]
+    #[error("{context}: {cause}")]
     Polars {
         context: String,
-        #[source]
-        source: polars::error::PolarsError,
+        cause: polars::error::PolarsError,
     },
     /// Asked for something this build does not implement.
     #[error("not implemented: {0}")]
@@ -65,10 +66,10 @@ pub enum Error {
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
-    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+    pub fn io(path: impl Into<PathBuf>, cause: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            cause,
         }
     }
     pub fn input(file: impl std::fmt::Display, msg: impl Into<String>) -> Self {
@@ -90,10 +91,10 @@ impl Error {
             what: what.into(),
         })
     }
-    pub fn polars(context: impl Into<String>, source: polars::error::PolarsError) -> Self {
+    pub fn polars(context: impl Into<String>, cause: polars::error::PolarsError) -> Self {
         Error::Polars {
             context: context.into(),
-            source,
+            cause,
         }
     }
 }

@@ -239,6 +239,12 @@ fn parse_pair(s: &str) -> std::result::Result<(f64, f64), String> {
 
 fn main() {
     pillar_pipe::interrupt::install();
+    // A file-size limit (`ulimit -f`) exceeded while writing should be a write error,
+    // which removes the partial output and says why, not a SIGXFSZ kill that leaves it.
+    // SAFETY: no thread runs yet, and SIG_IGN installs no handler code.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         if let Some(signal) = interrupted(&e) {

@@ -286,3 +286,173 @@ fn non_regular_output_is_refused_not_replaced() {
             .is_fifo()
     );
 }
+
+/// The real LAMMPS dumps of `tests/data/lammps/make_dumps.py` (a sheared 2D packing).
+fn lammps_dump(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/lammps/sheared_{name}.dump"))
+}
+
+fn ingest_dump(dir: &Path, name: &str) -> (pillar_pipe::tracks::Tracks, String) {
+    let out = dir.join(format!("{name}.parquet"));
+    let (ok, text) = run(&[
+        "ingest",
+        lammps_dump(name).to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{name}: {text}");
+    (read_tracks(&out).unwrap().0, text)
+}
+
+/// Issue 24: the same LAMMPS snapshots written as `xs ys ix iy`, `x y ix iy` and `xu yu`
+/// ingest to the same, continuous tracks (image flags unwrap with the tilted box).
+#[test]
+fn lammps_image_flags_unwrap_like_xu_yu() {
+    let dir = tmpdir("lmp-img");
+    let (u, text) = ingest_dump(&dir, "xu_yu");
+    assert!(!text.contains("wrapped"), "{text}");
+    let lx = u.meta.boxes[0].lx;
+    let ly = u.meta.boxes[0].ly;
+    let d = u.large_diameter().unwrap();
+    assert_eq!(u.meta.boxes.len(), 9);
+    assert!(
+        u.meta.boxes[8].xy > 0.4 * ly,
+        "sheared: {:?}",
+        u.meta.boxes[8]
+    );
+    assert!(u.meta.warnings.is_empty(), "{:?}", u.meta.warnings);
+    for name in ["xs_ys_ix_iy", "x_y_ix_iy"] {
+        let (t, text) = ingest_dump(&dir, name);
+        assert!(!text.contains("wrapped"), "{name}: {text}");
+        assert!(t.meta.warnings.is_empty(), "{name}: {:?}", t.meta.warnings);
+        assert_eq!((&t.frame, &t.particle), (&u.frame, &u.particle), "{name}");
+        let worst = (0..t.len())
+            .map(|r| (t.x[r] - u.x[r]).abs().max((t.y[r] - u.y[r]).abs()))
+            .fold(0.0, f64::max);
+        // 10 significant digits in the dumps: ~1e-9 of the box.
+        assert!(worst < 1e-7 * lx, "{name}: max |Δ| = {worst} (box {lx})");
+    }
+    // Continuous: no grain moves more than a diameter between snapshots (raw
+    // coordinates, no minimum image) ...
+    let by_particle = |t: &pillar_pipe::tracks::Tracks| {
+        let mut m = std::collections::BTreeMap::<i64, Vec<(f64, f64)>>::new();
+        for r in 0..t.len() {
+            m.entry(t.particle[r]).or_default().push((t.x[r], t.y[r]));
+        }
+        m
+    };
+    let tracks = by_particle(&u);
+    let worst_step = tracks
+        .values()
+        .flat_map(|p| {
+            p.windows(2)
+                .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+        })
+        .fold(0.0, f64::max);
+    assert!(worst_step < d, "largest step {worst_step} (D = {d})");
+    // ... while the same grains wrapped into each snapshot's box cross its boundaries
+    // (otherwise this test would not exercise the image flags).
+    let (mut across_x, mut across_y) = (0, 0);
+    for r in 0..u.len() {
+        let b = u.meta.box_at(u.frame[r]).unwrap();
+        let w = b.wrap(pillar_pipe::geom::Vec2::new(u.x[r], u.y[r]));
+        let n_y = ((u.y[r] - w.y) / ly).round();
+        let n_x = ((u.x[r] - w.x - n_y * b.xy) / lx).round();
+        across_x += usize::from(u.frame[r] == 8 && n_x != 0.0);
+        across_y += usize::from(u.frame[r] == 8 && n_y != 0.0);
+    }
+    assert!(
+        across_x >= 10 && across_y >= 3,
+        "grains outside the box at the end: {across_x} along x, {across_y} along y"
+    );
+}
+
+/// A dump with neither image flags nor unwrapped columns is read wrapped, and says so
+/// (printed and in the sidecar); its positions are the wrapped ones.
+#[test]
+fn lammps_dump_without_image_flags_warns_and_stays_wrapped() {
+    let dir = tmpdir("lmp-wrap");
+    let (t, text) = ingest_dump(&dir, "x_y");
+    assert!(
+        text.contains("warning: positions are wrapped along x (no ix), y (no iy)")
+            && text.contains("dump 'ix iy' or 'xu yu'"),
+        "{text}"
+    );
+    assert_eq!(t.meta.warnings.len(), 1, "{:?}", t.meta.warnings);
+    assert!(t.meta.warnings[0].contains("neither image flags"));
+    for r in 0..t.len() {
+        let b = t.meta.box_at(t.frame[r]).unwrap();
+        let lo = b.x_lo + (t.y[r] - b.y_lo) / b.ly * b.xy;
+        assert!(
+            (b.y_lo..b.y_lo + b.ly).contains(&t.y[r])
+                && (lo - 1e-9..lo + b.lx + 1e-9).contains(&t.x[r]),
+            "row {r} outside the box: ({}, {})",
+            t.x[r],
+            t.y[r]
+        );
+    }
+    // Its second snapshot is the flagged dumps' last: the same grains, wrapped.
+    let (u, _) = ingest_dump(&dir, "xu_yu");
+    let n = t.len() / 2;
+    let moved = (n..t.len())
+        .filter(|&r| {
+            let k = 8 * n + (r - n);
+            assert_eq!(
+                (t.frame[r], t.particle[r], u.frame[k]),
+                (1, u.particle[k], 8)
+            );
+            (u.x[k] - t.x[r]).abs() > 1.0 || (u.y[k] - t.y[r]).abs() > 1.0
+        })
+        .count();
+    assert!(
+        moved >= 10,
+        "{moved} grains differ from their unwrapped position"
+    );
+    // A non-periodic box needs no flags: no warning.
+    let open = "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS ff ff pp\n0 10\n0 10\n-0.5 0.5\nITEM: ATOMS id type x y radius\n1 1 1 1 0.5\n";
+    std::fs::write(dir.join("open.dump"), open).unwrap();
+    let (ok, text) = run(&[
+        "ingest",
+        dir.join("open.dump").to_str().unwrap(),
+        "-o",
+        dir.join("open.parquet").to_str().unwrap(),
+    ]);
+    assert!(ok && !text.contains("wrapped"), "{text}");
+}
+
+/// Issue 24: an ingest whose tracks cannot be written (a file-size limit) leaves no
+/// table, no sidecar and no temporary file, and states the cause once.
+#[test]
+fn failed_tracks_write_leaves_no_sidecar() {
+    let dir = tmpdir("ingest-efbig");
+    let input = dir.join("in.csv");
+    let mut s = String::from("frame,particle,x,y,radius\n");
+    for f in 0..20 {
+        for p in 0..200 {
+            // Distinct, incompressible values: the Parquet output too outgrows the limit.
+            let h = (f * 200 + p) as u64 * 2_654_435_761 % 1_000_000_007;
+            s += &format!(
+                "{f},{p},{},{},0.5\n",
+                h as f64 / 7e7,
+                (h % 65_537) as f64 / 3e3
+            );
+        }
+    }
+    std::fs::write(&input, s).unwrap();
+    for name in ["t.csv", "t.parquet"] {
+        let out = dir.join(name);
+        let (ok, text) = common::cli_file_limit(
+            16,
+            &[
+                "ingest",
+                input.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert!(!ok, "{name}: {text}");
+        assert_eq!(common::file_names(&dir), ["in.csv"], "{name}: {text}");
+        assert!(text.contains(out.to_str().unwrap()), "{name}: {text}");
+        assert_eq!(text.matches("File too large").count(), 1, "{name}: {text}");
+    }
+}

@@ -236,3 +236,144 @@ fn synth_tracks_through_the_stage_recover_the_map() {
         assert!(v[19].abs() < 1e-20);
     }
 }
+
+/// Ingest one of the real LAMMPS dumps (`tests/data/lammps/make_dumps.py`) with a frame
+/// time, then run kinematics at `lag`: (particle, vx, vy, d2min, eta_s) of start frame 0.
+fn lammps_kinematics(dir: &std::path::Path, name: &str, dt: f64, lag: u32) -> Vec<[f64; 5]> {
+    let dump =
+        std::path::Path::new(common::ROOT).join(format!("tests/data/lammps/sheared_{name}.dump"));
+    let tracks = dir.join(format!("{name}.parquet"));
+    let (ok, text) = run(&[
+        "ingest",
+        dump.to_str().unwrap(),
+        "--frame-time",
+        &dt.to_string(),
+        "-o",
+        tracks.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let out = dir.join(format!("{name}.k.parquet"));
+    let (ok, text) = run(&[
+        "kinematics",
+        tracks.to_str().unwrap(),
+        "--lag",
+        &lag.to_string(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let k = pillar_pipe::io::table::read_table(&out, &[]).unwrap();
+    let (frame, particle) = (k.i64("frame").unwrap(), k.i64("particle").unwrap());
+    let cols = ["vx", "vy", "d2min", "eta_s"].map(|c| k.f64(c).unwrap());
+    (0..frame.len())
+        .filter(|&r| frame[r] == 0)
+        .map(|r| {
+            [
+                particle[r] as f64,
+                cols[0][r],
+                cols[1][r],
+                cols[2][r],
+                cols[3][r],
+            ]
+        })
+        .collect()
+}
+
+/// Issue 24: a LAMMPS dump with image flags and one with unwrapped columns give the
+/// same velocities (and strains); a dump with neither gives velocities that differ,
+/// for the grains that crossed the sheared boundary, by whole multiples of the
+/// Lees–Edwards image velocity Δxy/Δt, while D²min and η^s agree.
+#[test]
+fn lammps_image_flags_give_the_unwrapped_velocities() {
+    let dir = tmpdir("lmp-kin");
+    // One snapshot every 1000 steps of 0.05 tau.
+    let flags = lammps_kinematics(&dir, "xs_ys_ix_iy", 50.0, 1);
+    let unwrapped = lammps_kinematics(&dir, "xu_yu", 50.0, 1);
+    assert_eq!(flags.len(), 128);
+    assert_eq!(flags.len(), unwrapped.len());
+    let mut worst = [0.0f64; 5];
+    for (a, b) in flags.iter().zip(&unwrapped) {
+        assert_eq!(a[0], b[0]);
+        for c in 1..5 {
+            worst[c] = worst[c].max((a[c] - b[c]).abs());
+        }
+    }
+    // Grains move ~1e-2 per tau here; the dumps keep 10 digits.
+    assert!(
+        worst[1] < 1e-8 && worst[2] < 1e-8,
+        "velocities differ by {worst:?}"
+    );
+    assert!(
+        worst[3] < 1e-6 && worst[4] < 1e-6,
+        "strains differ by {worst:?}"
+    );
+
+    // The wrapped dump holds snapshots 0 and 8 of the others: compare at lag 8.
+    let wrapped = lammps_kinematics(&dir, "x_y", 400.0, 1);
+    let unwrapped = lammps_kinematics(&dir, "xu_yu", 50.0, 8);
+    let t = pillar_pipe::io::read_tracks(&dir.join("xu_yu.parquet"))
+        .unwrap()
+        .0;
+    let (b0, b8) = (t.meta.box_at(0).unwrap(), t.meta.box_at(8).unwrap());
+    let image_velocity = (b8.xy - b0.xy) / 400.0;
+    let mut crossed = 0;
+    for (w, u) in wrapped.iter().zip(&unwrapped) {
+        assert_eq!(w[0], u[0]);
+        let n = (u[1] - w[1]) / image_velocity;
+        assert!(
+            (n - n.round()).abs() < 1e-5 && (u[2] - w[2]).abs() < 1e-9,
+            "particle {}: velocities differ by ({}, {}), not a multiple of {image_velocity}",
+            w[0],
+            u[1] - w[1],
+            u[2] - w[2]
+        );
+        crossed += usize::from(n.round() != 0.0);
+        assert!((u[3] - w[3]).abs() < 1e-4 * u[3].max(1e-3), "{u:?} {w:?}");
+        assert!((u[4] - w[4]).abs() < 1e-4, "{u:?} {w:?}");
+    }
+    assert!(crossed >= 3, "{crossed} grains with an image velocity");
+}
+
+/// Issue 24: a kinematics output that cannot be written (a file-size limit) leaves no
+/// table, no sidecar and no temporary file, exits non-zero, and the message names the
+/// output and states the cause once.
+#[test]
+fn failed_kinematics_write_leaves_no_sidecar_and_states_the_cause_once() {
+    let dir = tmpdir("kin-efbig");
+    let input = plain_csv(&dir, false);
+    for name in ["k.parquet", "k.csv"] {
+        let before = common::file_names(&dir);
+        let out = dir.join(name);
+        let (ok, text) = common::cli_file_limit(
+            16,
+            &[
+                "kinematics",
+                input.to_str().unwrap(),
+                "--lag",
+                "1",
+                "-o",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert!(!ok, "{name}: {text}");
+        assert_eq!(common::file_names(&dir), before, "{name}: {text}");
+        assert!(text.contains(out.to_str().unwrap()), "{name}: {text}");
+        assert_eq!(
+            text.matches("File too large").count(),
+            1,
+            "{name}: the cause should appear once: {text}"
+        );
+        assert!(!text.contains("panicked"), "{name}: {text}");
+        // The same command without the limit writes both.
+        let (ok, text) = run(&[
+            "kinematics",
+            input.to_str().unwrap(),
+            "--lag",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+        assert!(out.is_file() && dir.join(format!("{name}.meta.json")).is_file());
+    }
+}

@@ -1,8 +1,15 @@
 //! LAMMPS text dumps (`dump custom`/`atom`): repeated snapshots of
 //! `ITEM: TIMESTEP`, `ITEM: NUMBER OF ATOMS`, `ITEM: BOX BOUNDS [xy xz yz] pp pp pp`,
-//! `ITEM: ATOMS id type x y ...`. Positions from `x y`, unwrapped `xu yu`, or scaled
-//! `xs ys` (triclinic aware); radius from `radius` or `diameter`; orthogonal or
+//! `ITEM: ATOMS id type x y ...`. Positions from unwrapped `xu yu` (or `xsu ysu`), else
+//! wrapped `x y` (or scaled `xs ys`, triclinic aware) unwrapped with the image flags
+//! `ix iy` where the dump has them; radius from `radius` or `diameter`; orthogonal or
 //! triclinic (`xy` tilt = Lees–Edwards offset) boxes. Frame = snapshot index.
+//!
+//! Unwrapping follows LAMMPS' own (`Domain::unmap`), with each snapshot's box vectors
+//! a = (lx, 0), b = (xy, ly): r_u = r + ix·a + iy·b. A wrapped track jumps by a box
+//! length where its grain crosses a boundary, and, across the sheared boundary, loses
+//! the Lees–Edwards image velocity n_y·γ̇·ly; so a dump without flags or unwrapped
+//! columns is read wrapped with a warning (in `TracksMeta::warnings`).
 
 use crate::error::{Error, Result};
 use crate::tracks::{FrameBox, LARGE, RowLocator, SMALL, Tracks, TracksMeta, finalize};
@@ -76,6 +83,7 @@ pub fn read_lammps(path: &Path, opt: &LammpsOptions) -> Result<Tracks> {
     let mut snapshot = 0i64;
     let mut first_timestep = None;
     let mut timesteps = Vec::new();
+    let mut wrapped_dirs = std::collections::BTreeSet::new();
     while let Some(head) = l.next()? {
         if head.trim().is_empty() {
             continue;
@@ -156,20 +164,40 @@ pub fn read_lammps(path: &Path, opt: &LammpsOptions) -> Result<Tracks> {
         let find = |names: &[&str]| names.iter().find_map(|n| cols.iter().position(|c| c == n));
         let id =
             find(&["id"]).ok_or_else(|| l.err("id", "ATOMS header has no 'id' column".into()))?;
-        let (xi, yi, scaled) = match (find(&["x", "xu"]), find(&["y", "yu"])) {
-            (Some(a), Some(b)) => (a, b, false),
-            _ => match (find(&["xs", "xsu"]), find(&["ys", "ysu"])) {
-                (Some(a), Some(b)) => (a, b, true),
-                _ => {
-                    return Err(Error::MissingColumns {
-                        file: file.clone(),
-                        missing: vec!["x y (or xu yu, xs ys)".into()],
-                        found: cols.iter().map(|s| s.to_string()).collect(),
-                        expected: vec!["id".into(), "x".into(), "y".into()],
-                    });
-                }
-            },
+        // Unwrapped columns first: they need no flags and are what LAMMPS itself
+        // computes from them.
+        let pick = |x: &str, y: &str| find(&[x]).zip(find(&[y]));
+        let (xi, yi, scaled, unwrapped) = if let Some((a, b)) = pick("xu", "yu") {
+            (a, b, false, true)
+        } else if let Some((a, b)) = pick("xsu", "ysu") {
+            (a, b, true, true)
+        } else if let Some((a, b)) = pick("x", "y") {
+            (a, b, false, false)
+        } else if let Some((a, b)) = pick("xs", "ys") {
+            (a, b, true, false)
+        } else {
+            return Err(Error::MissingColumns {
+                file: file.clone(),
+                missing: vec!["x y (or xu yu, xs ys, xsu ysu)".into()],
+                found: cols.iter().map(|s| s.to_string()).collect(),
+                expected: vec!["id".into(), "x".into(), "y".into()],
+            });
         };
+        let (ixi, iyi) = if unwrapped {
+            (None, None)
+        } else {
+            (find(&["ix"]), find(&["iy"]))
+        };
+        // A periodic direction whose crossings nothing records: positions stay wrapped.
+        if !unwrapped {
+            if periodic(0) && ixi.is_none() {
+                wrapped_dirs.insert("x (no ix)");
+            }
+            if periodic(1) && iyi.is_none() {
+                wrapped_dirs.insert("y (no iy)");
+            }
+        }
+        let (lx, ly) = (xhi - xlo, yhi - ylo);
         let ri = find(&["radius"]);
         let di = find(&["diameter"]);
         let ty = find(&["type"]);
@@ -201,9 +229,18 @@ pub fn read_lammps(path: &Path, opt: &LammpsOptions) -> Result<Tracks> {
                 .map_err(|_| l.err("id", format!("malformed id '{}'", w[id])))?;
             let (mut x, mut y) = (num(&l, w[xi], cols[xi])?, num(&l, w[yi], cols[yi])?);
             if scaled {
-                let (lx, ly) = (xhi - xlo, yhi - ylo);
                 (x, y) = (xlo + x * lx + y * xy, ylo + y * ly);
             }
+            let image = |k: Option<usize>| -> Result<f64> {
+                k.map_or(Ok(0.0), |k| {
+                    w[k].parse::<i64>()
+                        .map(|n| n as f64)
+                        .map_err(|_| l.err(cols[k], format!("malformed image flag '{}'", w[k])))
+                })
+            };
+            let (ix, iy) = (image(ixi)?, image(iyi)?);
+            x += ix * lx + iy * xy;
+            y += iy * ly;
             let r = match (ri, di) {
                 (Some(k), _) => num(&l, w[k], "radius")?,
                 (None, Some(k)) => 0.5 * num(&l, w[k], "diameter")?,
@@ -261,7 +298,22 @@ pub fn read_lammps(path: &Path, opt: &LammpsOptions) -> Result<Tracks> {
         coordinate_frame: "LAMMPS box coordinates".into(),
         boxes,
         summary: serde_json::json!({ "lammps_timesteps": timesteps }),
+        warnings: wrapped_warning(&wrapped_dirs),
         ..TracksMeta::default()
     };
     finalize(t, &file, RowLocator::Explicit, Some(&lines_of_rows))
+}
+
+/// The warning for a dump read wrapped along the periodic directions `dirs` (empty: none).
+fn wrapped_warning(dirs: &std::collections::BTreeSet<&str>) -> Vec<String> {
+    if dirs.is_empty() {
+        return Vec::new();
+    }
+    vec![format!(
+        "positions are wrapped along {}: the dump has neither image flags (ix iy) nor unwrapped \
+         columns (xu yu), so a track jumps by a box length where its grain crosses a periodic \
+         boundary and, across the sheared one, lacks the Lees–Edwards image velocity; dump \
+         'ix iy' or 'xu yu' to have them unwrapped",
+        dirs.iter().copied().collect::<Vec<_>>().join(", ")
+    )]
 }

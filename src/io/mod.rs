@@ -13,6 +13,8 @@ pub mod table;
 pub mod trackpy;
 pub mod tracks_io;
 
-pub use atomic::{atomic_write, atomic_write_bytes, atomic_write_str, sidecar_path};
+pub use atomic::{
+    atomic_write, atomic_write_bytes, atomic_write_str, sidecar_path, write_with_sidecar,
+};
 pub use hash::sha256_file;
 pub use tracks_io::{read_tracks, write_tracks};

@@ -1,6 +1,6 @@
 //! The canonical `tracks` table on disk: CSV or Parquet plus the `.meta.json` sidecar.
 
-use super::atomic::{atomic_write_str, sidecar_path};
+use super::atomic::{sidecar_path, write_with_sidecar};
 use super::csvdiag::Expect;
 use super::table::{Table, read_table, write_table};
 use crate::error::{Error, Result};
@@ -125,8 +125,8 @@ pub fn tracks_into_dataframe(t: Tracks) -> Result<DataFrame> {
     DataFrame::new(n, cols).map_err(|e| Error::polars("building tracks table", e))
 }
 
-/// Write tracks (Parquet, or CSV for `.csv`) and the sidecar. The table is renamed into
-/// place last, so its presence means the pair is complete.
+/// Write tracks (Parquet, or CSV for `.csv`) and the sidecar, the sidecar renamed into
+/// place last: it never exists without its table (`write_with_sidecar`).
 pub fn write_tracks(t: &Tracks, path: &Path) -> Result<()> {
     write_tracks_owned(t.clone(), path)
 }
@@ -134,8 +134,7 @@ pub fn write_tracks(t: &Tracks, path: &Path) -> Result<()> {
 /// As `write_tracks`, consuming the tracks so that their columns are not copied.
 pub fn write_tracks_owned(mut t: Tracks, path: &Path) -> Result<()> {
     let meta = serde_json::to_string_pretty(&t.meta).expect("meta serialises");
-    atomic_write_str(&sidecar_path(path), &meta)?;
     t.meta = TracksMeta::default();
     let mut df = tracks_into_dataframe(t)?;
-    write_table(&mut df, path)
+    write_with_sidecar(path, &meta, || write_table(&mut df, path))
 }

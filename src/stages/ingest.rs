@@ -200,6 +200,7 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
     let read = read_input(input, format, opt);
     let (mut tracks, w, s) = read?;
     warnings.extend(w);
+    warnings.extend(tracks.meta.warnings.iter().cloned());
     let split = s;
     if tracks.meta.frame_time.is_none() {
         warnings.push("no frame time given (--fps or --frame-time): times are in frames".into());

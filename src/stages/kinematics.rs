@@ -4,7 +4,7 @@
 use crate::error::{Error, Result};
 use crate::io::kinematics_io::{kinematics_dataframe, kinematics_schema};
 use crate::io::sink::stream_table;
-use crate::io::{atomic_write_str, read_tracks, sha256_file, sidecar_path};
+use crate::io::{read_tracks, sha256_file, write_with_sidecar};
 use crate::kinematics::{Convention, KinematicsParams, PairCounts, frame_pair};
 use crate::tracks::Tracks;
 use serde::Serialize;
@@ -232,30 +232,28 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         },
         "bar_speed": tracks.meta.bar_speed,
     });
-    let side = sidecar_path(output);
-    atomic_write_str(&side, &serde_json::to_string_pretty(&meta).expect("json"))?;
-    let rows = stream_table(output, &kinematics_schema(), |sink| {
-        for &(fa, fb) in &pairs {
-            let (_, ra) = &ranges[index[&fa]];
-            let (_, rb) = &ranges[index[&fb]];
-            let a = tracks.view(fa, ra.clone());
-            let b = tracks.view(fb, rb.clone());
-            let dt = times[&fb] - times[&fa];
-            if !(dt > 0.0) {
-                return Err(Error::input(
-                    &file,
-                    format!("frames {fa} and {fb} have non-increasing times (dt = {dt})"),
-                ));
+    let meta = serde_json::to_string_pretty(&meta).expect("json");
+    let rows = write_with_sidecar(output, &meta, || {
+        stream_table(output, &kinematics_schema(), |sink| {
+            for &(fa, fb) in &pairs {
+                let (_, ra) = &ranges[index[&fa]];
+                let (_, rb) = &ranges[index[&fb]];
+                let a = tracks.view(fa, ra.clone());
+                let b = tracks.view(fb, rb.clone());
+                let dt = times[&fb] - times[&fa];
+                if !(dt > 0.0) {
+                    return Err(Error::input(
+                        &file,
+                        format!("frames {fa} and {fb} have non-increasing times (dt = {dt})"),
+                    ));
+                }
+                let (ks, c) = frame_pair(&a, &b, dt, &params)?;
+                counts.add(&c);
+                sink.write(&kinematics_dataframe(fa, fb, dt, &ks)?)?;
+                bar.inc(1);
             }
-            let (ks, c) = frame_pair(&a, &b, dt, &params)?;
-            counts.add(&c);
-            sink.write(&kinematics_dataframe(fa, fb, dt, &ks)?)?;
-            bar.inc(1);
-        }
-        Ok(())
-    })
-    .inspect_err(|_| {
-        let _ = std::fs::remove_file(&side);
+            Ok(())
+        })
     })?;
     bar.finish_and_clear();
     Ok(KinematicsReport {

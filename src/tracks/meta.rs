@@ -74,6 +74,10 @@ pub struct TracksMeta {
     pub provenance: Provenance,
     #[serde(default)]
     pub summary: serde_json::Value,
+    /// What the reader could not do that bears on the numbers (e.g. a LAMMPS dump read
+    /// with wrapped positions). Absent from the sidecar when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 impl Default for TracksMeta {
@@ -89,6 +93,7 @@ impl Default for TracksMeta {
             boxes: Vec::new(),
             provenance: Provenance::default(),
             summary: serde_json::Value::Null,
+            warnings: Vec::new(),
         }
     }
 }

@@ -125,3 +125,32 @@ pub fn with_ingest(body: &str) -> String {
 pub fn line_of(text: &str, needle: &str) -> usize {
     1 + text.lines().position(|l| l.starts_with(needle)).unwrap()
 }
+
+/// Run the CLI under a file-size limit of `blocks` (`ulimit -f`, 512-byte blocks in
+/// dash): (success, stdout followed by stderr).
+pub fn cli_file_limit(blocks: u32, args: &[&str]) -> (bool, String) {
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -f {blocks}; exec \"$0\" \"$@\""))
+        .arg(BIN)
+        .args(args)
+        .output()
+        .expect("sh runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
+}
+
+/// Names of the files in `dir`, sorted.
+pub fn file_names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
