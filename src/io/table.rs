@@ -64,9 +64,21 @@ pub fn read_table_columns(
     let df = match format {
         TableFormat::Parquet => {
             let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-            ParquetReader::new(f)
-                .finish()
-                .map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))?
+            // polars' Parquet decoder asserts on some corrupt metadata (issue 24's fuzz
+            // found "thrift bool field" and "offset + length <= self.length") instead of
+            // returning an error; a corrupt file must not take the process down.
+            let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                ParquetReader::new(f).finish()
+            }))
+            .map_err(|p| {
+                let why = p
+                    .downcast_ref::<String>()
+                    .map(String::as_str)
+                    .or_else(|| p.downcast_ref::<&str>().copied())
+                    .unwrap_or("the decoder failed");
+                Error::input(&file, format!("reading Parquet: corrupt file ({why})"))
+            })?;
+            read.map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))?
         }
         TableFormat::Csv => {
             let header = csvdiag::read_header(path)?;

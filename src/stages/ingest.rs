@@ -254,8 +254,9 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
 }
 
 /// Read `input` in `format` into validated tracks, with warnings and (trackpy) the
-/// species split.
-fn read_input(
+/// species split: everything `run` does short of hashing and writing (the fuzz tests
+/// call it directly).
+pub fn read_input(
     input: &Path,
     format: Format,
     opt: &IngestOptions,
