@@ -276,7 +276,7 @@ fn mutate_toml(rng: &mut Rng, text: &str) -> Vec<u8> {
         .collect();
     for _ in 0..n_ops(rng) {
         match rng.below(7) {
-            0 | 1 | 2 if !keyed.is_empty() => {
+            0..=2 if !keyed.is_empty() => {
                 let i = *pick(rng, &keyed);
                 if let Some((k, _)) = lines[i].clone().split_once('=') {
                     lines[i] = format!("{k}= {}", pick(rng, TOML_VALUES));
@@ -417,17 +417,24 @@ fn json_at<'a>(v: &'a mut serde_json::Value, path: &[String]) -> Option<&'a mut 
 // The campaign
 // ---------------------------------------------------------------------------------------
 
+/// Writes a case's files from the RNG.
+type Make<'a> = Box<dyn Fn(&mut Rng, &Path) + 'a>;
+/// Reads a case in-process.
+type Run<'a> = Box<dyn Fn(&Path) -> pillar_pipe::Result<()> + 'a>;
+/// Why an error's message does not locate its problem, if it does not.
+type Place<'a> = Box<dyn Fn(&str) -> Option<String> + 'a>;
+
 /// One target: how a case's files are made and how the reader is called.
 struct Target<'a> {
     name: &'a str,
     /// The case's main file (its extension chooses the format).
     file: PathBuf,
     /// Writes the mutated case (the main file, and sidecars if any).
-    make: Box<dyn Fn(&mut Rng, &Path) + 'a>,
+    make: Make<'a>,
     /// Reads it in-process.
-    run: Box<dyn Fn(&Path) -> pillar_pipe::Result<()> + 'a>,
+    run: Run<'a>,
     /// Whether an error's message locates the problem well enough; `None` when fine.
-    place: Box<dyn Fn(&str) -> Option<String> + 'a>,
+    place: Place<'a>,
 }
 
 #[derive(Default)]

@@ -356,7 +356,10 @@ fn absurd_canonical_and_lammps_coordinates_are_refused() {
         "frame,particle,x,y,radius\n0,1,0,0,0.5\n0,2,1,0,0.5\n0,3,0,2e13,0.5\n",
     )
     .unwrap();
-    let e = read_tracks(&csv).err().expect("refused").to_string();
+    let e = read_tracks(&csv)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
     for part in [
         csv.to_str().unwrap(),
         "line 4",
@@ -367,7 +370,10 @@ fn absurd_canonical_and_lammps_coordinates_are_refused() {
         assert!(e.contains(part), "'{part}' missing from: {e}");
     }
     std::fs::write(&csv, "frame,particle,x,y,radius\n0,1,0,0,1e40\n").unwrap();
-    let e = read_tracks(&csv).err().expect("refused").to_string();
+    let e = read_tracks(&csv)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
     assert!(e.contains("line 2") && e.contains("'radius'"), "{e}");
     let dump = dir.join("d.dump");
     std::fs::write(
@@ -376,8 +382,8 @@ fn absurd_canonical_and_lammps_coordinates_are_refused() {
     )
     .unwrap();
     let e = pillar_pipe::io::lammps::read_lammps(&dump, &Default::default())
-        .err()
-        .expect("refused")
+        .map(|_| ())
+        .expect_err("refused")
         .to_string();
     for part in [dump.to_str().unwrap(), "line 11", "column 'x'", "-1e40"] {
         assert!(e.contains(part), "'{part}' missing from: {e}");
@@ -409,8 +415,8 @@ fn radius_estimate_failure_names_the_file() {
     )
     .unwrap();
     let e = ingest_in_process(&input)
-        .err()
-        .expect("refused")
+        .map(|_| ())
+        .expect_err("refused")
         .to_string();
     assert!(
         e.contains(input.to_str().unwrap()) && e.contains("cannot estimate the radius"),
@@ -426,8 +432,8 @@ fn non_utf8_input_is_placed() {
     let input = dir.join("t.csv");
     std::fs::write(&input, b"frame,particle,x,\xffy,radius\n0,1,0,0,0.5\n").unwrap();
     let e = ingest_in_process(&input)
-        .err()
-        .expect("refused")
+        .map(|_| ())
+        .expect_err("refused")
         .to_string();
     assert!(e.contains("line 1") && e.contains("byte 17"), "{e}");
     std::fs::write(
@@ -436,8 +442,8 @@ fn non_utf8_input_is_placed() {
     )
     .unwrap();
     let e = ingest_in_process(&input)
-        .err()
-        .expect("refused")
+        .map(|_| ())
+        .expect_err("refused")
         .to_string();
     assert!(e.contains("line 3"), "{e}");
 }
