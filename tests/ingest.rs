@@ -447,3 +447,21 @@ fn non_utf8_input_is_placed() {
         .to_string();
     assert!(e.contains("line 3"), "{e}");
 }
+
+/// Issue 24's fuzz (seed 1, case 7603): a trackpy header naming a column twice made
+/// polars' CSV reader panic ("slice index starts at 1 but ends at 0"). It is refused
+/// naming the file, line 1 and the column.
+#[test]
+fn repeated_column_name_is_refused_not_a_panic() {
+    let dir = tmpdir("dup-col");
+    let input = dir.join("t.csv");
+    let text = trackpy_lattice(99, "").replacen("y,x,mass", "y,ep,mass", 1);
+    std::fs::write(&input, text).unwrap();
+    let e = ingest_in_process(&input)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    for part in [input.to_str().unwrap(), "line 1", "'ep'", "repeated"] {
+        assert!(e.contains(part), "'{part}' missing from: {e}");
+    }
+}
