@@ -18,6 +18,9 @@ pub struct ColumnSpec {
     pub min_exclusive: Option<f64>,
     #[serde(default)]
     pub finite: bool,
+    /// Largest accepted magnitude (the tracks' coordinates: `tracks::MAX_ABS_COORD`).
+    #[serde(default)]
+    pub max_abs: Option<f64>,
     #[serde(default)]
     pub allowed: Option<Vec<i64>>,
     #[serde(default)]

@@ -456,3 +456,182 @@ fn failed_tracks_write_leaves_no_sidecar() {
         assert_eq!(text.matches("File too large").count(), 1, "{name}: {text}");
     }
 }
+
+/// A small trackpy file: a 4 x 4 lattice of grains (two sizes) in two frames, with the
+/// value of `x` at row `bad_row` replaced by `bad`.
+fn trackpy_lattice(bad_row: usize, bad: &str) -> String {
+    let mut s = "y,x,mass,size,ecc,signal,raw_mass,ep,frame,particle\n".to_string();
+    let mut row = 0;
+    for f in 0..2 {
+        for p in 0..16 {
+            let (x, y) = (100.0 + 20.0 * (p % 4) as f64, 100.0 + 20.0 * (p / 4) as f64);
+            let size = if p % 2 == 0 { 4.0 } else { 5.5 };
+            let x = if row == bad_row {
+                bad.to_string()
+            } else {
+                format!("{x}")
+            };
+            s += &format!("{y},{x},2000,{size},0.1,20,13000,0.03,{f},{p}\n");
+            row += 1;
+        }
+    }
+    s
+}
+
+fn ingest_in_process(
+    input: &Path,
+) -> pillar_pipe::Result<pillar_pipe::stages::ingest::IngestReport> {
+    let opt = pillar_pipe::stages::ingest::IngestOptions {
+        px_per_unit: Some(10.0),
+        unit: Some("cm".into()),
+        ..Default::default()
+    };
+    pillar_pipe::stages::ingest::run(input, &input.with_extension("parquet"), &opt)
+}
+
+/// Issue 24: a trackpy coordinate of 1e40 px panicked in the radius estimate's cell list
+/// ("min > max"). It is refused with the file, line, column and value; so is any value
+/// past the documented bound (data_schema/tracks.schema.json, `max_abs`), while a value
+/// at the bound still reads.
+#[test]
+fn absurd_trackpy_coordinate_is_refused_with_its_place() {
+    let dir = tmpdir("huge-coord");
+    let input = dir.join("t.csv");
+    std::fs::write(&input, trackpy_lattice(99, "")).unwrap();
+    ingest_in_process(&input).expect("the clean lattice reads");
+    for bad in ["1e40", "-1e40", "1.5e12", "1e308"] {
+        std::fs::write(&input, trackpy_lattice(5, bad)).unwrap();
+        let e = ingest_in_process(&input).expect_err(bad).to_string();
+        let want_value = format!("{:e} px", bad.parse::<f64>().unwrap());
+        for part in [
+            input.to_str().unwrap(),
+            "line 7",
+            "column 'x'",
+            &want_value,
+            "1e12",
+        ] {
+            assert!(e.contains(part), "{bad}: '{part}' missing from: {e}");
+        }
+    }
+}
+
+/// The same bound for canonical tables (in their length unit) and LAMMPS dumps, which
+/// reach the cell lists of kinematics and the simulators.
+#[test]
+fn absurd_canonical_and_lammps_coordinates_are_refused() {
+    let dir = tmpdir("huge-canon");
+    let csv = dir.join("c.csv");
+    std::fs::write(
+        &csv,
+        "frame,particle,x,y,radius\n0,1,0,0,0.5\n0,2,1,0,0.5\n0,3,0,2e13,0.5\n",
+    )
+    .unwrap();
+    let e = read_tracks(&csv)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    for part in [
+        csv.to_str().unwrap(),
+        "line 4",
+        "column 'y'",
+        "2e13",
+        "1e12",
+    ] {
+        assert!(e.contains(part), "'{part}' missing from: {e}");
+    }
+    std::fs::write(&csv, "frame,particle,x,y,radius\n0,1,0,0,1e40\n").unwrap();
+    let e = read_tracks(&csv)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    assert!(e.contains("line 2") && e.contains("'radius'"), "{e}");
+    let dump = dir.join("d.dump");
+    std::fs::write(
+        &dump,
+        "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS pp pp pp\n0 10\n0 10\n-1 1\nITEM: ATOMS id x y radius\n1 1 1 0.5\n2 -1e40 3 0.5\n",
+    )
+    .unwrap();
+    let e = pillar_pipe::io::lammps::read_lammps(&dump, &Default::default())
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    for part in [dump.to_str().unwrap(), "line 11", "column 'x'", "-1e40"] {
+        assert!(e.contains(part), "'{part}' missing from: {e}");
+    }
+}
+
+/// The bound the code enforces is the one the schema documents.
+#[test]
+fn coordinate_bound_matches_the_schema() {
+    let sch = pillar_pipe::schema::load("tracks");
+    for c in ["x", "y", "radius"] {
+        assert_eq!(
+            sch.column(c).unwrap().max_abs,
+            Some(pillar_pipe::tracks::MAX_ABS_COORD),
+            "{c}"
+        );
+    }
+}
+
+/// A species with fewer than 2 grains cannot have its radius estimated: the error names
+/// the file (it was a bare message before).
+#[test]
+fn radius_estimate_failure_names_the_file() {
+    let dir = tmpdir("one-small");
+    let input = dir.join("t.csv");
+    std::fs::write(
+        &input,
+        "y,x,size,frame,particle\n10,10,4,0,1\n10,30,6,0,2\n10,50,6,0,3\n",
+    )
+    .unwrap();
+    let e = ingest_in_process(&input)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    assert!(
+        e.contains(input.to_str().unwrap()) && e.contains("cannot estimate the radius"),
+        "{e}"
+    );
+}
+
+/// A file whose first line is not UTF-8 is refused naming the byte; one whose first
+/// line is fine but a later value is not reaches the reader, which names the line.
+#[test]
+fn non_utf8_input_is_placed() {
+    let dir = tmpdir("utf8");
+    let input = dir.join("t.csv");
+    std::fs::write(&input, b"frame,particle,x,\xffy,radius\n0,1,0,0,0.5\n").unwrap();
+    let e = ingest_in_process(&input)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    assert!(e.contains("line 1") && e.contains("byte 17"), "{e}");
+    std::fs::write(
+        &input,
+        b"frame,particle,x,y,radius\n0,1,0,0,0.5\n0,2,0,\xff1,0.5\n",
+    )
+    .unwrap();
+    let e = ingest_in_process(&input)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    assert!(e.contains("line 3"), "{e}");
+}
+
+/// Issue 24's fuzz (seed 1, case 7603): a trackpy header naming a column twice made
+/// polars' CSV reader panic ("slice index starts at 1 but ends at 0"). It is refused
+/// naming the file, line 1 and the column.
+#[test]
+fn repeated_column_name_is_refused_not_a_panic() {
+    let dir = tmpdir("dup-col");
+    let input = dir.join("t.csv");
+    let text = trackpy_lattice(99, "").replacen("y,x,mass", "y,ep,mass", 1);
+    std::fs::write(&input, text).unwrap();
+    let e = ingest_in_process(&input)
+        .map(|_| ())
+        .expect_err("refused")
+        .to_string();
+    for part in [input.to_str().unwrap(), "line 1", "'ep'", "repeated"] {
+        assert!(e.contains(part), "'{part}' missing from: {e}");
+    }
+}

@@ -49,6 +49,26 @@ impl<'a> Dec<'a> {
     pub fn new(b: &'a [u8]) -> Self {
         Dec { b, pos: 0 }
     }
+    /// A decoder past a header of `skip` bytes that were checked apart, so that its
+    /// errors give positions in the whole file.
+    pub fn after(b: &'a [u8], skip: usize) -> Self {
+        Dec {
+            b,
+            pos: skip.min(b.len()),
+        }
+    }
+    /// The current byte offset, for error messages.
+    pub fn pos(&self) -> usize {
+        self.pos
+    }
+    /// Error for bytes left over after the last field.
+    pub fn trailing(&self) -> String {
+        format!(
+            "trailing bytes after the checkpoint (byte {} of {})",
+            self.pos,
+            self.b.len()
+        )
+    }
     fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
         if self.pos + n > self.b.len() {
             return Err(format!(
@@ -138,6 +158,80 @@ pub fn dec_grains(d: &mut Dec) -> Result<Grains, String> {
     Ok(g)
 }
 
+/// The invariants a step relies on, checked once at load so that a corrupt checkpoint
+/// is refused instead of indexing past an array in the first step: every per-grain array
+/// has one entry per grain, the pair list is well-formed CSR over those grains, and the
+/// grains are physical (finite state, positive finite radius, mass and inertia).
+pub fn check_state(g: &Grains, l: &PairList) -> Result<(), String> {
+    let n = g.len();
+    let per_grain = [
+        ("species", g.species.len()),
+        ("radius", g.radius.len()),
+        ("mass", g.mass.len()),
+        ("inertia", g.inertia.len()),
+        ("x", g.x.len()),
+        ("y", g.y.len()),
+        ("vx", g.vx.len()),
+        ("vy", g.vy.len()),
+        ("ax", g.ax.len()),
+        ("ay", g.ay.len()),
+        ("theta", g.theta.len()),
+        ("omega", g.omega.len()),
+    ];
+    if let Some((name, len)) = per_grain.iter().find(|(_, len)| *len != n) {
+        return Err(format!(
+            "grain array '{name}' has {len} entries for {n} grains"
+        ));
+    }
+    for (name, v) in [("x", &g.x), ("y", &g.y), ("vx", &g.vx), ("vy", &g.vy)] {
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(format!("grain {i}: {name} = {} is not finite", v[i]));
+        }
+    }
+    for (name, v) in [
+        ("radius", &g.radius),
+        ("mass", &g.mass),
+        ("inertia", &g.inertia),
+    ] {
+        if let Some(i) = v.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
+            return Err(format!(
+                "grain {i}: {name} = {} must be > 0 and finite",
+                v[i]
+            ));
+        }
+    }
+    let bad = |what: String| Err(format!("pair list: {what}"));
+    if l.start.len() != n + 1 || l.start.first().is_some_and(|&s| s != 0) {
+        return bad(format!("{} offsets for {n} grains", l.start.len()));
+    }
+    if let Some(i) = (0..n).find(|&i| l.start[i] > l.start[i + 1]) {
+        return bad(format!("offsets decrease at grain {i}"));
+    }
+    if l.start[n] as usize != l.j.len() || l.shear.len() != l.j.len() {
+        return bad(format!(
+            "{} partners and {} springs for offsets ending at {}",
+            l.j.len(),
+            l.shear.len(),
+            l.start[n]
+        ));
+    }
+    if let Some(k) = l.j.iter().position(|&j| j as usize >= n) {
+        return bad(format!("entry {k} names grain {} of {n}", l.j[k]));
+    }
+    // A list never built has no reference positions.
+    if !((l.x_ref.is_empty() && l.y_ref.is_empty()) || (l.x_ref.len() == n && l.y_ref.len() == n)) {
+        return bad(format!(
+            "{} and {} reference positions for {n} grains",
+            l.x_ref.len(),
+            l.y_ref.len()
+        ));
+    }
+    if !(l.skin.is_finite() && l.skin >= 0.0) {
+        return bad(format!("skin {} must be >= 0 and finite", l.skin));
+    }
+    Ok(())
+}
+
 /// A pair list with its contact history (the Lees–Edwards offset at the build is the
 /// shear checkpoint's own addition).
 pub fn enc_list(e: &mut Enc, l: &PairList) {
@@ -211,7 +305,7 @@ impl PillarSim {
         if b.len() < 8 || &b[..8] != MAGIC {
             return Err("not a pillar-pipe checkpoint (bad magic)".into());
         }
-        let mut d = Dec::new(&b[8..]);
+        let mut d = Dec::after(b, MAGIC.len());
         let params: PillarParams =
             serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
         let g = dec_grains(&mut d)?;
@@ -235,7 +329,7 @@ impl PillarSim {
             Some(d.u64()?).filter(|&v| v != u64::MAX)
         };
         if !d.done() {
-            return Err("trailing bytes after the checkpoint".into());
+            return Err(d.trailing());
         }
         let n = g.len();
         let lens = [
@@ -247,12 +341,11 @@ impl PillarSim {
             fx.len(),
             sub_fy.len(),
         ];
-        if lens.iter().any(|&l| l != n)
-            || list.start.len() != n + 1
-            || list.shear.len() != list.j.len()
-        {
+        if lens.iter().any(|&l| l != n) || bottom_shear.len() != n {
             return Err("inconsistent array lengths".into());
         }
+        check_state(&g, &list)?;
+        params.validate().map_err(|e| format!("parameters: {e}"))?;
         let sim = PillarSim {
             params,
             grains: g,

@@ -1,6 +1,6 @@
 //! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
 
-use super::checkpoint::{Dec, Enc, dec_grains, dec_list, enc_grains, enc_list};
+use super::checkpoint::{Dec, Enc, check_state, dec_grains, dec_list, enc_grains, enc_list};
 use super::shear::{Collisions, Predicted, ShearParams, ShearSim};
 
 const MAGIC: &[u8; 8] = b"PPSHEAR1";
@@ -58,7 +58,7 @@ impl ShearSim {
         if b.len() < 8 || &b[..8] != MAGIC {
             return Err("not a sheared-disk checkpoint (bad magic)".into());
         }
-        let mut d = Dec::new(&b[8..]);
+        let mut d = Dec::after(b, MAGIC.len());
         let p: ShearParams =
             serde_json::from_slice(&d.bytes()?).map_err(|e| format!("parameters: {e}"))?;
         let g = dec_grains(&mut d)?;
@@ -67,12 +67,14 @@ impl ShearSim {
         list.offset_ref = d.f64()?;
         let (l, time, step) = (d.f64()?, d.f64()?, d.u64()?);
         let (fx, fy, tq) = (d.f64s()?, d.f64s()?, d.f64s()?);
-        let arr4 = |v: Vec<f64>| -> Result<[f64; 4], String> {
-            v.try_into()
-                .map_err(|_| "virial needs 4 components".to_string())
-        };
         // Derived from the state (see `save`): read past.
-        let _ = (arr4(d.f64s()?)?, arr4(d.f64s()?)?, d.u64()?);
+        for _ in 0..2 {
+            let at = d.pos();
+            if d.f64s()?.len() != 4 {
+                return Err(format!("virial at byte {at}: needs 4 components"));
+            }
+        }
+        d.u64()?;
         let (begun, ended, duration_sum) = (d.u64()?, d.u64()?, d.f64()?);
         let to_u = |v: Vec<i64>| v.into_iter().map(|x| x as u64).collect::<Vec<u64>>();
         let (angle_making, angle_breaking) = (to_u(d.i64s()?), to_u(d.i64s()?));
@@ -87,16 +89,26 @@ impl ShearSim {
         let gamma = d.f64()?;
         let extra = d.bytes()?;
         if !d.done() {
-            return Err("trailing bytes after the checkpoint".into());
+            return Err(d.trailing());
         }
         let n = g.len();
         if [g.id.len(), g.vx.len(), g.omega.len(), fx.len(), tq.len()]
             .iter()
             .any(|&k| k != n)
-            || list.start.len() != n + 1
-            || list.shear.len() != list.j.len()
         {
             return Err("inconsistent array lengths".into());
+        }
+        check_state(&g, &list)?;
+        p.validate().map_err(|e| format!("parameters: {e}"))?;
+        if p.n != n {
+            return Err(format!(
+                "parameters name {} disks, the state holds {n}",
+                p.n
+            ));
+        }
+        // The Lees–Edwards box the positions live in.
+        if !(l.is_finite() && l > 0.0) {
+            return Err(format!("box side {l} must be > 0 and finite"));
         }
         let sim = ShearSim {
             p,

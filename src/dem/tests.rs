@@ -657,3 +657,30 @@ fn the_skin_adapts_and_changes_no_number() {
         }
     }
 }
+
+/// Issue 24's fuzz: a corrupt checkpoint with one grain flung to ~1e40 m made the pair
+/// list's cell grid wrap its cell count to zero and panic ("min > max") in the first
+/// step. The list is now built (all pairs) and holds exactly the touching pairs.
+#[test]
+fn pair_list_survives_a_grain_at_an_absurd_distance() {
+    use super::verlet::PairList;
+    for far in [1e40, 1e300, 1e12] {
+        // 20 grains in a row, 1 apart, radius 0.6 (each touches its neighbours), and
+        // one far away.
+        let mut x: Vec<f64> = (0..20).map(|i| i as f64).collect();
+        let mut y = vec![0.0; 20];
+        x.push(far);
+        y.push(-far);
+        let r = vec![0.6; 21];
+        let mut l = PairList::new(0.1);
+        l.build(&x, &y, &r, Boundary::Open);
+        let mut pairs = Vec::new();
+        for i in 0..21 {
+            for k in l.start[i] as usize..l.start[i + 1] as usize {
+                pairs.push((i, l.j[k] as usize));
+            }
+        }
+        let want: Vec<(usize, usize)> = (0..19).map(|i| (i, i + 1)).collect();
+        assert_eq!(pairs, want, "far = {far}");
+    }
+}

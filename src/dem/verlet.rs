@@ -411,8 +411,15 @@ impl Grid {
         if !(w.is_finite() && h.is_finite() && cut > 0.0) {
             return None;
         }
-        let ncx = ((w / cut).floor() as usize).max(1);
-        let ncy = ((h / cut).floor() as usize).max(1);
+        let (fx, fy) = ((w / cut).floor().max(1.0), (h / cut).floor().max(1.0));
+        // A grain flung ~1e40 away (a corrupt checkpoint) asked for a grid whose cell
+        // count wrapped to zero (a panic) or could not be allocated; no real packing
+        // comes near 2^24 cells (N = 65,536 needs ~4e4), so the all-pairs fallback,
+        // slow but exact, takes such states.
+        if fx * fy > (1u64 << 24) as f64 {
+            return None;
+        }
+        let (ncx, ncy) = (fx as usize, fy as usize);
         if periodic && (ncx < 3 || ncy < 3) || n < 16 {
             return None;
         }

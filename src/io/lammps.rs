@@ -39,7 +39,10 @@ impl<R: BufRead> Lines<R> {
                 self.line += 1;
                 Ok(Some(l))
             }
-            Some(Err(e)) => Err(Error::input(&self.file, e.to_string())),
+            Some(Err(e)) => Err(Error::input(
+                &self.file,
+                format!("line {}: {e}", self.line + 1),
+            )),
         }
     }
     fn need(&mut self, what: &str) -> Result<String> {

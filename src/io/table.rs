@@ -64,12 +64,36 @@ pub fn read_table_columns(
     let df = match format {
         TableFormat::Parquet => {
             let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-            ParquetReader::new(f)
-                .finish()
-                .map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))?
+            // polars' Parquet decoder asserts on some corrupt metadata (issue 24's fuzz
+            // found "thrift bool field" and "offset + length <= self.length") instead of
+            // returning an error; a corrupt file must not take the process down.
+            let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                ParquetReader::new(f).finish()
+            }))
+            .map_err(|p| {
+                Error::input(
+                    &file,
+                    format!("reading Parquet: corrupt file ({})", panic_text(&*p)),
+                )
+            })?;
+            read.map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))?
         }
         TableFormat::Csv => {
             let header = csvdiag::read_header(path)?;
+            // polars panics on some headers that name a column twice (issue 24's fuzz:
+            // "slice index starts at 1 but ends at 0"); a repeated name is ambiguous anyway.
+            if let Some((i, h)) = header
+                .iter()
+                .enumerate()
+                .find(|(i, h)| header[..*i].contains(h))
+            {
+                return Err(Error::Value {
+                    file,
+                    loc: "line 1".into(),
+                    column: h.clone(),
+                    msg: format!("column name repeated (field {})", i + 1),
+                });
+            }
             let fields = expect
                 .iter()
                 .filter(|(c, _)| header.iter().any(|h| h == c))
@@ -86,17 +110,28 @@ pub fn read_table_columns(
                 .filter(|(c, _)| header.iter().any(|h| h == c))
                 .map(|(c, _)| (*c).into())
                 .collect();
-            let read = CsvReadOptions::default()
-                .with_has_header(true)
-                .with_columns((only_expected && !keep.is_empty()).then(|| keep.into()))
-                .with_schema_overwrite(Some(Arc::new(schema)))
-                .try_into_reader_with_file_path(Some(path.to_path_buf()))
-                .and_then(|r| r.finish());
+            let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                CsvReadOptions::default()
+                    .with_has_header(true)
+                    .with_columns((only_expected && !keep.is_empty()).then(|| keep.into()))
+                    .with_schema_overwrite(Some(Arc::new(schema)))
+                    .try_into_reader_with_file_path(Some(path.to_path_buf()))
+                    .and_then(|r| r.finish())
+            }));
             match read {
-                Ok(df) => df,
-                Err(e) => {
+                Ok(Ok(df)) => df,
+                Ok(Err(e)) => {
                     csvdiag::diagnose(path, expect)?;
                     return Err(Error::polars(format!("{file}: reading CSV"), e));
+                }
+                // A panic inside polars on malformed input: the diagnostics place the
+                // problem when they can.
+                Err(p) => {
+                    csvdiag::diagnose(path, expect)?;
+                    return Err(Error::input(
+                        &file,
+                        format!("reading CSV: the reader failed ({})", panic_text(&*p)),
+                    ));
                 }
             }
         }
@@ -105,6 +140,14 @@ pub fn read_table_columns(
         return Err(Error::input(&file, "no data rows (header only)"));
     }
     Ok(Table { df, file, format })
+}
+
+/// The message of a caught panic.
+fn panic_text(p: &(dyn std::any::Any + Send)) -> &str {
+    p.downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| p.downcast_ref::<&str>().copied())
+        .unwrap_or("a panic without a message")
 }
 
 impl Table {

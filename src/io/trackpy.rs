@@ -11,7 +11,9 @@ use super::fastcsv::read_numeric_csv;
 use super::table::{TableFormat, read_table_columns};
 use crate::error::{Error, Result};
 use crate::neighbors::{CellList, Cutoff};
-use crate::tracks::{LARGE, RowLocator, SMALL, Tracks, TracksMeta, finalize};
+use crate::tracks::{
+    LARGE, MAX_ABS_COORD, RowLocator, SMALL, Tracks, TracksMeta, beyond_bound, finalize,
+};
 use std::path::Path;
 
 #[derive(Debug, Clone, Default)]
@@ -75,18 +77,25 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
         size,
         found,
     } = read_columns(path)?;
-    let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
-    let clean = finite(&x_px) && finite(&y_px);
+    // Checked in pixels, the file's own values, before any scaling (the bound of
+    // `tracks::MAX_ABS_COORD`: no camera frame is 1e12 px wide).
+    let bounded = |v: &[f64]| v.iter().fold(true, |ok, x| ok & (x.abs() <= MAX_ABS_COORD));
+    let clean = bounded(&x_px) && bounded(&y_px);
     for (r, (&x, &y)) in x_px.iter().zip(&y_px).enumerate().filter(|_| !clean) {
         for (c, v) in [("x", x), ("y", y)] {
-            if !v.is_finite() {
-                return Err(Error::Value {
-                    file: file.clone(),
-                    loc: format!("line {}", r + 2),
-                    column: c.into(),
-                    msg: format!("{v} is not a finite number"),
-                });
-            }
+            let msg = if !v.is_finite() {
+                format!("{v} is not a finite number")
+            } else if v.abs() > MAX_ABS_COORD {
+                beyond_bound(v, " px")
+            } else {
+                continue;
+            };
+            return Err(Error::Value {
+                file: file.clone(),
+                loc: format!("line {}", r + 2),
+                column: c.into(),
+                msg,
+            });
         }
     }
     let (x0, y0) = opt
@@ -123,7 +132,8 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
     let (rs, rl, source) = match opt.radii {
         Some((a, b)) => (a, b, "given (--radii)".to_string()),
         None => {
-            let (a, b) = estimate_radii(&frame, &x, &y, &species)?;
+            let (a, b) = estimate_radii(&frame, &x, &y, &species)
+                .map_err(|e| Error::input(&file, format!("{e}")))?;
             (
                 a,
                 b,

@@ -91,8 +91,9 @@ pub fn read_meta(path: &Path) -> Result<Option<TracksMeta>> {
     if !p.exists() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-    let m: TracksMeta = serde_json::from_str(&text)
+    // Bytes, not a string: serde_json then places invalid UTF-8 at its line and column.
+    let text = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+    let m: TracksMeta = serde_json::from_slice(&text)
         .map_err(|e| Error::input(p.display(), format!("malformed sidecar: {e}")))?;
     Ok(Some(m))
 }

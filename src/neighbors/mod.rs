@@ -81,8 +81,12 @@ impl CellList {
                 (lo, len / n as f64, n)
             } else {
                 let span = (max - min).max(0.0);
-                // Cap the grid so a sparse outlier cannot allocate a huge empty grid.
-                let n = ((span / cutoff).floor() as usize + 1).min(1 << 13);
+                // Cap the grid so a sparse outlier cannot allocate a huge empty grid. The
+                // cap is applied in f64: a span of 1e40 or inf saturates the cast to
+                // usize::MAX, whose + 1 wrapped to an empty grid (issue 24's panic).
+                let n = ((span / cutoff).floor() + 1.0)
+                    .min((1 << 13) as f64)
+                    .max(1.0) as usize;
                 let w = (span / n as f64).max(cutoff);
                 (min, w, n)
             }
@@ -264,6 +268,26 @@ mod tests {
                 ..SimBox::periodic(20.0, 20.0)
             };
             check(Some(b), 400, 20.0, 1.7, 3);
+        }
+    }
+
+    /// Issue 24: a coordinate of 1e40 (or an infinite span) made the grid's cell count
+    /// wrap to zero and `clamp` panic ("min > max"). Far-apart points still find
+    /// their near neighbours and not each other.
+    #[test]
+    fn huge_extents_do_not_panic() {
+        for far in [1e40, 1e300, f64::MAX, f64::INFINITY] {
+            let pos = [
+                Vec2::new(0.0, 0.0),
+                Vec2::new(0.5, 0.0),
+                Vec2::new(far, 1.0),
+                Vec2::new(-far, -far),
+            ];
+            let cl = CellList::new(&pos, 1.0, Cutoff::Strict, None).unwrap();
+            let mut got = Vec::new();
+            cl.for_each_within(pos[0], |j, _| got.push(j));
+            got.sort();
+            assert_eq!(got, vec![0, 1], "far = {far}");
         }
     }
 

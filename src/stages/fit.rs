@@ -286,7 +286,8 @@ fn write_scatter(path: &Path, r: &ScatterRows) -> Result<()> {
 
 /// Read a `fit.json`.
 pub fn read_fit(path: &Path) -> Result<FitReport> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    serde_json::from_str(&text)
+    // Bytes, not a string: serde_json then places invalid UTF-8 at its line and column.
+    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    serde_json::from_slice(&text)
         .map_err(|e| Error::input(path.display(), format!("not a pillar-pipe fit.json: {e}")))
 }

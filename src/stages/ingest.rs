@@ -65,13 +65,31 @@ pub fn detect(path: &Path) -> Result<Format> {
     if crate::io::table::TableFormat::of(path) == crate::io::table::TableFormat::Parquet {
         return Ok(Format::Canonical);
     }
-    let mut head = String::new();
+    let mut head = Vec::new();
     std::fs::File::open(path)
         .map_err(|e| Error::io(path, e))?
         .take(4096)
-        .read_to_string(&mut head)
-        .map_err(|e| Error::input(&file, format!("not a text file: {e}")))?;
-    let first = head.lines().next().unwrap_or("").trim();
+        .read_to_end(&mut head)
+        .map_err(|e| Error::io(path, e))?;
+    // Only the first line decides; bytes further on are the reader's to place.
+    let first = head.split(|&b| b == b'\n').next().unwrap_or(&[]);
+    let first = match std::str::from_utf8(first) {
+        Ok(s) => s,
+        // A character cut by the 4096-byte window is not an error.
+        Err(e) if e.error_len().is_none() => {
+            std::str::from_utf8(&first[..e.valid_up_to()]).unwrap_or_default()
+        }
+        Err(e) => {
+            return Err(Error::input(
+                &file,
+                format!(
+                    "not a text file: line 1 is not UTF-8 at byte {}",
+                    e.valid_up_to()
+                ),
+            ));
+        }
+    }
+    .trim();
     if first.is_empty() {
         return Err(Error::input(&file, "empty file"));
     }
@@ -237,8 +255,9 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
 }
 
 /// Read `input` in `format` into validated tracks, with warnings and (trackpy) the
-/// species split.
-fn read_input(
+/// species split: everything `run` does short of hashing and writing (the fuzz tests
+/// call it directly).
+pub fn read_input(
     input: &Path,
     format: Format,
     opt: &IngestOptions,

@@ -123,6 +123,63 @@ pub(crate) const SERIES: [&str; 19] = [
     "vy2",
 ];
 
+/// A sheared-disk run's checkpoint as `--resume` reads it.
+pub struct Resumed {
+    pub sim: ShearSim,
+    /// The options of the interrupted run (JSON), which the resumed one must match.
+    pub physics: String,
+    frame: i64,
+    parts: u64,
+    cols: Vec<Vec<f64>>,
+    steady: Steady,
+    /// (frame, Lees–Edwards offset) of every frame written so far.
+    boxes: Vec<(i64, f64)>,
+}
+
+/// Read a sheared-disk checkpoint: the state and the output bookkeeping. Errors name the
+/// file (and the byte, for a truncated or corrupt one).
+pub fn read_checkpoint(ckpt: &Path) -> Result<Resumed> {
+    let bytes = std::fs::read(ckpt).map_err(|e| {
+        Error::input(
+            ckpt.display(),
+            format!("cannot resume: no checkpoint here ({e})"),
+        )
+    })?;
+    let bad = |e: String| Error::input(ckpt.display(), e);
+    let (sim, extra) = ShearSim::load(&bytes).map_err(bad)?;
+    let mut d = Dec::new(&extra);
+    let book = |e: String| bad(format!("output bookkeeping: {e}"));
+    let physics = String::from_utf8(d.bytes().map_err(book)?).map_err(|e| book(e.to_string()))?;
+    let frame = d.u64().map_err(book)? as i64;
+    let parts = d.u64().map_err(book)?;
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
+    for c in cols.iter_mut() {
+        *c = d.f64s().map_err(book)?;
+    }
+    // The series becomes one table: every column one row per sample.
+    if cols.iter().any(|c| c.len() != cols[0].len()) {
+        return Err(book("series columns of different lengths".into()));
+    }
+    let steady = Steady::decode(&mut d).map_err(book)?;
+    let (bf, bx) = (d.i64s().map_err(book)?, d.f64s().map_err(book)?);
+    if bf.len() != bx.len() {
+        return Err(book(format!(
+            "{} frames but {} box offsets",
+            bf.len(),
+            bx.len()
+        )));
+    }
+    Ok(Resumed {
+        sim,
+        physics,
+        frame,
+        parts,
+        cols,
+        steady,
+        boxes: bf.into_iter().zip(bx).collect(),
+    })
+}
+
 pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let t0 = std::time::Instant::now();
     let p = ShearParams {
@@ -161,32 +218,19 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let (mut frame, mut parts) = (0i64, 0u64);
     let mut steady = Steady::default();
     let mut sim = if opt.resume {
-        let bytes = std::fs::read(&ckpt).map_err(|e| {
-            Error::input(
-                ckpt.display(),
-                format!("cannot resume: no checkpoint here ({e})"),
-            )
-        })?;
-        let (sim, extra) = ShearSim::load(&bytes).map_err(|e| Error::input(ckpt.display(), e))?;
-        let mut d = Dec::new(&extra);
-        let bad = |e: String| Error::input(ckpt.display(), e);
-        let then = String::from_utf8(d.bytes().map_err(bad)?).map_err(|e| bad(e.to_string()))?;
-        if then != physics {
+        let r = read_checkpoint(&ckpt)?;
+        if r.physics != physics {
             return Err(Error::param(
                 "resume",
                 format!(
-                    "the options differ from the interrupted run's:\n  then: {then}\n  now:  {physics}"
+                    "the options differ from the interrupted run's:\n  then: {}\n  now:  {physics}",
+                    r.physics
                 ),
             ));
         }
-        frame = d.u64().map_err(bad)? as i64;
-        parts = d.u64().map_err(bad)?;
-        for c in cols.iter_mut() {
-            *c = d.f64s().map_err(bad)?;
-        }
-        steady = Steady::decode(&mut d).map_err(bad)?;
-        let (bf, bx) = (d.i64s().map_err(bad)?, d.f64s().map_err(bad)?);
-        for (f, xy) in bf.into_iter().zip(bx) {
+        let sim = r.sim;
+        (frame, parts, cols, steady) = (r.frame, r.parts, r.cols, r.steady);
+        for (f, xy) in r.boxes {
             tracks.meta.boxes.push(frame_box(f, sim.l, xy));
         }
         drop_parts_from(&parts_dir, parts)?;

@@ -146,7 +146,7 @@ pub struct SimulateReport {
 }
 
 /// Output bookkeeping saved with each checkpoint.
-struct Progress {
+pub struct Progress {
     frames: u64,
     parts: u64,
     prev_x: Vec<f64>,
@@ -185,6 +185,31 @@ impl Progress {
     }
 }
 
+/// Read a pillar run's checkpoint for `--resume`: the state and the output bookkeeping,
+/// checked against each other. Errors name the file (and the byte, for a truncated or
+/// corrupt one).
+pub fn read_checkpoint(ckpt: &Path) -> Result<(PillarSim, Progress)> {
+    let bytes = std::fs::read(ckpt).map_err(|e| {
+        Error::input(
+            ckpt.display(),
+            format!("cannot resume: no checkpoint here ({e})"),
+        )
+    })?;
+    let bad = |e: String| Error::input(ckpt.display(), e);
+    let (sim, extra) = PillarSim::load(&bytes).map_err(bad)?;
+    let prog = Progress::decode(&extra).map_err(|e| bad(format!("output bookkeeping: {e}")))?;
+    // The frame's velocities (Eq. 13) take the previous frame's positions grain by grain.
+    let n = sim.grains.len();
+    if prog.prev_x.len() != n || prog.prev_y.len() != n {
+        return Err(bad(format!(
+            "output bookkeeping: {} and {} previous positions for {n} grains",
+            prog.prev_x.len(),
+            prog.prev_y.len()
+        )));
+    }
+    Ok((sim, prog))
+}
+
 const CHECKPOINT: &str = "checkpoint.bin";
 const PARTS: &str = ".parts";
 pub const MANIFEST: &str = "manifest.json";
@@ -207,14 +232,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
     let parts_dir = out.join(PARTS);
     let physics = serde_json::to_string(&opt.physics()).expect("json");
     let (mut sim, mut prog) = if opt.resume {
-        let bytes = std::fs::read(&ckpt).map_err(|e| {
-            Error::input(
-                ckpt.display(),
-                format!("cannot resume: no checkpoint here ({e})"),
-            )
-        })?;
-        let (sim, extra) = PillarSim::load(&bytes).map_err(|e| Error::input(ckpt.display(), e))?;
-        let prog = Progress::decode(&extra).map_err(|e| Error::input(ckpt.display(), e))?;
+        let (sim, prog) = read_checkpoint(&ckpt)?;
         if prog.physics != physics {
             return Err(Error::param(
                 "resume",

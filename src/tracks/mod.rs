@@ -12,7 +12,7 @@ pub use dense::{ByParticle, dense_ids};
 pub use detached::{detached_trajectories, drop_trajectories};
 pub use meta::{FrameBox, Provenance, TracksMeta};
 pub use summary::{TracksSummary, summarize};
-pub use validate::{RowLocator, finalize};
+pub use validate::{MAX_ABS_COORD, RowLocator, beyond_bound, finalize};
 
 use crate::geom::{SimBox, Vec2};
 use std::ops::Range;

@@ -12,9 +12,22 @@ pub enum RowLocator {
     Explicit,
 }
 
+/// The largest |x|, |y| and radius accepted, in the table's length unit
+/// (`max_abs` in `data_schema/tracks.schema.json`). Beyond it a value is a corrupt or
+/// mis-scaled file rather than a grain: f64 then resolves no better than 1e-4 units,
+/// too coarse for the displacements of Eqs. 13–18, and the squared distances of the
+/// neighbour search and the fits lose all precision long before they overflow.
+pub const MAX_ABS_COORD: f64 = 1e12;
+
+/// Within ±`MAX_ABS_COORD` (false for NaN and ±inf).
+fn bounded(v: f64) -> bool {
+    v.abs() <= MAX_ABS_COORD
+}
+
 /// Validate every row against `data_schema/tracks.schema.json` (frame ≥ 0, finite
-/// coordinates, radius > 0, species 0/1), sort by (frame, particle) and reject
-/// duplicates. `lines` gives explicit source lines for `RowLocator::Explicit`.
+/// coordinates within ±`MAX_ABS_COORD`, 0 < radius ≤ `MAX_ABS_COORD`, species 0/1), sort
+/// by (frame, particle) and reject duplicates. `lines` gives explicit source lines for
+/// `RowLocator::Explicit`.
 pub fn finalize(
     mut t: Tracks,
     file: &str,
@@ -44,11 +57,11 @@ pub fn finalize(
     // name the first bad row when there is one.
     let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
     let clean = t.frame.iter().fold(true, |ok, &f| ok & (f >= 0))
-        && finite(&t.x)
-        && finite(&t.y)
+        && t.x.iter().fold(true, |ok, &v| ok & bounded(v))
+        && t.y.iter().fold(true, |ok, &v| ok & bounded(v))
         && t.radius
             .iter()
-            .fold(true, |ok, &r| ok & (r > 0.0) & r.is_finite())
+            .fold(true, |ok, &r| ok & (r > 0.0) & bounded(r))
         && t.species
             .as_ref()
             .is_none_or(|s| s.iter().fold(true, |ok, &v| ok & ((v == 0) | (v == 1))))
@@ -65,6 +78,9 @@ pub fn finalize(
         for (name, v) in [("x", t.x[r]), ("y", t.y[r]), ("radius", t.radius[r])] {
             if !v.is_finite() {
                 return Err(bad(r, name, format!("{v} is not a finite number")));
+            }
+            if !bounded(v) {
+                return Err(bad(r, name, beyond_bound(v, "")));
             }
         }
         if t.radius[r] <= 0.0 {
@@ -117,4 +133,11 @@ pub fn finalize(
     }
     t.meta.boxes.sort_by_key(|b| b.frame);
     Ok(t)
+}
+
+/// The message for a value past `MAX_ABS_COORD` (`unit`: a unit to name, e.g. " px").
+pub fn beyond_bound(v: f64, unit: &str) -> String {
+    format!(
+        "{v:e}{unit} is beyond ±{MAX_ABS_COORD:e}{unit}, the largest coordinate accepted (a corrupt or mis-scaled file; see data_schema/tracks.schema.json)"
+    )
 }
