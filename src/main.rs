@@ -134,6 +134,11 @@ enum Cmd {
         bootstrap: usize,
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Fitted η^s (dimensionless): `coverage` (bins the protocol samples evenly:
+        /// inside the central 90 % of η^s of at least two lags, from at least half the
+        /// start times), `all`, or LO,HI.
+        #[arg(long, default_value = "coverage", value_parser = pillar_pipe::fit::RangeRule::parse)]
+        eta_range: pillar_pipe::fit::RangeRule,
         /// Scatter table (default <output stem>.scatter.parquet).
         #[arg(long)]
         scatter: Option<PathBuf>,
@@ -420,6 +425,7 @@ fn run(cli: Cli) -> Result<()> {
             min_bin_count,
             bootstrap,
             seed,
+            eta_range,
             scatter,
             quiet,
         } => {
@@ -437,6 +443,7 @@ fn run(cli: Cli) -> Result<()> {
                 },
                 bootstrap,
                 seed,
+                range: eta_range,
                 scatter,
                 quiet,
             };

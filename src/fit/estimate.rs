@@ -30,16 +30,31 @@ pub enum Method {
     BinnedMean,
     /// Every point, least squares in log space.
     Points,
+    /// Mean D²min in log-spaced η^s bins, least squares in *linear* space with each bin
+    /// weighted by 1/se² (se: the standard error of its mean), so well-sampled bins
+    /// count most and the diffusive regime's large values are not compressed by a log.
+    WeightedMean,
 }
 
 impl Method {
-    pub const ALL: [Method; 3] = [Method::BinnedMedian, Method::BinnedMean, Method::Points];
+    pub const ALL: [Method; 4] = [
+        Method::BinnedMedian,
+        Method::BinnedMean,
+        Method::Points,
+        Method::WeightedMean,
+    ];
     pub fn name(self) -> &'static str {
         match self {
             Method::BinnedMedian => "binned-median",
             Method::BinnedMean => "binned-mean",
             Method::Points => "points",
+            Method::WeightedMean => "weighted-mean",
         }
+    }
+    /// Bins keep the quantile nodes of their η^s: the model of a bin mean is the mean
+    /// of Eq. 19 over the bin, not Eq. 19 at its centre.
+    fn is_mean(self) -> bool {
+        matches!(self, Method::BinnedMean | Method::WeightedMean)
     }
 }
 
@@ -74,6 +89,9 @@ pub struct BinPoint {
     pub eta_s: f64,
     pub d2min_over_r2: f64,
     pub n: usize,
+    /// Standard error of the bin's mean (means only; the weighted-mean fit's 1/√weight).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub se: Option<f64>,
     #[serde(skip)]
     pub nodes: Option<[f64; NODES]>,
 }
@@ -104,6 +122,7 @@ pub fn reduce(eta: &[f64], y: &[f64], method: Method, b: &Binning) -> Vec<BinPoi
                 eta_s: e,
                 d2min_over_r2: v,
                 n: 1,
+                se: None,
                 nodes: None,
             })
             .collect();
@@ -130,13 +149,15 @@ pub fn reduce(eta: &[f64], y: &[f64], method: Method, b: &Binning) -> Vec<BinPoi
                 Method::BinnedMedian => median_sorted(&ys),
                 _ => mean(&ys),
             };
-            let nodes = (method == Method::BinnedMean).then(|| {
+            let se = method.is_mean().then(|| standard_error(&ys, stat));
+            let nodes = method.is_mean().then(|| {
                 std::array::from_fn(|k| quantile_sorted(&etas, (k as f64 + 0.5) / NODES as f64))
             });
             out.push(BinPoint {
                 eta_s: median_sorted(&etas),
                 d2min_over_r2: stat,
                 n: e - s,
+                se,
                 nodes,
             });
         }
@@ -145,32 +166,76 @@ pub fn reduce(eta: &[f64], y: &[f64], method: Method, b: &Binning) -> Vec<BinPoi
     out
 }
 
+/// Sample standard deviation over √n, floored at 1e-9 of the mean so that a bin of
+/// identical values gets a large but finite weight.
+fn standard_error(ys: &[f64], mean: f64) -> f64 {
+    let n = ys.len() as f64;
+    let var = ys.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (var / n).sqrt().max(1e-9 * mean.abs())
+}
+
+/// What is minimised: mean squared log residual, or (weighted means) mean squared
+/// residual in units of each bin's standard error.
 struct LogCost<'a> {
     pts: &'a [BinPoint],
     /// ln of each point's statistic, computed once.
     ln_y: Vec<f64>,
+    /// 1/se² per point for the linear weighted fit; empty for the log fit.
+    weights: Vec<f64>,
 }
 
-impl LogCost<'_> {
-    /// Mean squared log residual. ln(4Θ η_c g) = ln Θ + ln(4 η_c g): Θ only shifts.
+impl<'a> LogCost<'a> {
+    fn new(pts: &'a [BinPoint], weighted: bool) -> Self {
+        LogCost {
+            pts,
+            ln_y: pts.iter().map(|p| p.d2min_over_r2.ln()).collect(),
+            weights: if weighted {
+                pts.iter()
+                    .map(|p| p.se.map_or(0.0, |se| 1.0 / (se * se)))
+                    .collect()
+            } else {
+                Vec::new()
+            },
+        }
+    }
+    /// ln(4Θ η_c g) = ln Θ + ln(4 η_c g): Θ only shifts (scales, in linear space).
     fn eval(&self, ln_theta: f64, ln_eta_c: f64) -> f64 {
         let ec = ln_eta_c.exp();
         let mut s = 0.0;
-        for (p, ly) in self.pts.iter().zip(&self.ln_y) {
-            let r = ly - ln_theta - p.predict(1.0, ec).ln();
-            s += r * r;
+        if self.weights.is_empty() {
+            for (p, ly) in self.pts.iter().zip(&self.ln_y) {
+                let r = ly - ln_theta - p.predict(1.0, ec).ln();
+                s += r * r;
+            }
+        } else {
+            let th = ln_theta.exp();
+            for (p, w) in self.pts.iter().zip(&self.weights) {
+                let r = p.d2min_over_r2 - th * p.predict(1.0, ec);
+                s += w * r * r;
+            }
         }
         s / self.pts.len() as f64
     }
-    /// For fixed η_c the best ln Θ is the mean log residual (closed form).
+    /// For fixed η_c the best ln Θ in closed form: the mean log residual, or for the
+    /// weighted fit Θ = Σ w y m / Σ w m² (m: the model at Θ = 1).
     fn best_ln_theta(&self, ln_eta_c: f64) -> f64 {
         let ec = ln_eta_c.exp();
-        self.pts
-            .iter()
-            .zip(&self.ln_y)
-            .map(|(p, ly)| ly - p.predict(1.0, ec).ln())
-            .sum::<f64>()
-            / self.pts.len() as f64
+        if self.weights.is_empty() {
+            return self
+                .pts
+                .iter()
+                .zip(&self.ln_y)
+                .map(|(p, ly)| ly - p.predict(1.0, ec).ln())
+                .sum::<f64>()
+                / self.pts.len() as f64;
+        }
+        let (mut num, mut den) = (0.0, 0.0);
+        for (p, w) in self.pts.iter().zip(&self.weights) {
+            let m = p.predict(1.0, ec);
+            num += w * p.d2min_over_r2 * m;
+            den += w * m * m;
+        }
+        (num / den).ln()
     }
 }
 
@@ -193,20 +258,29 @@ pub struct PointFit {
     pub iterations: u64,
 }
 
-/// Fit Eq. 19 to reduced points. Starts Nelder–Mead from the best of a coarse η_c grid
-/// (for each η_c the best ln Θ is the mean log residual, closed form), so the answer
-/// does not depend on a user's guess.
+/// Fit Eq. 19 to reduced points in log space (see [`fit_method`]).
 pub fn fit_points(pts: &[BinPoint]) -> Result<PointFit> {
+    fit_method(pts, Method::BinnedMedian)
+}
+
+/// Fit Eq. 19 to points reduced for `method`: in log space, or for `WeightedMean` in
+/// linear space weighted by 1/se². Starts Nelder–Mead from the best of a coarse η_c grid
+/// (for each η_c the best Θ is closed form), so the answer does not depend on a user's
+/// guess.
+pub fn fit_method(pts: &[BinPoint], method: Method) -> Result<PointFit> {
     if pts.len() < 3 {
         return Err(Error::Other(format!(
             "only {} points to fit 2 parameters; need at least 3 (more data, or fewer bins per decade / a lower minimum bin count)",
             pts.len()
         )));
     }
-    let cost = LogCost {
-        pts,
-        ln_y: pts.iter().map(|p| p.d2min_over_r2.ln()).collect(),
-    };
+    let weighted = method == Method::WeightedMean;
+    if weighted && pts.iter().any(|p| p.se.is_none()) {
+        return Err(Error::Other(
+            "weighted-mean needs each bin's standard error".into(),
+        ));
+    }
+    let cost = LogCost::new(pts, weighted);
     let (mut g_ec, mut g_th, mut g_c) = (0.0, 0.0, f64::INFINITY);
     // η_c grid 1e-5 … 1e2, 4 per decade; Nelder–Mead refines from the best node.
     for k in 0..=28 {

@@ -4,9 +4,11 @@
 
 pub mod estimate;
 pub mod model;
+pub mod range;
 
-pub use estimate::{BinPoint, Binning, Method, PointFit, fit_points, reduce};
+pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, fit_points, reduce};
 pub use model::d2min_over_r2;
+pub use range::{FitRange, RangeRule};
 
 use crate::error::{Error, Result};
 use crate::rng::Rng;
@@ -22,13 +24,36 @@ pub struct Samples {
     pub eta_s: Vec<f64>,
     pub d2min_over_r2: Vec<f64>,
     pub group: Vec<u32>,
+    /// The lag each sample was measured over (frames; any label that tells lags apart),
+    /// for the range rule: which lags feed which η^s.
+    pub lag: Vec<u32>,
 }
 
 impl Samples {
+    /// A sample of unknown lag (all such samples count as one lag).
     pub fn push(&mut self, eta: f64, y: f64, group: u32) {
+        self.push_lag(eta, y, group, 0);
+    }
+    pub fn push_lag(&mut self, eta: f64, y: f64, group: u32, lag: u32) {
         self.eta_s.push(eta);
         self.d2min_over_r2.push(y);
         self.group.push(group);
+        self.lag.push(lag);
+    }
+    /// The samples with η^s in [lo, hi].
+    pub fn within(&self, lo: f64, hi: f64) -> Samples {
+        let mut out = Samples::default();
+        for k in 0..self.len() {
+            if self.eta_s[k] >= lo && self.eta_s[k] <= hi {
+                out.push_lag(
+                    self.eta_s[k],
+                    self.d2min_over_r2[k],
+                    self.group[k],
+                    self.lag[k],
+                );
+            }
+        }
+        out
     }
     pub fn len(&self) -> usize {
         self.eta_s.len()
@@ -46,6 +71,13 @@ pub struct FitSettings {
     /// `POINTS_REPLICATES_MAX`: each of its fits touches every sample).
     pub bootstrap: usize,
     pub seed: u64,
+    /// Which η^s are fitted (chosen once on all samples; every replicate uses it).
+    #[serde(default = "coverage")]
+    pub range: RangeRule,
+}
+
+fn coverage() -> RangeRule {
+    RangeRule::Coverage
 }
 
 pub const POINTS_REPLICATES_MAX: usize = 50;
@@ -63,7 +95,8 @@ pub struct EstimatorResult {
     pub eta_c_constrained: bool,
     /// Why a parameter is not constrained (empty when both are).
     pub notes: Vec<String>,
-    /// RMS residual of ln(D²min/R²) over the fitted points.
+    /// RMS residual of ln(D²min/R²) over the fitted points (weighted-mean: of
+    /// D²min/R² in units of each bin's standard error).
     pub residual_rms: f64,
     pub fitted_points: usize,
     pub bootstrap_replicates: usize,
@@ -93,7 +126,8 @@ fn positive(s: &Samples) -> (Vec<f64>, Vec<f64>, Vec<u32>) {
 pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<EstimatorResult> {
     let (eta, y, group) = positive(s);
     let pts = reduce(&eta, &y, method, &set.binning);
-    let best = fit_points(&pts).map_err(|e| Error::Other(format!("{}: {e}", method.name())))?;
+    let best =
+        fit_method(&pts, method).map_err(|e| Error::Other(format!("{}: {e}", method.name())))?;
     let mut groups: Vec<u32> = group.clone();
     groups.sort_unstable();
     groups.dedup();
@@ -118,7 +152,7 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
                     by.push(y[k]);
                 }
             }
-            fit_points(&reduce(&be, &by, method, &set.binning)).ok()
+            fit_method(&reduce(&be, &by, method, &set.binning), method).ok()
         })
         .collect();
     let ok: Vec<PointFit> = fits.iter().flatten().copied().collect();
@@ -150,6 +184,14 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
         eta_c_ok = false;
         notes.push(format!(
             "no data in the ballistic regime: smallest η^s {lo:.3e} > η_c/2; η_c is not determined"
+        ));
+    }
+    if let Some((low, high)) = end_slopes(&eta, &y, &set.binning)
+        && low < high + SLOPE_FALL_MIN
+    {
+        eta_c_ok = false;
+        notes.push(format!(
+            "no crossover in the fitted range: the log slope of D²min/R² against η^s is {low:.2} at its low end and {high:.2} at its high end, where Eq. 19's falls from 2 to 1; η_c is not determined (tracking noise, which adds a floor to D²min, flattens the low end)"
         ));
     }
     if groups.len() < 2 {
@@ -187,27 +229,138 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     })
 }
 
+/// JSON has no NaN or ∞: serde_json writes them as `null`. These read a `null` back as
+/// NaN (a failed or undetermined number) or as +∞ (an open upper bound).
+pub mod json_nonfinite {
+    use serde::{Deserialize, Deserializer};
+    pub fn nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    }
+    pub fn nan_pair<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+        let [a, b] = <[Option<f64>; 2]>::deserialize(d)?;
+        Ok([a.unwrap_or(f64::NAN), b.unwrap_or(f64::NAN)])
+    }
+    pub fn inf<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::INFINITY))
+    }
+}
+
+/// Upper ends of η^s the sensitivity table refits with (None: every sample above the
+/// chosen range's lower end).
+pub const SENSITIVITY_UPPER: [Option<f64>; 4] = [Some(0.2), Some(0.5), Some(1.0), None];
+
+/// One cell of the sensitivity table: an estimator's point fit (no bootstrap) with the
+/// fitted range's upper end replaced.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SensitivityRow {
+    pub method: Method,
+    /// η^s ∈ [lo, hi] fitted (hi = ∞, `null` in JSON, for "all").
+    pub lo: f64,
+    #[serde(deserialize_with = "json_nonfinite::inf")]
+    pub hi: f64,
+    /// NaN (`null` in JSON) where the fit failed (too few points).
+    #[serde(deserialize_with = "json_nonfinite::nan")]
+    pub theta: f64,
+    #[serde(deserialize_with = "json_nonfinite::nan")]
+    pub eta_c: f64,
+    pub fitted_points: usize,
+}
+
+/// Θ and η_c of every estimator for each upper end in [`SENSITIVITY_UPPER`], the lower
+/// end kept at `lo` (the chosen range's): how much the headline number depends on
+/// where the fit stops, shown next to it.
+pub fn sensitivity(s: &Samples, lo: f64, b: &Binning) -> Vec<SensitivityRow> {
+    let (eta, y, _) = positive(s);
+    let mut cells = Vec::new();
+    for m in Method::ALL {
+        for hi in SENSITIVITY_UPPER {
+            cells.push((m, hi.unwrap_or(f64::INFINITY)));
+        }
+    }
+    cells
+        .into_par_iter()
+        .map(|(m, hi)| {
+            let (e, v): (Vec<f64>, Vec<f64>) = eta
+                .iter()
+                .zip(&y)
+                .filter(|(e, _)| **e >= lo && **e <= hi)
+                .map(|(e, v)| (*e, *v))
+                .unzip();
+            let pts = reduce(&e, &v, m, b);
+            let fit = fit_method(&pts, m).ok();
+            SensitivityRow {
+                method: m,
+                lo,
+                hi,
+                theta: fit.map_or(f64::NAN, |f| f.theta),
+                eta_c: fit.map_or(f64::NAN, |f| f.eta_c),
+                fitted_points: pts.len(),
+            }
+        })
+        .collect()
+}
+
+/// How much the log slope must fall from the low to the high end of the data for a
+/// crossover to count as seen (Eq. 19: from 2 to 1).
+pub const SLOPE_FALL_MIN: f64 = 0.1;
+
+/// Least-squares log–log slopes of the binned medians over the lowest and the highest
+/// quarter of the binned range (at least three bins each); None with fewer than six
+/// bins.
+fn end_slopes(eta: &[f64], y: &[f64], b: &Binning) -> Option<(f64, f64)> {
+    let pts = reduce(eta, y, Method::BinnedMedian, b);
+    if pts.len() < 6 {
+        return None;
+    }
+    let k = (pts.len() / 4).max(3);
+    let slope = |p: &[BinPoint]| {
+        let n = p.len() as f64;
+        let (xs, ys): (Vec<f64>, Vec<f64>) = p
+            .iter()
+            .map(|q| (q.eta_s.ln(), q.d2min_over_r2.ln()))
+            .unzip();
+        let (mx, my) = (xs.iter().sum::<f64>() / n, ys.iter().sum::<f64>() / n);
+        let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+        let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
+        sxy / sxx
+    };
+    Some((slope(&pts[..k]), slope(&pts[pts.len() - k..])))
+}
+
 /// Each estimator's result or its error message, by name.
 pub type AllEstimators = BTreeMap<String, std::result::Result<EstimatorResult, String>>;
 
-/// Every estimator, the chosen one first in importance. Fails only if the chosen one
-/// cannot be fitted; the others' failures are recorded as notes by the caller.
-pub fn fit_all(s: &Samples, set: &FitSettings) -> Result<(EstimatorResult, AllEstimators)> {
+/// Every estimator, the chosen one first in importance, on the samples within the range
+/// `set.range` chooses. Fails only if the chosen one cannot be fitted; the others'
+/// failures are recorded as notes by the caller.
+pub fn fit_all(
+    s: &Samples,
+    set: &FitSettings,
+) -> Result<(EstimatorResult, AllEstimators, FitRange)> {
     if s.len() < 3 {
         return Err(Error::Other(format!(
             "{} (η^s, D²min) samples: too few to fit Eq. 19",
             s.len()
         )));
     }
+    let range = range::choose(s, set.range, &set.binning);
+    let kept = s.within(range.lo, range.hi);
     let mut all = BTreeMap::new();
     for m in Method::ALL {
         all.insert(
             m.name().to_string(),
-            fit_estimator(s, m, set).map_err(|e| e.to_string()),
+            fit_estimator(&kept, m, set).map_err(|e| e.to_string()),
         );
     }
-    let chosen = all[set.method.name()].clone().map_err(Error::Other)?;
-    Ok((chosen, all))
+    let chosen = all[set.method.name()].clone().map_err(|e| {
+        Error::Other(format!(
+            "{e} (fitted range: {}, {} of {} samples)",
+            range.description,
+            range.samples_in,
+            s.len()
+        ))
+    })?;
+    Ok((chosen, all, range))
 }
 
 #[cfg(test)]

@@ -142,7 +142,7 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 "tracks"
             };
             let input = ctx.input(s, "input", what)?;
-            let r = stages::fit::run(&input, &out.join("fit.json"), &p.options(q))?;
+            let r = stages::fit::run(&input, &out.join("fit.json"), &p.options(&s.name, q)?)?;
             Ok(Produced {
                 outputs: outputs(&[("fit", "fit.json"), ("scatter", "fit.scatter.parquet")]),
                 metrics: json!({

@@ -120,6 +120,8 @@ pub struct FitParams {
     pub min_bin_count: usize,
     pub bootstrap: usize,
     pub seed: u64,
+    /// `coverage`, `all` or `LO,HI` (see `fit --eta-range`).
+    pub eta_range: String,
 }
 
 impl Default for FitParams {
@@ -137,13 +139,16 @@ impl Default for FitParams {
             min_bin_count: d.binning.min_count,
             bootstrap: d.bootstrap,
             seed: d.seed,
+            eta_range: d.range.name(),
         }
     }
 }
 
 impl FitParams {
-    pub fn options(&self, quiet: bool) -> FitOptions {
-        FitOptions {
+    pub fn options(&self, stage: &str, quiet: bool) -> Result<FitOptions> {
+        let range = crate::fit::RangeRule::parse(&self.eta_range)
+            .map_err(|e| Error::param(format!("{stage}.eta_range"), e))?;
+        Ok(FitOptions {
             diameter: self.diameter,
             bar_speed: self.bar_speed,
             starts: self.starts.clone(),
@@ -156,9 +161,10 @@ impl FitParams {
             },
             bootstrap: self.bootstrap,
             seed: self.seed,
+            range,
             scatter: None,
             quiet,
-        }
+        })
     }
 }
 

@@ -19,9 +19,16 @@ pub struct CrossoverSeries {
     pub points: Vec<(f64, f64)>,
     /// Binned curve of the fit's estimator.
     pub binned: Vec<(f64, f64)>,
-    /// Fitted Θ and η_c.
+    /// Fitted Θ and η_c, and whether the data determine each (an undetermined one is
+    /// not printed as a number).
     pub theta: f64,
     pub eta_c: f64,
+    pub theta_constrained: bool,
+    pub eta_c_constrained: bool,
+    /// The fitted η^s range; the curve is drawn over it.
+    pub range: Option<(f64, f64)>,
+    /// Bins left out of the fit (median η^s, median D²min/R²), drawn grey.
+    pub excluded: Vec<(f64, f64)>,
 }
 
 /// Fig. 8: D²min/R² against η^s on log axes, scatter, binned curve and Eq. 19.
@@ -94,21 +101,42 @@ impl Figure for CrossoverFigure {
                 .map_err(s)?
                 .label(format!("{} (binned)", ser.label))
                 .legend(move |(x, y)| Circle::new((x, y), 5, c.filled()));
+            if !ser.excluded.is_empty() {
+                let grey = RGBColor(150, 150, 150);
+                chart
+                    .draw_series(
+                        ser.excluded
+                            .iter()
+                            .filter(|p| p.0 >= xr.0 && p.0 <= xr.1 && p.1 >= yr.0 && p.1 <= yr.1)
+                            .map(move |&(x, y)| Circle::new((x, y), 5, grey.stroke_width(2))),
+                    )
+                    .map_err(s)?
+                    .label(format!("{}: bins left out of the fit", ser.label))
+                    .legend(move |(x, y)| Circle::new((x, y), 5, grey.stroke_width(2)));
+            }
+            let (lo, hi) = ser.range.map_or(xr, |(a, b)| (a.max(xr.0), b.min(xr.1)));
             let n = 120;
             let curve: Vec<(f64, f64)> = (0..=n)
                 .map(|i| {
-                    let x = (xr.0.ln() + (xr.1.ln() - xr.0.ln()) * i as f64 / n as f64).exp();
+                    let x = (lo.ln() + (hi.ln() - lo.ln()) * i as f64 / n as f64).exp();
                     (x, d2min_over_r2(x, ser.theta, ser.eta_c))
                 })
                 .filter(|p| p.1 >= yr.0 && p.1 <= yr.1)
                 .collect();
+            let theta = if ser.theta_constrained {
+                format!("{:.3}", ser.theta)
+            } else {
+                "not constrained".into()
+            };
+            let eta_c = if ser.eta_c_constrained {
+                format!("{:.3e}", ser.eta_c)
+            } else {
+                "not constrained".into()
+            };
             chart
                 .draw_series(LineSeries::new(curve, c.stroke_width(3)))
                 .map_err(s)?
-                .label(format!(
-                    "{}: Θ = {:.3}, η_c = {:.3e}",
-                    ser.label, ser.theta, ser.eta_c
-                ))
+                .label(format!("{}: Θ = {theta}, η_c = {eta_c}", ser.label))
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x - 10, y), (x + 10, y)], c.stroke_width(3))
                 });

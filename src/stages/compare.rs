@@ -1,5 +1,5 @@
 //! `compare`: two fits (say experiment and simulation) side by side, refused when they
-//! were made differently (estimator, R_c, lags), since Θ and η_c then differ for
+//! were made differently (estimator, R_c, lags, η^s range rule), since Θ and η_c then differ for
 //! reasons that have nothing to do with the physics.
 
 use super::fit::{FitReport, read_fit};
@@ -48,6 +48,20 @@ pub fn incompatibility(a: &FitReport, b: &FitReport) -> Option<String> {
         return Some(format!(
             "different binning: {:?} vs {:?}",
             pa.binning, pb.binning
+        ));
+    }
+    // The same rule may give each data set its own bounds (that is its point); a rule
+    // that differs, or bounds given by hand that differ, make the fits incomparable.
+    let rule = |f: &FitReport| f.range.as_ref().map(|r| r.rule);
+    if rule(a) != rule(b) {
+        let name = |f: &FitReport| {
+            rule(f).map_or("all (made before range rules)".to_string(), |r| r.name())
+        };
+        return Some(format!(
+            "different η^s range rules: {} vs {} (refit one with --eta-range {})",
+            name(a),
+            name(b),
+            name(a)
         ));
     }
     // Lags compare in R/v_c when both have a time scale, else in frames.

@@ -6,7 +6,10 @@
 pub use super::fit_sampling::ETA_S_AT_REST;
 use super::fit_sampling::{ScatterRows, from_kinematics, from_tracks, is_kinematics};
 use crate::error::{Error, Result};
-use crate::fit::{Binning, EstimatorResult, FitSettings, Method, fit_all};
+use crate::fit::{
+    Binning, EstimatorResult, FitRange, FitSettings, Method, RangeRule, SensitivityRow, fit_all,
+    json_nonfinite, sensitivity,
+};
 use crate::io::sink::stream_table;
 use crate::io::{atomic_write_str, sha256_file};
 use polars::prelude::*;
@@ -43,6 +46,8 @@ pub struct FitOptions {
     pub binning: Binning,
     pub bootstrap: usize,
     pub seed: u64,
+    /// Which η^s are fitted (default: the bins the protocol samples evenly).
+    pub range: RangeRule,
     /// The scatter table; default `<output stem>.scatter.parquet`.
     pub scatter: Option<PathBuf>,
     pub quiet: bool,
@@ -60,6 +65,7 @@ impl Default for FitOptions {
             binning: Binning::default(),
             bootstrap: 1000,
             seed: 1,
+            range: RangeRule::Coverage,
             scatter: None,
             quiet: false,
         }
@@ -87,17 +93,31 @@ pub struct Protocol {
 /// `fit.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FitReport {
+    // An undetermined number is NaN, written as `null`.
+    #[serde(deserialize_with = "json_nonfinite::nan")]
     pub theta: f64,
+    #[serde(deserialize_with = "json_nonfinite::nan")]
     pub eta_c: f64,
+    #[serde(deserialize_with = "json_nonfinite::nan_pair")]
     pub theta_interval: [f64; 2],
+    #[serde(deserialize_with = "json_nonfinite::nan_pair")]
     pub eta_c_interval: [f64; 2],
     pub theta_constrained: bool,
     pub eta_c_constrained: bool,
     pub method: Method,
     pub n_points: usize,
     pub n_starts: usize,
+    #[serde(deserialize_with = "json_nonfinite::nan")]
     pub residual_rms: f64,
     pub notes: Vec<String>,
+    /// The fitted η^s range, the rule that chose it and the bins it left out (absent in
+    /// fits made before the rule existed: those fitted every bin).
+    #[serde(default)]
+    pub range: Option<FitRange>,
+    /// Every estimator's Θ, η_c with the range's upper end at 0.2, 0.5, 1 and ∞ (point
+    /// fits, no bootstrap): the spread behind the headline number.
+    #[serde(default)]
+    pub sensitivity: Vec<SensitivityRow>,
     /// Every estimator's result, or its error.
     pub estimators: BTreeMap<String, serde_json::Value>,
     pub protocol: Protocol,
@@ -114,7 +134,13 @@ pub struct FitReport {
 
 impl std::fmt::Display for FitReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let flag = |ok: bool| if ok { "" } else { "  (not constrained)" };
+        let value = |x: f64, iv: [f64; 2], ok: bool| {
+            if ok {
+                format!("{}  [{}, {}]", num(x), num(iv[0]), num(iv[1]))
+            } else {
+                "not constrained by these data".to_string()
+            }
+        };
         writeln!(
             f,
             "fit           Eq. 19 by {}, {} points from {} starts",
@@ -124,32 +150,50 @@ impl std::fmt::Display for FitReport {
         )?;
         writeln!(
             f,
-            "Theta         {}  [{}, {}]{}",
-            num(self.theta),
-            num(self.theta_interval[0]),
-            num(self.theta_interval[1]),
-            flag(self.theta_constrained)
+            "Theta         {}",
+            value(self.theta, self.theta_interval, self.theta_constrained)
         )?;
         writeln!(
             f,
-            "eta_c         {}  [{}, {}]{}",
-            num(self.eta_c),
-            num(self.eta_c_interval[0]),
-            num(self.eta_c_interval[1]),
-            flag(self.eta_c_constrained)
+            "eta_c         {}",
+            value(self.eta_c, self.eta_c_interval, self.eta_c_constrained)
         )?;
+        if let Some(r) = &self.range {
+            writeln!(
+                f,
+                "range         eta_s in [{}, {}], {} of {} samples (rule '{}': {}); {} bins left out",
+                num(r.lo),
+                num(r.hi),
+                r.samples_in,
+                r.samples_in + r.samples_out,
+                r.rule.name(),
+                r.description,
+                r.excluded.len()
+            )?;
+        }
         writeln!(
             f,
             "              (95% bootstrap over start times, {} replicates, seed {})",
             self.bootstrap, self.seed
         )?;
         for (name, v) in &self.estimators {
+            let shown = |key: &str| {
+                let ok = v
+                    .get(&format!("{key}_constrained"))
+                    .and_then(|b| b.as_bool())
+                    .unwrap_or(true);
+                match v.get(key).and_then(|x| x.as_f64()) {
+                    Some(x) if ok => num(x),
+                    Some(_) => "not constrained".into(),
+                    None => "?".into(),
+                }
+            };
             match (v.get("theta"), v.get("eta_c")) {
-                (Some(t), Some(e)) => writeln!(
+                (Some(_), Some(_)) => writeln!(
                     f,
                     "  {name:14} Theta {}  eta_c {}",
-                    num(t.as_f64().unwrap_or(f64::NAN)),
-                    num(e.as_f64().unwrap_or(f64::NAN))
+                    shown("theta"),
+                    shown("eta_c")
                 )?,
                 _ => writeln!(
                     f,
@@ -157,6 +201,29 @@ impl std::fmt::Display for FitReport {
                     v.get("error").and_then(|e| e.as_str()).unwrap_or("?")
                 )?,
             }
+        }
+        let spread = |get: fn(&SensitivityRow) -> f64| {
+            let v: Vec<f64> = self
+                .sensitivity
+                .iter()
+                .map(get)
+                .filter(|x| x.is_finite())
+                .collect();
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            (lo, hi)
+        };
+        if !self.sensitivity.is_empty() {
+            let ((t0, t1), (e0, e1)) = (spread(|r| r.theta), spread(|r| r.eta_c));
+            writeln!(
+                f,
+                "sensitivity   Theta {}–{}, eta_c {}–{} over {} estimators × upper eta_s {{0.2, 0.5, 1, all}} (point fits; fit.json 'sensitivity')",
+                num(t0),
+                num(t1),
+                num(e0),
+                num(e1),
+                Method::ALL.len()
+            )?;
         }
         for n in &self.notes {
             writeln!(f, "note: {n}")?;
@@ -212,9 +279,11 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         binning: opt.binning,
         bootstrap: opt.bootstrap,
         seed: opt.seed,
+        range: opt.range,
     };
-    let (chosen, all) = fit_all(&samples, &settings)
+    let (chosen, all, range) = fit_all(&samples, &settings)
         .map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
+    let sensitivity = sensitivity(&samples, range.lo, &opt.binning);
     let scatter = opt.scatter.clone().unwrap_or_else(|| scatter_path(output));
     write_scatter(&scatter, &rows)?;
     let estimators = all
@@ -250,6 +319,8 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         n_starts: protocol.start_frames.len(),
         residual_rms,
         notes,
+        range: Some(range),
+        sensitivity,
         estimators,
         protocol,
         bootstrap: opt.bootstrap,

@@ -165,7 +165,12 @@ pub(crate) fn from_tracks(
                     continue;
                 }
                 let y = k.d2min / (r * r);
-                s.push(k.strain.eta_s, y, g as u32);
+                s.push_lag(
+                    k.strain.eta_s,
+                    y,
+                    g as u32,
+                    lf.clamp(0, u32::MAX as i64) as u32,
+                );
                 rows.start.push(fs);
                 rows.end.push(fe);
                 rows.particle.push(k.particle);
@@ -281,8 +286,8 @@ pub(crate) fn from_kinematics(
         let n = groups.len() as u32;
         let g = *groups.entry(start[k]).or_insert(n);
         let y = d2[k] / (r * r);
-        s.push(eta[k], y, g);
         let lag = end[k] - start[k];
+        s.push_lag(eta[k], y, g, lag.clamp(0, u32::MAX as i64) as u32);
         if !lags.contains(&lag) {
             lags.push(lag);
         }

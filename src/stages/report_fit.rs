@@ -33,30 +33,66 @@ fn scatter_points(fit: &FitReport) -> Result<Vec<(f64, f64)>> {
 fn fit_rows(fits: &[(String, FitReport)]) -> Vec<Vec<String>> {
     fits.iter()
         .map(|(label, f)| {
-            let flag = |ok: bool| if ok { "" } else { " (not constrained)" };
+            let value = |x: f64, iv: [f64; 2], ok: bool| {
+                if ok {
+                    format!("{} [{}, {}]", num(x), num(iv[0]), num(iv[1]))
+                } else {
+                    "not constrained".to_string()
+                }
+            };
             vec![
                 label.clone(),
                 f.method.name().to_string(),
-                format!(
-                    "{} [{}, {}]{}",
-                    num(f.theta),
-                    num(f.theta_interval[0]),
-                    num(f.theta_interval[1]),
-                    flag(f.theta_constrained)
-                ),
-                format!(
-                    "{} [{}, {}]{}",
-                    num(f.eta_c),
-                    num(f.eta_c_interval[0]),
-                    num(f.eta_c_interval[1]),
-                    flag(f.eta_c_constrained)
-                ),
+                value(f.theta, f.theta_interval, f.theta_constrained),
+                value(f.eta_c, f.eta_c_interval, f.eta_c_constrained),
+                f.range.as_ref().map_or("all".into(), |r| {
+                    format!("[{}, {}] ({})", num(r.lo), num(r.hi), r.rule.name())
+                }),
                 f.n_points.to_string(),
                 f.n_starts.to_string(),
                 format!("{:?}", f.protocol.lags_frames),
             ]
         })
         .collect()
+}
+
+/// Θ / η_c of every estimator (rows) for each upper end of the fitted η^s (columns),
+/// beside the paper's values: how much the headline depends on choices the paper does
+/// not state.
+fn sensitivity_table(label: &str, f: &FitReport) -> Block {
+    let mut his: Vec<f64> = f.sensitivity.iter().map(|r| r.hi).collect();
+    his.sort_by(f64::total_cmp);
+    his.dedup();
+    let mut header = vec![format!("{label}: estimator (Θ / η_c)")];
+    header.extend(his.iter().map(|h| {
+        if h.is_finite() {
+            format!("η^s ≤ {h}")
+        } else {
+            "all η^s".into()
+        }
+    }));
+    let mut rows: Vec<Vec<String>> = crate::fit::Method::ALL
+        .iter()
+        .map(|m| {
+            let mut row = vec![m.name().to_string()];
+            for h in &his {
+                let cell = f
+                    .sensitivity
+                    .iter()
+                    .find(|r| r.method == *m && r.hi == *h)
+                    .filter(|r| r.theta.is_finite())
+                    .map_or("—".into(), |r| {
+                        format!("{} / {}", num(r.theta), num(r.eta_c))
+                    });
+                row.push(cell);
+            }
+            row
+        })
+        .collect();
+    let mut paper = vec!["Li et al. (paper)".to_string()];
+    paper.extend(his.iter().map(|_| "0.3 / 0.05".to_string()));
+    rows.push(paper);
+    Block::Table { header, rows }
 }
 
 /// The crossover section, or None when no data set has a fit. Saves its figure under
@@ -93,18 +129,27 @@ pub fn crossover_section(
                 binned,
                 theta: f.theta,
                 eta_c: f.eta_c,
+                theta_constrained: f.theta_constrained,
+                eta_c_constrained: f.eta_c_constrained,
+                range: f.range.as_ref().map(|r| (r.lo, r.hi)),
+                excluded: f.range.as_ref().map_or(Vec::new(), |r| {
+                    r.excluded
+                        .iter()
+                        .map(|b| (b.eta_s, b.d2min_over_r2))
+                        .collect()
+                }),
             });
         }
         let fig = save(&CrossoverFigure { series }, &figdir.join("crossover"))?;
         let mut blocks = vec![
             Block::Figure {
                 id: "fig-crossover".into(),
-                caption: "D²min/R² against η^s: every sample (faint), the binned curve of the fit's estimator, and Eq. 19 with the fitted Θ, η_c (Li et al. Fig. 8).".into(),
+                caption: "D²min/R² against η^s: every sample (faint), the binned curve of the fit's estimator, bins left out of the fit (grey rings; see below why), and Eq. 19 with the fitted Θ, η_c over the fitted range (Li et al. Fig. 8; the paper finds Θ ≈ 0.3, η_c ≈ 0.05).".into(),
                 svg: fig.svg_text.clone(),
                 png: rel(&fig),
             },
             Block::Table {
-                header: ["data", "estimator", "Θ [95% CI]", "η_c [95% CI]", "points", "starts", "lags (frames)"].map(String::from).to_vec(),
+                header: ["data", "estimator", "Θ [95% CI]", "η_c [95% CI]", "fitted η^s (rule)", "points", "starts", "lags (frames)"].map(String::from).to_vec(),
                 rows: fit_rows(&fits),
             },
         ];
@@ -132,6 +177,28 @@ pub fn crossover_section(
             blocks.push(Block::Paragraph(text));
         }
         for (label, f) in &fits {
+            if !f.sensitivity.is_empty() {
+                blocks.push(sensitivity_table(label, f));
+            }
+        }
+        for (label, f) in &fits {
+            if let Some(r) = &f.range {
+                let mut why: std::collections::BTreeMap<&str, usize> = Default::default();
+                for b in &r.excluded {
+                    *why.entry(b.reason.as_str()).or_default() += 1;
+                }
+                let why: Vec<String> = why.iter().map(|(r, n)| format!("{n} × {r}")).collect();
+                blocks.push(Block::Paragraph(format!(
+                    "{label}: fitted η^s in [{}, {}], {} of {} samples; rule '{}': {}. Bins left out: {}.",
+                    num(r.lo),
+                    num(r.hi),
+                    r.samples_in,
+                    r.samples_in + r.samples_out,
+                    r.rule.name(),
+                    r.description,
+                    if why.is_empty() { "none".to_string() } else { why.join("; ") }
+                )));
+            }
             for n in &f.notes {
                 blocks.push(Block::Paragraph(format!("{label}: {n}")));
             }
