@@ -635,3 +635,39 @@ fn repeated_column_name_is_refused_not_a_panic() {
         assert!(e.contains(part), "'{part}' missing from: {e}");
     }
 }
+
+/// Parquet files whose page headers claim ~2^61 values (found by `scripts/fuzz.sh 20000
+/// 1 2`): polars sized a buffer from the count and the failed allocation aborted the
+/// process (exit 134, no file named). The page headers are checked first now.
+#[test]
+fn corrupt_parquet_page_headers_are_refused_not_an_abort() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/corrupt");
+    for k in 1..=4 {
+        let p = dir.join(format!("parquet-page-header-{k}.parquet"));
+        let e = pillar_pipe::io::table::read_table(&p, &[])
+            .map(|_| ())
+            .expect_err("refused");
+        let e = e.to_string();
+        assert!(
+            e.contains(p.to_str().unwrap())
+                && e.contains("corrupt Parquet")
+                && e.contains("column"),
+            "{e}"
+        );
+        // And through the CLI, as a user meets it: an error, not an abort.
+        let (ok, text) = run(&[
+            "kinematics",
+            p.to_str().unwrap(),
+            "--lag",
+            "1",
+            "-o",
+            "/dev/null/x.parquet",
+        ]);
+        assert!(!ok && text.contains("corrupt Parquet"), "{text}");
+    }
+    // A valid table passes the check unchanged.
+    let d = tmpdir("pq-guard");
+    let (ok, text) = run(&["synth", "-o", d.join("t.parquet").to_str().unwrap()]);
+    assert!(ok, "{text}");
+    pillar_pipe::io::parquet_guard::check(&d.join("t.parquet")).unwrap();
+}

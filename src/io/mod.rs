@@ -8,6 +8,7 @@ pub mod fastcsv;
 pub mod hash;
 pub mod kinematics_io;
 pub mod lammps;
+pub mod parquet_guard;
 pub mod sink;
 pub mod table;
 pub mod trackpy;

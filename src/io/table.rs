@@ -63,6 +63,7 @@ pub fn read_table_columns(
     let format = TableFormat::of(path);
     let df = match format {
         TableFormat::Parquet => {
+            super::parquet_guard::check(path)?;
             let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
             // polars' Parquet decoder asserts on some corrupt metadata (issue 24's fuzz
             // found "thrift bool field" and "offset + length <= self.length") instead of
