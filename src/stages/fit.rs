@@ -179,7 +179,7 @@ impl std::fmt::Display for FitReport {
         for (name, v) in &self.estimators {
             let shown = |key: &str| {
                 let ok = v
-                    .get(&format!("{key}_constrained"))
+                    .get(format!("{key}_constrained"))
                     .and_then(|b| b.as_bool())
                     .unwrap_or(true);
                 match v.get(key).and_then(|x| x.as_f64()) {
