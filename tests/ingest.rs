@@ -650,7 +650,7 @@ fn corrupt_parquet_page_headers_are_refused_not_an_abort() {
         let e = e.to_string();
         assert!(
             e.contains(p.to_str().unwrap())
-                && e.contains("corrupt Parquet")
+                && e.contains("reading Parquet: corrupt file")
                 && e.contains("column"),
             "{e}"
         );
@@ -663,7 +663,10 @@ fn corrupt_parquet_page_headers_are_refused_not_an_abort() {
             "-o",
             "/dev/null/x.parquet",
         ]);
-        assert!(!ok && text.contains("corrupt Parquet"), "{text}");
+        assert!(
+            !ok && text.contains("reading Parquet: corrupt file"),
+            "{text}"
+        );
     }
     // A valid table passes the check unchanged.
     let d = tmpdir("pq-guard");

@@ -102,15 +102,24 @@ const PILLAR_TABLES: [&str; 4] = [
 
 #[test]
 fn sigterm_checkpoints_a_pillar_run_and_the_printed_command_resumes_it() {
-    let d = tmpdir("sig-pillar");
+    // The fast preset, and a short run of the paper's (Sec. II.C: δt = 1e-5 s, ~6e5 steps).
+    sigterm_pillar("sig-pillar", &PILLAR, "2000");
+    let mut paper = PILLAR.to_vec();
+    paper[5] = "paper";
+    paper[7] = "0.01";
+    sigterm_pillar("sig-pillar-paper", &paper, "20000");
+}
+
+fn sigterm_pillar(name: &str, run: &[&str], every: &str) {
+    let d = tmpdir(name);
     let (a, b) = (d.join("a"), d.join("b"));
-    let mut args = PILLAR.to_vec();
+    let mut args = run.to_vec();
     args.extend(["--quiet", "-o", a.to_str().unwrap()]);
     run_ok(&args);
     // The first step-count checkpoint shows the run is under way; the wall-time one is off
     // so that the only other checkpoint is the signal's.
-    let mut args = PILLAR.to_vec();
-    args.extend(["--quiet", "--checkpoint-every", "2000"]);
+    let mut args = run.to_vec();
+    args.extend(["--quiet", "--checkpoint-every", every]);
     args.extend(["--checkpoint-interval", "0", "-o", b.to_str().unwrap()]);
     let child = spawn(&args);
     wait_for("first checkpoint", || b.join("checkpoint.bin").exists());
@@ -287,18 +296,7 @@ fn sigterm_stops_a_pipeline_which_records_it_and_continues_when_run_again() {
     run_ok(&["run", file, "--quiet", "--runs-dir", a.to_str().unwrap()]);
     let child = spawn(&["run", file, "--quiet", "--runs-dir", b.to_str().unwrap()]);
     let cache = b.join("cache");
-    let checkpointed = || {
-        std::fs::read_dir(&cache)
-            .into_iter()
-            .flatten()
-            .flatten()
-            .any(|e| {
-                e.file_name()
-                    .to_string_lossy()
-                    .starts_with(".work-simulate-")
-                    && e.path().join("checkpoint.bin").exists()
-            })
-    };
+    let checkpointed = || common::simulation_checkpointed(&cache);
     wait_for("the simulation's first checkpoint", checkpointed);
     signal(&child, libc::SIGTERM);
     let (code, text) = finish(child);

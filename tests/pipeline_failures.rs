@@ -275,18 +275,7 @@ fn killed_simulation_stage_resumes_from_its_checkpoint() {
         .unwrap();
     let cache = b.join("cache");
     let t0 = std::time::Instant::now();
-    let checkpointed = || {
-        std::fs::read_dir(&cache)
-            .into_iter()
-            .flatten()
-            .flatten()
-            .any(|e| {
-                e.file_name()
-                    .to_string_lossy()
-                    .starts_with(".work-simulate-")
-                    && e.path().join("checkpoint.bin").exists()
-            })
-    };
+    let checkpointed = || common::simulation_checkpointed(&cache);
     while !checkpointed() && t0.elapsed().as_secs() < 60 {
         std::thread::sleep(std::time::Duration::from_millis(5));
     }

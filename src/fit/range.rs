@@ -88,6 +88,21 @@ pub struct FitRange {
     pub excluded: Vec<ExcludedBin>,
 }
 
+impl FitRange {
+    /// One line for people: the range, how much it keeps, the rule and its reason.
+    pub fn summary(&self) -> String {
+        format!(
+            "η^s in [{:.3e}, {:.3e}], {} of {} samples (rule '{}': {})",
+            self.lo,
+            self.hi,
+            self.samples_in,
+            self.samples_in + self.samples_out,
+            self.rule.name(),
+            self.description
+        )
+    }
+}
+
 struct Bin {
     key: i64,
     etas: Vec<f64>,

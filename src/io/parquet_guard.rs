@@ -26,7 +26,7 @@ pub fn check(path: &Path) -> Result<()> {
     // temporary name and renamed, never rewritten in place.
     let map = unsafe { memmap2::Mmap::map(&f) }.map_err(|e| Error::io(path, e))?;
     let len = map.len() as u64;
-    let bad = |msg: String| Error::input(&file, format!("corrupt Parquet: {msg}"));
+    let bad = |msg: String| Error::input(&file, format!("reading Parquet: corrupt file: {msg}"));
     let meta = read_metadata(&mut std::io::Cursor::new(&map[..]))
         .map_err(|e| bad(format!("footer: {e}")))?;
     let cap = max_values(len);

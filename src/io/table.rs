@@ -63,20 +63,21 @@ pub fn read_table_columns(
     let format = TableFormat::of(path);
     let df = match format {
         TableFormat::Parquet => {
-            super::parquet_guard::check(path)?;
             let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
             // polars' Parquet decoder asserts on some corrupt metadata (issue 24's fuzz
             // found "thrift bool field" and "offset + length <= self.length") instead of
-            // returning an error; a corrupt file must not take the process down.
+            // returning an error; a corrupt file must not take the process down. The
+            // page-header check (against allocations that abort) reads the same metadata,
+            // so it runs under the same guard.
             let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                ParquetReader::new(f).finish()
+                super::parquet_guard::check(path).map(|()| ParquetReader::new(f).finish())
             }))
             .map_err(|p| {
                 Error::input(
                     &file,
                     format!("reading Parquet: corrupt file ({})", panic_text(&*p)),
                 )
-            })?;
+            })??;
             read.map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))?
         }
         TableFormat::Csv => {

@@ -135,11 +135,8 @@ pub struct FitReport {
 impl std::fmt::Display for FitReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let value = |x: f64, iv: [f64; 2], ok: bool| {
-            if ok {
-                format!("{}  [{}, {}]", num(x), num(iv[0]), num(iv[1]))
-            } else {
-                "not constrained by these data".to_string()
-            }
+            let v = with_interval(x, iv, ok);
+            if ok { v } else { format!("{v} by these data") }
         };
         writeln!(
             f,
@@ -161,13 +158,8 @@ impl std::fmt::Display for FitReport {
         if let Some(r) = &self.range {
             writeln!(
                 f,
-                "range         eta_s in [{}, {}], {} of {} samples (rule '{}': {}); {} bins left out",
-                num(r.lo),
-                num(r.hi),
-                r.samples_in,
-                r.samples_in + r.samples_out,
-                r.rule.name(),
-                r.description,
+                "range         {}; {} bins left out",
+                r.summary(),
                 r.excluded.len()
             )?;
         }
@@ -233,6 +225,16 @@ impl std::fmt::Display for FitReport {
             "lags          {:?} frames = {:.3?} R/v_c",
             self.protocol.lags_frames, self.protocol.lags_used
         )
+    }
+}
+
+/// `x [lo, hi]`, or "not constrained" where the data do not determine x: an
+/// undetermined parameter is never shown as a number.
+pub fn with_interval(x: f64, iv: [f64; 2], ok: bool) -> String {
+    if ok {
+        format!("{} [{}, {}]", num(x), num(iv[0]), num(iv[1]))
+    } else {
+        "not constrained".to_string()
     }
 }
 

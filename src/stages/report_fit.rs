@@ -1,7 +1,7 @@
 //! The report's crossover section: D²min/R² against η^s with both fits (Li et al.
 //! Fig. 8), the table of Θ and η_c with intervals, and whether the two fits agree.
 
-use super::fit::{FitReport, num, read_fit};
+use super::fit::{FitReport, num, read_fit, with_interval};
 use super::report::DatasetInputs;
 use super::report_sections::rel;
 use crate::error::Result;
@@ -33,18 +33,11 @@ fn scatter_points(fit: &FitReport) -> Result<Vec<(f64, f64)>> {
 fn fit_rows(fits: &[(String, FitReport)]) -> Vec<Vec<String>> {
     fits.iter()
         .map(|(label, f)| {
-            let value = |x: f64, iv: [f64; 2], ok: bool| {
-                if ok {
-                    format!("{} [{}, {}]", num(x), num(iv[0]), num(iv[1]))
-                } else {
-                    "not constrained".to_string()
-                }
-            };
             vec![
                 label.clone(),
                 f.method.name().to_string(),
-                value(f.theta, f.theta_interval, f.theta_constrained),
-                value(f.eta_c, f.eta_c_interval, f.eta_c_constrained),
+                with_interval(f.theta, f.theta_interval, f.theta_constrained),
+                with_interval(f.eta_c, f.eta_c_interval, f.eta_c_constrained),
                 f.range.as_ref().map_or("all".into(), |r| {
                     format!("[{}, {}] ({})", num(r.lo), num(r.hi), r.rule.name())
                 }),
@@ -189,14 +182,13 @@ pub fn crossover_section(
                 }
                 let why: Vec<String> = why.iter().map(|(r, n)| format!("{n} × {r}")).collect();
                 blocks.push(Block::Paragraph(format!(
-                    "{label}: fitted η^s in [{}, {}], {} of {} samples; rule '{}': {}. Bins left out: {}.",
-                    num(r.lo),
-                    num(r.hi),
-                    r.samples_in,
-                    r.samples_in + r.samples_out,
-                    r.rule.name(),
-                    r.description,
-                    if why.is_empty() { "none".to_string() } else { why.join("; ") }
+                    "{label}: fitted {}. Bins left out: {}.",
+                    r.summary(),
+                    if why.is_empty() {
+                        "none".to_string()
+                    } else {
+                        why.join("; ")
+                    }
                 )));
             }
             for n in &f.notes {

@@ -154,3 +154,18 @@ pub fn file_names(dir: &Path) -> Vec<String> {
     v.sort();
     v
 }
+
+/// Whether a pipeline's simulate stage has written a checkpoint in its work directory
+/// (`runs/cache/.work-simulate-*/checkpoint.bin`): the run is provably under way.
+pub fn simulation_checkpointed(cache: &Path) -> bool {
+    std::fs::read_dir(cache)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .any(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .starts_with(".work-simulate-")
+                && e.path().join("checkpoint.bin").exists()
+        })
+}
