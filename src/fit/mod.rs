@@ -193,6 +193,14 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
         notes.push(format!(
             "no crossover in the fitted range: the log slope of D²min/R² against η^s is {low:.2} at its low end and {high:.2} at its high end, where Eq. 19's falls from 2 to 1; η_c is not determined (tracking noise, which adds a floor to D²min, flattens the low end)"
         ));
+        // Without a crossover Θ is the diffusive prefactor only where the data are
+        // diffusive (slope 1).
+        if (high - 1.0).abs() > DIFFUSIVE_SLOPE_TOLERANCE {
+            theta_ok = false;
+            notes.push(format!(
+                "the log slope at the high end, {high:.2}, is not the diffusive regime's 1: Θ is not determined"
+            ));
+        }
     }
     if groups.len() < 2 {
         theta_ok = false;
@@ -303,6 +311,10 @@ pub fn sensitivity(s: &Samples, lo: f64, b: &Binning) -> Vec<SensitivityRow> {
 /// How much the log slope must fall from the low to the high end of the data for a
 /// crossover to count as seen (Eq. 19: from 2 to 1).
 pub const SLOPE_FALL_MIN: f64 = 0.1;
+
+/// How far from 1 the high end's log slope may be for Θ to count as the diffusive
+/// prefactor when no crossover is seen.
+pub const DIFFUSIVE_SLOPE_TOLERANCE: f64 = 0.25;
 
 /// Least-squares log–log slopes of the binned medians over the lowest and the highest
 /// quarter of the binned range (at least three bins each); None with fewer than six
