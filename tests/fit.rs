@@ -68,9 +68,14 @@ fn recovers_theta_and_eta_c_from_a_kinematics_table() {
     );
     assert_eq!(j["method"], "binned-median");
     assert_eq!(j["n_points"], 4500);
-    for e in ["binned-median", "binned-mean", "points"] {
+    for e in ["binned-median", "binned-mean", "points", "weighted-mean"] {
         assert!(j["estimators"][e]["theta"].is_number(), "{e}");
     }
+    // A kinematics table has one R_c: the sensitivity table varies the estimator and the
+    // range's upper end only.
+    let sens = j["sensitivity"].as_array().unwrap();
+    assert_eq!(sens.len(), 4 * 4, "{sens:?}");
+    assert!(sens.iter().all(|r| r["rc_over_d"] == 1.25));
     assert!(j["seed"].is_number() && j["input_sha256"].as_str().unwrap().len() == 64);
     assert!(Path::new(j["scatter"].as_str().unwrap()).exists());
     assert!(text.contains("Theta") && text.contains("eta_c"), "{text}");
@@ -273,4 +278,61 @@ fn random_steps_sized_by_strain_give_back_theta_and_eta_c() {
             "{method}: {ci}"
         );
     }
+}
+
+/// From tracks the protocol is rerun with R_c = 1.0 and 1.5 D for the sensitivity table:
+/// every estimator × upper end × R_c, the R_c = 1.25 D cells the headline's own samples.
+#[test]
+fn sensitivity_from_tracks_varies_estimator_range_and_rc() {
+    let dir = tmpdir("sens");
+    let sim = dir.join("sim");
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--n",
+        "150",
+        "--preset",
+        "fast",
+        "--strain",
+        "0.08",
+        "--quiet",
+        "-o",
+        sim.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let fit = dir.join("fit.json");
+    let (ok, text) = run(&[
+        "fit",
+        sim.join("tracks.parquet").to_str().unwrap(),
+        "--bootstrap",
+        "20",
+        "--quiet",
+        "-o",
+        fit.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("sensitivity") && text.contains("range "),
+        "{text}"
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
+    let sens = j["sensitivity"].as_array().unwrap();
+    assert_eq!(sens.len(), 4 * 4 * 3);
+    let cell = |m: &str, rc: f64| {
+        sens.iter()
+            .find(|r| r["method"] == m && r["rc_over_d"] == rc && r["hi"].is_null())
+            .and_then(|r| r["theta"].as_f64())
+            .unwrap_or_else(|| panic!("{m} {rc}: {sens:?}"))
+    };
+    // Other neighbourhoods, other numbers (the point of showing them).
+    let (a, b, c) = (
+        cell("binned-median", 1.0),
+        cell("binned-median", 1.25),
+        cell("binned-median", 1.5),
+    );
+    assert!(a != b && b != c, "{a} {b} {c}");
+    let range = &j["range"];
+    assert_eq!(range["rule"], "coverage");
+    assert!(range["lo"].as_f64().unwrap() > 0.0 && range["excluded"].is_array());
 }

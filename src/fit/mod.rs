@@ -262,6 +262,9 @@ pub const SENSITIVITY_UPPER: [Option<f64>; 4] = [Some(0.2), Some(0.5), Some(1.0)
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct SensitivityRow {
     pub method: Method,
+    /// Neighbourhood radius R_c / D of the samples (li-granular-pillars Sec. IV: 1.25).
+    #[serde(default)]
+    pub rc_over_d: f64,
     /// η^s ∈ [lo, hi] fitted (hi = ∞, `null` in JSON, for "all").
     pub lo: f64,
     #[serde(deserialize_with = "json_nonfinite::inf")]
@@ -275,9 +278,9 @@ pub struct SensitivityRow {
 }
 
 /// Θ and η_c of every estimator for each upper end in [`SENSITIVITY_UPPER`], the lower
-/// end kept at `lo` (the chosen range's): how much the headline number depends on
-/// where the fit stops, shown next to it.
-pub fn sensitivity(s: &Samples, lo: f64, b: &Binning) -> Vec<SensitivityRow> {
+/// end kept at `lo` (the chosen range's), for samples taken with R_c = `rc_over_d` D:
+/// how much the headline number depends on where the fit stops, shown next to it.
+pub fn sensitivity(s: &Samples, rc_over_d: f64, lo: f64, b: &Binning) -> Vec<SensitivityRow> {
     let (eta, y, _) = positive(s);
     let mut cells = Vec::new();
     for m in Method::ALL {
@@ -298,6 +301,7 @@ pub fn sensitivity(s: &Samples, lo: f64, b: &Binning) -> Vec<SensitivityRow> {
             let fit = fit_method(&pts, m).ok();
             SensitivityRow {
                 method: m,
+                rc_over_d,
                 lo,
                 hi,
                 theta: fit.map_or(f64::NAN, |f| f.theta),

@@ -329,6 +329,7 @@ fn open_ranges_and_failed_fits_survive_a_json_round_trip() {
     assert_eq!(back, r);
     let row = SensitivityRow {
         method: Method::Points,
+        rc_over_d: 1.25,
         lo: 0.0,
         hi: f64::INFINITY,
         theta: f64::NAN,

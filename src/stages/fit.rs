@@ -17,6 +17,9 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// R_c / D of the sensitivity table (the paper's 1.25 and either side).
+pub const SENSITIVITY_RC: [f64; 3] = [1.0, 1.25, 1.5];
+
 /// Paper defaults, in units of R/v_c.
 pub const START_SPACING: f64 = 2.0 / 3.0;
 pub const MIN_STARTS: usize = 8;
@@ -207,14 +210,18 @@ impl std::fmt::Display for FitReport {
         };
         if !self.sensitivity.is_empty() {
             let ((t0, t1), (e0, e1)) = (spread(|r| r.theta), spread(|r| r.eta_c));
+            let mut rcs: Vec<f64> = self.sensitivity.iter().map(|r| r.rc_over_d).collect();
+            rcs.sort_by(f64::total_cmp);
+            rcs.dedup();
             writeln!(
                 f,
-                "sensitivity   Theta {}–{}, eta_c {}–{} over {} estimators × upper eta_s {{0.2, 0.5, 1, all}} (point fits; fit.json 'sensitivity')",
+                "sensitivity   Theta {}–{}, eta_c {}–{} over {} estimators × upper eta_s {{0.2, 0.5, 1, all}} × R_c {:?} D (point fits; fit.json 'sensitivity')",
                 num(t0),
                 num(t1),
                 num(e0),
                 num(e1),
-                Method::ALL.len()
+                Method::ALL.len(),
+                rcs
             )?;
         }
         for n in &self.notes {
@@ -285,7 +292,23 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
     };
     let (chosen, all, range) = fit_all(&samples, &settings)
         .map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
-    let sensitivity = sensitivity(&samples, range.lo, &opt.binning);
+    let mut sensitivity = sensitivity(&samples, opt.rc_over_d, range.lo, &opt.binning);
+    if protocol.source == "tracks" {
+        // The neighbourhood radius is the paper's choice too (Sec. IV); from tracks the
+        // protocol can be rerun with the others.
+        for rc in SENSITIVITY_RC {
+            if (rc - opt.rc_over_d).abs() < 1e-9 {
+                continue;
+            }
+            let o = FitOptions {
+                rc_over_d: rc,
+                quiet: true,
+                ..opt.clone()
+            };
+            let (other, _, _) = from_tracks(input, &o, &mut Vec::new())?;
+            sensitivity.extend(crate::fit::sensitivity(&other, rc, range.lo, &opt.binning));
+        }
+    }
     let scatter = opt.scatter.clone().unwrap_or_else(|| scatter_path(output));
     write_scatter(&scatter, &rows)?;
     let estimators = all

@@ -56,7 +56,10 @@ fn sensitivity_table(label: &str, f: &FitReport) -> Block {
     let mut his: Vec<f64> = f.sensitivity.iter().map(|r| r.hi).collect();
     his.sort_by(f64::total_cmp);
     his.dedup();
-    let mut header = vec![format!("{label}: estimator (Θ / η_c)")];
+    let mut rcs: Vec<f64> = f.sensitivity.iter().map(|r| r.rc_over_d).collect();
+    rcs.sort_by(f64::total_cmp);
+    rcs.dedup();
+    let mut header = vec![format!("{label}: estimator, R_c (Θ / η_c)")];
     header.extend(his.iter().map(|h| {
         if h.is_finite() {
             format!("η^s ≤ {h}")
@@ -64,15 +67,17 @@ fn sensitivity_table(label: &str, f: &FitReport) -> Block {
             "all η^s".into()
         }
     }));
-    let mut rows: Vec<Vec<String>> = crate::fit::Method::ALL
+    let cells = crate::fit::Method::ALL
         .iter()
-        .map(|m| {
-            let mut row = vec![m.name().to_string()];
+        .flat_map(|m| rcs.iter().map(move |rc| (*m, *rc)));
+    let mut rows: Vec<Vec<String>> = cells
+        .map(|(m, rc)| {
+            let mut row = vec![format!("{}, {rc} D", m.name())];
             for h in &his {
                 let cell = f
                     .sensitivity
                     .iter()
-                    .find(|r| r.method == *m && r.hi == *h)
+                    .find(|r| r.method == m && r.hi == *h && r.rc_over_d == rc)
                     .filter(|r| r.theta.is_finite())
                     .map_or("—".into(), |r| {
                         format!("{} / {}", num(r.theta), num(r.eta_c))
