@@ -2,6 +2,7 @@
 //! (η^s, D²min/R²) samples with every estimator, bootstrap intervals over start
 //! times, and flag parameters the data cannot constrain.
 
+mod boot;
 pub mod estimate;
 pub mod model;
 pub mod range;
@@ -140,10 +141,25 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     } else {
         set.bootstrap
     };
+    // Binned estimators: bin once, then each replicate weighs the starts it drew.
+    let pre = (method != Method::Points).then(|| {
+        let dense: Vec<u32> = group
+            .iter()
+            .map(|g| groups.binary_search(g).expect("a start of the samples") as u32)
+            .collect();
+        boot::Prebinned::new(&eta, &y, &dense, groups.len(), method, &set.binning)
+    });
     let fits: Vec<Option<PointFit>> = (0..reps)
         .into_par_iter()
         .map(|b| {
             let mut rng = Rng::new(set.seed ^ (b as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+            if let Some(pre) = &pre {
+                let mut weight = vec![0u32; groups.len()];
+                for _ in 0..groups.len() {
+                    weight[rng.below(groups.len())] += 1;
+                }
+                return fit_method(&pre.reduce(&weight), method).ok();
+            }
             let (mut be, mut by) = (Vec::new(), Vec::new());
             for _ in 0..groups.len() {
                 let g = groups[rng.below(groups.len())];
