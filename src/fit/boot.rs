@@ -57,8 +57,11 @@ impl Prebinned {
             let mut py: Vec<(f64, u32)> = idx.iter().map(|&(_, k)| (y[k], group[k])).collect();
             pe.sort_by(|a, b| a.0.total_cmp(&b.0));
             py.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let (mut count, mut sum, mut sum2) =
-                (vec![0u32; n_groups], vec![0.0; n_groups], vec![0.0; n_groups]);
+            let (mut count, mut sum, mut sum2) = (
+                vec![0u32; n_groups],
+                vec![0.0; n_groups],
+                vec![0.0; n_groups],
+            );
             for &(v, g) in &py {
                 count[g as usize] += 1;
                 sum[g as usize] += v;
@@ -97,10 +100,9 @@ impl Prebinned {
             let is_mean = matches!(self.method, Method::BinnedMean | Method::WeightedMean);
             let (stat, se, nodes) = if is_mean {
                 let (mut s1, mut s2) = (0.0, 0.0);
-                for g in 0..weight.len() {
-                    let w = weight[g] as f64;
-                    s1 += w * bin.sum[g];
-                    s2 += w * bin.sum2[g];
+                for ((&w, a), b) in weight.iter().zip(&bin.sum).zip(&bin.sum2) {
+                    s1 += w as f64 * a;
+                    s2 += w as f64 * b;
                 }
                 let nf = n as f64;
                 let mean = s1 / nf;
@@ -174,7 +176,11 @@ mod tests {
             group.push((k % 13) as u32);
         }
         let b = Binning::default();
-        for method in [Method::BinnedMedian, Method::BinnedMean, Method::WeightedMean] {
+        for method in [
+            Method::BinnedMedian,
+            Method::BinnedMean,
+            Method::WeightedMean,
+        ] {
             let pre = Prebinned::new(&eta, &y, &group, 13, method, &b);
             for rep in 0..5 {
                 let mut w = vec![0u32; 13];

@@ -1,11 +1,12 @@
-//! One estimator's fit of Eq. 19 in log space with argmin's Nelder–Mead, over
-//! (ln Θ, ln η_c) so both stay positive and the scatter's decades weigh alike.
+//! One estimator's fit of Eq. 19 with argmin's Brent method on the profile cost: for
+//! each η_c the best Θ is closed form, so the fit is a one-dimensional minimisation over
+//! ln η_c (positive, and the scatter's decades weigh alike in the log fit).
 
 use super::model::d2min_over_r2;
 use crate::error::{Error, Result};
 use crate::stats::{mean, median_sorted, quantile_sorted};
 use argmin::core::{CostFunction, Executor, State};
-use argmin::solver::neldermead::NelderMead;
+use argmin::solver::brent::BrentOpt;
 use serde::{Deserialize, Serialize};
 
 /// How the scatter is reduced before fitting.
@@ -216,6 +217,33 @@ impl<'a> LogCost<'a> {
         }
         s / self.pts.len() as f64
     }
+    /// The cost at ln η_c with Θ at its best, in one pass (f64::MAX where not finite).
+    /// Log fit: the variance of the log residuals (shifted by the first, against
+    /// cancellation); weighted fit: Σwy² − (Σwym)²/Σwm², over n.
+    fn profile(&self, ln_eta_c: f64) -> f64 {
+        let ec = ln_eta_c.exp();
+        let n = self.pts.len() as f64;
+        let c = if self.weights.is_empty() {
+            let shift = self.ln_y[0] - self.pts[0].predict(1.0, ec).ln();
+            let (mut s1, mut s2) = (0.0, 0.0);
+            for (p, ly) in self.pts.iter().zip(&self.ln_y) {
+                let r = ly - p.predict(1.0, ec).ln() - shift;
+                s1 += r;
+                s2 += r * r;
+            }
+            (s2 - s1 * s1 / n) / n
+        } else {
+            let (mut yy, mut ym, mut mm) = (0.0, 0.0, 0.0);
+            for (p, w) in self.pts.iter().zip(&self.weights) {
+                let (y, m) = (p.d2min_over_r2, p.predict(1.0, ec));
+                yy += w * y * y;
+                ym += w * y * m;
+                mm += w * m * m;
+            }
+            (yy - ym * ym / mm) / n
+        };
+        if c.is_finite() { c.max(0.0) } else { f64::MAX }
+    }
     /// For fixed η_c the best ln Θ in closed form: the mean log residual, or for the
     /// weighted fit Θ = Σ w y m / Σ w m² (m: the model at Θ = 1).
     fn best_ln_theta(&self, ln_eta_c: f64) -> f64 {
@@ -239,12 +267,15 @@ impl<'a> LogCost<'a> {
     }
 }
 
-impl CostFunction for LogCost<'_> {
-    type Param = Vec<f64>;
+/// The cost as a function of ln η_c alone, Θ at its best (closed form): the fit is a
+/// one-dimensional minimisation.
+struct Profile<'a>(&'a LogCost<'a>);
+
+impl CostFunction for Profile<'_> {
+    type Param = f64;
     type Output = f64;
-    fn cost(&self, p: &Vec<f64>) -> std::result::Result<f64, argmin::core::Error> {
-        let c = self.eval(p[0], p[1]);
-        Ok(if c.is_finite() { c } else { f64::MAX })
+    fn cost(&self, ln_eta_c: &f64) -> std::result::Result<f64, argmin::core::Error> {
+        Ok(self.0.profile(*ln_eta_c))
     }
 }
 
@@ -264,9 +295,9 @@ pub fn fit_points(pts: &[BinPoint]) -> Result<PointFit> {
 }
 
 /// Fit Eq. 19 to points reduced for `method`: in log space, or for `WeightedMean` in
-/// linear space weighted by 1/se². Starts Nelder–Mead from the best of a coarse η_c grid
-/// (for each η_c the best Θ is closed form), so the answer does not depend on a user's
-/// guess.
+/// linear space weighted by 1/se². For each η_c the best Θ is closed form, so the cost
+/// is minimised over ln η_c alone: the best node of a coarse grid, then Brent's method
+/// between its neighbours; the answer does not depend on a user's guess.
 pub fn fit_method(pts: &[BinPoint], method: Method) -> Result<PointFit> {
     if pts.len() < 3 {
         return Err(Error::Other(format!(
@@ -281,37 +312,37 @@ pub fn fit_method(pts: &[BinPoint], method: Method) -> Result<PointFit> {
         ));
     }
     let cost = LogCost::new(pts, weighted);
-    let (mut g_ec, mut g_th, mut g_c) = (0.0, 0.0, f64::INFINITY);
-    // η_c grid 1e-5 … 1e2, 4 per decade; Nelder–Mead refines from the best node.
-    for k in 0..=28 {
-        let ln_ec = (1e-5f64).ln() + k as f64 * ((1e2f64).ln() - (1e-5f64).ln()) / 28.0;
-        let ln_th = cost.best_ln_theta(ln_ec);
-        let c = cost.eval(ln_th, ln_ec);
-        if c < g_c {
-            (g_ec, g_th, g_c) = (ln_ec, ln_th, c);
-        }
-    }
-    let simplex = vec![
-        vec![g_th, g_ec],
-        vec![g_th + 0.1, g_ec],
-        vec![g_th, g_ec + 0.3],
-    ];
-    let solver = NelderMead::new(simplex)
-        .with_sd_tolerance(1e-11)
-        .map_err(|e| Error::Other(format!("fit setup: {e}")))?;
-    let res = Executor::new(cost, solver)
-        .configure(|s| s.max_iters(2000))
+    // η_c grid 1e-5 … 1e2, 4 per decade, on the profile (Θ at its best for each η_c);
+    // Brent's method refines between the best node's neighbours.
+    let (lo, hi, n) = ((1e-5f64).ln(), (1e2f64).ln(), 28);
+    let node = |k: usize| lo + k as f64 * (hi - lo) / n as f64;
+    let best = (0..=n)
+        .map(|k| (k, cost.profile(node(k))))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(0, |(k, _)| k);
+    let (a, b) = (node(best.saturating_sub(1)), node((best + 1).min(n)));
+    let solver = BrentOpt::new(a, b).set_tolerance(1e-10, 1e-12);
+    let res = Executor::new(Profile(&cost), solver)
+        .configure(|s| s.max_iters(200))
         .timer(false)
         .run()
         .map_err(|e| Error::Other(format!("fit: {e}")))?;
     let st = res.state();
-    let p = st
+    let ln_ec = *st
         .get_best_param()
         .ok_or_else(|| Error::Other("fit: no parameters".into()))?;
+    // The grid node itself where Brent's bracket ends there (minimum at the grid's edge).
+    let ln_ec = if cost.profile(node(best)) < cost.profile(ln_ec) {
+        node(best)
+    } else {
+        ln_ec
+    };
+    let ln_th = cost.best_ln_theta(ln_ec);
+    let p = [ln_th, ln_ec];
     Ok(PointFit {
         theta: p[0].exp(),
         eta_c: p[1].exp(),
-        cost: st.get_best_cost(),
+        cost: cost.eval(p[0], p[1]),
         iterations: st.get_iter(),
     })
 }
