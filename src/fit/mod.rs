@@ -253,6 +253,72 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     })
 }
 
+/// The chosen estimator on the start times of one third of the run (li-granular-pillars
+/// Sec. IV assumes the deformation statistics do not drift with strain).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ThirdFit {
+    /// "first", "middle" or "last".
+    pub part: String,
+    /// Start indices (in time order) [first, last] of this third.
+    pub starts: [u32; 2],
+    #[serde(deserialize_with = "json_nonfinite::nan")]
+    pub theta: f64,
+    #[serde(deserialize_with = "json_nonfinite::nan_pair")]
+    pub theta_interval: [f64; 2],
+    #[serde(deserialize_with = "json_nonfinite::nan")]
+    pub eta_c: f64,
+    #[serde(deserialize_with = "json_nonfinite::nan_pair")]
+    pub eta_c_interval: [f64; 2],
+    pub theta_constrained: bool,
+    pub eta_c_constrained: bool,
+    pub fitted_points: usize,
+}
+
+/// Θ and η_c of the chosen estimator, with bootstrap intervals, for the first, middle and
+/// last third of the start times (by index: starts are numbered in time order), each on
+/// the whole fit's η^s range so that only the time window changes. Empty with fewer than
+/// six starts (two per third are needed for an interval).
+pub fn by_thirds(s: &Samples, set: &FitSettings, range: &FitRange) -> Vec<ThirdFit> {
+    let mut starts: Vec<u32> = s.group.clone();
+    starts.sort_unstable();
+    starts.dedup();
+    if starts.len() < 6 {
+        return Vec::new();
+    }
+    let kept = s.within(range.lo, range.hi);
+    let n = starts.len();
+    ["first", "middle", "last"]
+        .iter()
+        .enumerate()
+        .filter_map(|(k, part)| {
+            let (a, b) = (starts[k * n / 3], starts[(k + 1) * n / 3 - 1]);
+            let mut sub = Samples::default();
+            for i in 0..kept.len() {
+                if (a..=b).contains(&kept.group[i]) {
+                    sub.push_lag(
+                        kept.eta_s[i],
+                        kept.d2min_over_r2[i],
+                        kept.group[i],
+                        kept.lag[i],
+                    );
+                }
+            }
+            let r = fit_estimator(&sub, set.method, set).ok()?;
+            Some(ThirdFit {
+                part: part.to_string(),
+                starts: [a, b],
+                theta: r.theta,
+                theta_interval: r.theta_interval,
+                eta_c: r.eta_c,
+                eta_c_interval: r.eta_c_interval,
+                theta_constrained: r.theta_constrained,
+                eta_c_constrained: r.eta_c_constrained,
+                fitted_points: r.fitted_points,
+            })
+        })
+        .collect()
+}
+
 /// JSON has no NaN or ∞: serde_json writes them as `null`. These read a `null` back as
 /// NaN (a failed or undetermined number) or as +∞ (an open upper bound).
 pub mod json_nonfinite {

@@ -339,3 +339,55 @@ fn open_ranges_and_failed_fits_survive_a_json_round_trip() {
     let back: SensitivityRow = serde_json::from_str(&serde_json::to_string(&row).unwrap()).unwrap();
     assert!(back.theta.is_nan() && back.hi == f64::INFINITY && back.eta_c == 0.05);
 }
+
+#[test]
+fn thirds_of_the_start_times_show_a_drift_and_agree_without_one() {
+    // Starts 0–3 with Θ = 0.2, 4–7 with 0.3, 8–11 with 0.4 (η_c = 0.05 throughout).
+    let mut drift = Samples::default();
+    for (k, theta) in [0.2, 0.3, 0.4].iter().enumerate() {
+        let part = draw(*theta, 0.05, 0.2, 1e-3, 1.0, 4, 400, 50 + k as u64);
+        for i in 0..part.len() {
+            let g = part.group[i] + 4 * k as u32;
+            drift.push(part.eta_s[i], part.d2min_over_r2[i], g);
+        }
+    }
+    let set = FitSettings {
+        bootstrap: 100,
+        ..settings(Method::BinnedMedian)
+    };
+    let range = range::choose(&drift, RangeRule::All, &set.binning);
+    let t = by_thirds(&drift, &set, &range);
+    assert_eq!(t.len(), 3);
+    for (fit, want) in t.iter().zip([0.2, 0.3, 0.4]) {
+        assert!(
+            (fit.theta / want - 1.0).abs() < 0.05,
+            "{}: Θ {}",
+            fit.part,
+            fit.theta
+        );
+    }
+    assert_eq!((t[0].starts, t[2].starts), ([0, 3], [8, 11]));
+    assert!(t[0].theta_interval[1] < t[2].theta_interval[0], "{t:?}");
+    // Stationary: every third's interval holds the truth.
+    let flat = draw(0.3, 0.05, 0.2, 1e-3, 1.0, 12, 400, 60);
+    for fit in by_thirds(
+        &flat,
+        &set,
+        &range::choose(&flat, RangeRule::All, &set.binning),
+    ) {
+        assert!(
+            fit.theta_interval[0] <= 0.3 * 1.01 && fit.theta_interval[1] >= 0.3 * 0.99,
+            "{fit:?}"
+        );
+    }
+    // Too few starts for an interval per third.
+    let few = draw(0.3, 0.05, 0.2, 1e-3, 1.0, 5, 400, 61);
+    assert!(
+        by_thirds(
+            &few,
+            &set,
+            &range::choose(&few, RangeRule::All, &set.binning)
+        )
+        .is_empty()
+    );
+}

@@ -7,8 +7,8 @@ pub use super::fit_sampling::ETA_S_AT_REST;
 use super::fit_sampling::{ScatterRows, from_kinematics, from_tracks, is_kinematics};
 use crate::error::{Error, Result};
 use crate::fit::{
-    Binning, EstimatorResult, FitRange, FitSettings, Method, RangeRule, SensitivityRow, fit_all,
-    json_nonfinite, sensitivity,
+    Binning, EstimatorResult, FitRange, FitSettings, Method, RangeRule, SensitivityRow, ThirdFit,
+    by_thirds, fit_all, json_nonfinite, sensitivity,
 };
 use crate::io::sink::stream_table;
 use crate::io::{atomic_write_str, sha256_file};
@@ -121,6 +121,10 @@ pub struct FitReport {
     /// fits, no bootstrap): the spread behind the headline number.
     #[serde(default)]
     pub sensitivity: Vec<SensitivityRow>,
+    /// The chosen estimator on the first, middle and last third of the start times
+    /// (empty with fewer than six starts): is the crossover stationary?
+    #[serde(default)]
+    pub stationarity: Vec<ThirdFit>,
     /// Every estimator's result, or its error.
     pub estimators: BTreeMap<String, serde_json::Value>,
     pub protocol: Protocol,
@@ -224,6 +228,21 @@ impl std::fmt::Display for FitReport {
                 rcs
             )?;
         }
+        if !self.stationarity.is_empty() {
+            let parts: Vec<String> = self
+                .stationarity
+                .iter()
+                .map(|t| {
+                    format!(
+                        "{}: Theta {}, eta_c {}",
+                        t.part,
+                        with_interval(t.theta, t.theta_interval, t.theta_constrained),
+                        with_interval(t.eta_c, t.eta_c_interval, t.eta_c_constrained)
+                    )
+                })
+                .collect();
+            writeln!(f, "thirds        {}", parts.join("; "))?;
+        }
         for n in &self.notes {
             writeln!(f, "note: {n}")?;
         }
@@ -292,6 +311,7 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
     };
     let (chosen, all, range) = fit_all(&samples, &settings)
         .map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
+    let stationarity = by_thirds(&samples, &settings, &range);
     let mut sensitivity = sensitivity(&samples, opt.rc_over_d, range.lo, &opt.binning);
     if protocol.source == "tracks" {
         // The neighbourhood radius is the paper's choice too (Sec. IV); from tracks the
@@ -346,6 +366,7 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         notes,
         range: Some(range),
         sensitivity,
+        stationarity,
         estimators,
         protocol,
         bootstrap: opt.bootstrap,

@@ -299,6 +299,16 @@ pub(crate) fn from_kinematics(
         rows.y.push(y);
     }
     lags.sort_unstable();
+    // Start indices in time order (as from tracks), whatever the table's row order: the
+    // stationarity check splits the starts into thirds by index.
+    let rank: BTreeMap<u32, u32> = groups
+        .values()
+        .enumerate()
+        .map(|(r, &g)| (g, r as u32))
+        .collect();
+    for g in s.group.iter_mut() {
+        *g = rank[g];
+    }
     note_two_neighbours(two_neighbours, warnings);
     note_at_rest(at_rest, warnings);
     if lags.len() == 1 {

@@ -178,6 +178,32 @@ pub fn crossover_section(
             if !f.sensitivity.is_empty() {
                 blocks.push(sensitivity_table(label, f));
             }
+            if !f.stationarity.is_empty() {
+                blocks.push(Block::Table {
+                    header: [
+                        format!("{label}: start times"),
+                        "Θ [95% CI]".into(),
+                        "η_c [95% CI]".into(),
+                        "bins".into(),
+                    ]
+                    .to_vec(),
+                    rows: f
+                        .stationarity
+                        .iter()
+                        .map(|t| {
+                            vec![
+                                format!(
+                                    "{} third (starts {}–{})",
+                                    t.part, t.starts[0], t.starts[1]
+                                ),
+                                with_interval(t.theta, t.theta_interval, t.theta_constrained),
+                                with_interval(t.eta_c, t.eta_c_interval, t.eta_c_constrained),
+                                t.fitted_points.to_string(),
+                            ]
+                        })
+                        .collect(),
+                });
+            }
         }
         for (label, f) in &fits {
             if let Some(r) = &f.range {
