@@ -27,4 +27,5 @@ pub mod tracks;
 
 pub use error::{Error, Result};
 pub mod bench_dem;
+pub mod bench_fit;
 pub mod dem;
