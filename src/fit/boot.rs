@@ -108,10 +108,7 @@ impl Prebinned {
                 let mean = s1 / nf;
                 let var = ((s2 - nf * mean * mean) / (nf - 1.0).max(1.0)).max(0.0);
                 let se = (var / nf).sqrt().max(1e-9 * mean.abs());
-                let mut nodes = [0.0; NODES];
-                for (k, node) in nodes.iter_mut().enumerate() {
-                    *node = weighted_quantile(&bin.eta, weight, n, (k as f64 + 0.5) / NODES as f64);
-                }
+                let nodes = weighted_quantiles(&bin.eta, weight, n);
                 (mean, Some(se), Some(nodes))
             } else {
                 (weighted_median(&bin.y, weight, n), None, None)
@@ -149,12 +146,32 @@ fn weighted_median(v: &[(f64, u32)], weight: &[u32], n: u64) -> f64 {
     }
 }
 
-/// As `stats::quantile_sorted` of the expanded list (n entries).
-fn weighted_quantile(v: &[(f64, u32)], weight: &[u32], n: u64, q: f64) -> f64 {
-    let h = q.clamp(0.0, 1.0) * (n - 1) as f64;
-    let (lo, hi) = (h.floor() as u64, h.ceil() as u64);
-    let (a, b) = (order_stat(v, weight, lo), order_stat(v, weight, hi));
-    a + (h - lo as f64) * (b - a)
+/// `stats::quantile_sorted` of the expanded list (n entries) at the NODES quantile
+/// nodes (k + ½)/NODES, in one pass: the order statistics they need ascend.
+fn weighted_quantiles(v: &[(f64, u32)], weight: &[u32], n: u64) -> [f64; NODES] {
+    let h: [f64; NODES] =
+        std::array::from_fn(|k| ((k as f64 + 0.5) / NODES as f64) * (n - 1) as f64);
+    let mut want = [0u64; 2 * NODES];
+    for k in 0..NODES {
+        want[2 * k] = h[k].floor() as u64;
+        want[2 * k + 1] = h[k].ceil() as u64;
+    }
+    let mut got = [f64::NAN; 2 * NODES];
+    let (mut next, mut seen) = (0, 0u64);
+    for &(x, g) in v {
+        seen += weight[g as usize] as u64;
+        while next < want.len() && seen > want[next] {
+            got[next] = x;
+            next += 1;
+        }
+        if next == want.len() {
+            break;
+        }
+    }
+    std::array::from_fn(|k| {
+        let (a, b) = (got[2 * k], got[2 * k + 1]);
+        a + (h[k] - h[k].floor()) * (b - a)
+    })
 }
 
 #[cfg(test)]

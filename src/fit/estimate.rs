@@ -177,16 +177,22 @@ fn standard_error(ys: &[f64], mean: f64) -> f64 {
 
 /// What is minimised: mean squared log residual, or (weighted means) mean squared
 /// residual in units of each bin's standard error.
+const LN_4: f64 = std::f64::consts::LN_2 * 2.0;
+
 struct LogCost<'a> {
     pts: &'a [BinPoint],
     /// ln of each point's statistic, computed once.
     ln_y: Vec<f64>,
     /// 1/se² per point for the linear weighted fit; empty for the log fit.
     weights: Vec<f64>,
+    /// ln η^s per point where the model is Eq. 19 at the point (no bin-mean nodes): the
+    /// log model is then ln 4 + ln η_c + ln shape(η/η_c), tabulated in ln(η/η_c).
+    ln_eta: Option<Vec<f64>>,
 }
 
 impl<'a> LogCost<'a> {
     fn new(pts: &'a [BinPoint], weighted: bool) -> Self {
+        let plain = !weighted && pts.iter().all(|p| p.nodes.is_none());
         LogCost {
             pts,
             ln_y: pts.iter().map(|p| p.d2min_over_r2.ln()).collect(),
@@ -197,6 +203,15 @@ impl<'a> LogCost<'a> {
             } else {
                 Vec::new()
             },
+            ln_eta: plain.then(|| pts.iter().map(|p| p.eta_s.ln()).collect()),
+        }
+    }
+    /// ln of the model at Θ = 1 for point `i`.
+    #[inline]
+    fn ln_model(&self, i: usize, ln_eta_c: f64, eta_c: f64) -> f64 {
+        match &self.ln_eta {
+            Some(le) => LN_4 + ln_eta_c + super::model::ln_shape_of_ln(le[i] - ln_eta_c),
+            None => self.pts[i].predict(1.0, eta_c).ln(),
         }
     }
     /// ln(4Θ η_c g) = ln Θ + ln(4 η_c g): Θ only shifts (scales, in linear space).
@@ -204,8 +219,8 @@ impl<'a> LogCost<'a> {
         let ec = ln_eta_c.exp();
         let mut s = 0.0;
         if self.weights.is_empty() {
-            for (p, ly) in self.pts.iter().zip(&self.ln_y) {
-                let r = ly - ln_theta - p.predict(1.0, ec).ln();
+            for (i, ly) in self.ln_y.iter().enumerate() {
+                let r = ly - ln_theta - self.ln_model(i, ln_eta_c, ec);
                 s += r * r;
             }
         } else {
@@ -224,10 +239,10 @@ impl<'a> LogCost<'a> {
         let ec = ln_eta_c.exp();
         let n = self.pts.len() as f64;
         let c = if self.weights.is_empty() {
-            let shift = self.ln_y[0] - self.pts[0].predict(1.0, ec).ln();
+            let shift = self.ln_y[0] - self.ln_model(0, ln_eta_c, ec);
             let (mut s1, mut s2) = (0.0, 0.0);
-            for (p, ly) in self.pts.iter().zip(&self.ln_y) {
-                let r = ly - p.predict(1.0, ec).ln() - shift;
+            for (i, ly) in self.ln_y.iter().enumerate() {
+                let r = ly - self.ln_model(i, ln_eta_c, ec) - shift;
                 s1 += r;
                 s2 += r * r;
             }
@@ -250,10 +265,10 @@ impl<'a> LogCost<'a> {
         let ec = ln_eta_c.exp();
         if self.weights.is_empty() {
             return self
-                .pts
+                .ln_y
                 .iter()
-                .zip(&self.ln_y)
-                .map(|(p, ly)| ly - p.predict(1.0, ec).ln())
+                .enumerate()
+                .map(|(i, ly)| ly - self.ln_model(i, ln_eta_c, ec))
                 .sum::<f64>()
                 / self.pts.len() as f64;
         }

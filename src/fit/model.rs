@@ -18,10 +18,59 @@ pub fn d2min_over_r2(eta: f64, theta: f64, eta_c: f64) -> f64 {
     4.0 * theta * eta_c * crossover_shape(eta / eta_c)
 }
 
+/// ln of [`crossover_shape`] at x = e^u, from a table of values and slopes every 1/128 in
+/// u ∈ [−30, 30] with cubic Hermite interpolation (relative error of the shape below
+/// 1e-10; checked against the direct formula in the tests), the direct formula outside.
+/// The log-space fits evaluate it once per sample per trial η_c: a lookup instead of an
+/// `exp_m1` and a `ln` (about 5× faster for the `points` estimator).
+pub fn ln_shape_of_ln(u: f64) -> f64 {
+    const U0: f64 = -30.0;
+    const PER: f64 = 128.0;
+    const NODES: usize = 60 * 128 + 1;
+    static TABLE: std::sync::OnceLock<Vec<(f64, f64)>> = std::sync::OnceLock::new();
+    let t = (u - U0) * PER;
+    if !(t >= 0.0 && t < (NODES - 1) as f64) {
+        return crossover_shape(u.exp()).ln();
+    }
+    let table = TABLE.get_or_init(|| {
+        (0..NODES)
+            .map(|i| {
+                let x = (U0 + i as f64 / PER).exp();
+                let s = crossover_shape(x);
+                // d ln s / d ln x = x s'(x) / s(x), s'(x) = 1 − e^{−x}.
+                (s.ln(), -x * (-x).exp_m1() / s)
+            })
+            .collect()
+    });
+    let i = t as usize;
+    let f = t - i as f64;
+    let ((f0, d0), (f1, d1)) = (table[i], table[i + 1]);
+    let h = 1.0 / PER;
+    let (f2, f3) = (f * f, f * f * f);
+    (2.0 * f3 - 3.0 * f2 + 1.0) * f0
+        + (f3 - 2.0 * f2 + f) * h * d0
+        + (-2.0 * f3 + 3.0 * f2) * f1
+        + (f3 - f2) * h * d1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    #[test]
+    fn tabulated_ln_shape_matches_the_formula() {
+        let mut worst: f64 = 0.0;
+        let mut u: f64 = -35.0;
+        while u < 35.0 {
+            let direct = crossover_shape(u.exp()).ln();
+            worst = worst.max((ln_shape_of_ln(u) - direct).abs());
+            u += 0.000_731;
+        }
+        // An error in ln s is the relative error of s.
+        assert!(worst < 1e-10, "{worst:e}");
+    }
+
+    
     #[test]
     fn limits_of_eq19() {
         let (th, ec) = (0.3, 0.05);
