@@ -70,7 +70,6 @@ mod tests {
         assert!(worst < 1e-10, "{worst:e}");
     }
 
-    
     #[test]
     fn limits_of_eq19() {
         let (th, ec) = (0.3, 0.05);
