@@ -428,8 +428,8 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         "steps_this_session": sim.step - step0,
         "threads_this_session": sim.threads_for_run(),
         "thread_fallbacks_this_session": sim.scratch.fallbacks,
-        // How much the exact skip of substrate-held grains saved (Sec. "Speed" of the
-        // README): grain-steps skipped over grain-steps run, this session.
+        // How much the exact skip of substrate-held grains saved (docs/performance.md,
+        // "Pillar DEM"): grain-steps skipped over grain-steps run, this session.
         "frozen_grain_step_fraction_this_session": sim.scratch.frozen_grain_steps as f64
             / (sim.grains.len() as f64 * (sim.step - step0).max(1) as f64),
         "particle_steps_per_s_this_session": (sim.grains.len() as f64 * (sim.step - step0) as f64) / elapsed,
