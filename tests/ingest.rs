@@ -311,6 +311,10 @@ fn lammps_image_flags_unwrap_like_xu_yu() {
     let dir = tmpdir("lmp-img");
     let (u, text) = ingest_dump(&dir, "xu_yu");
     assert!(!text.contains("wrapped"), "{text}");
+    // The dump's own timesteps survive next to ingest's summary (one per snapshot).
+    let steps = u.meta.summary["lammps_timesteps"].as_array().map(Vec::len);
+    assert_eq!(steps, Some(9), "{:?}", u.meta.summary);
+    assert!(u.meta.summary["frames"].is_number(), "{:?}", u.meta.summary);
     let lx = u.meta.boxes[0].lx;
     let ly = u.meta.boxes[0].ly;
     let d = u.large_diameter().unwrap();

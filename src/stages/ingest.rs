@@ -241,7 +241,14 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
             "keep_detached": opt.keep_detached,
         }),
     };
-    tracks.meta.summary = serde_json::to_value(&summary).expect("summary serialises");
+    // The reader's own facts (a LAMMPS dump's timesteps) stay beside the summary.
+    let mut merged = serde_json::to_value(&summary).expect("summary serialises");
+    if let (Some(m), Some(reader)) = (merged.as_object_mut(), tracks.meta.summary.as_object()) {
+        for (k, v) in reader {
+            m.entry(k.clone()).or_insert_with(|| v.clone());
+        }
+    }
+    tracks.meta.summary = merged;
     write_tracks_owned(tracks, output)?;
     Ok(IngestReport {
         input: input.display().to_string(),
