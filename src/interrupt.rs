@@ -1,13 +1,12 @@
 //! Graceful interruption. SIGINT (Ctrl-C) and SIGTERM (what Slurm sends at a time limit
 //! or preemption, and what a shutdown sends) only raise a flag; long loops poll it at
-//! their step boundaries, save a checkpoint and return [`Error::Interrupted`], and the
+//! their step boundaries, save a checkpoint and return `Error::Interrupted` (the error
+//! module depends on this one, not the other way round), and the
 //! CLI prints how to continue. A second signal ends the process at once (exit 128 +
 //! signal), as users expect of a second Ctrl-C.
 //!
 //! Polling rather than unwinding from the handler keeps every write atomic: a run is
 //! stopped only between steps, where its state is whole.
-//!
-//! [`Error::Interrupted`]: crate::error::Error::Interrupted
 
 use std::sync::atomic::{AtomicI32, Ordering};
 

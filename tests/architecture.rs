@@ -1,0 +1,241 @@
+//! The dependency arrows of `docs/architecture.md`, read from the sources: each top-level
+//! module's `crate::…` references (test code left out) must point down the layers —
+//! geometry → neighbours → kinematics → fit/analysis → report, io and pipeline on top,
+//! the simulators (`dem`) knowing nothing of analysis or files — and the module graph
+//! must have no cycle. A forbidden arrow fails here with its file and line.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+/// What each module must not reference.
+const FORBIDDEN: &[(&str, &[&str])] = &[
+    (
+        "geom",
+        &[
+            "neighbors",
+            "tracks",
+            "kinematics",
+            "fit",
+            "dem",
+            "io",
+            "report",
+            "stages",
+            "pipeline",
+        ],
+    ),
+    (
+        "neighbors",
+        &[
+            "tracks",
+            "kinematics",
+            "fit",
+            "dem",
+            "io",
+            "report",
+            "stages",
+            "pipeline",
+        ],
+    ),
+    (
+        "kinematics",
+        &["fit", "dem", "io", "report", "stages", "pipeline"],
+    ),
+    (
+        "fit",
+        &[
+            "tracks",
+            "kinematics",
+            "dem",
+            "io",
+            "report",
+            "stages",
+            "pipeline",
+        ],
+    ),
+    (
+        "dem",
+        &[
+            "neighbors",
+            "tracks",
+            "kinematics",
+            "fit",
+            "io",
+            "report",
+            "stages",
+            "pipeline",
+            "synth",
+        ],
+    ),
+    (
+        "tracks",
+        &[
+            "kinematics",
+            "fit",
+            "dem",
+            "io",
+            "report",
+            "stages",
+            "pipeline",
+        ],
+    ),
+    ("report", &["stages", "pipeline", "dem"]),
+    ("io", &["stages", "pipeline", "report", "dem"]),
+    ("stages", &["pipeline"]),
+];
+
+/// Words that must not appear in a module's non-test code (the simulation kernels
+/// compute; stages read and write files).
+const FORBIDDEN_WORDS: &[(&str, &[&str])] = &[("dem", &["polars", "std::fs"])];
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// The top-level module a source file belongs to (`src/dem/pillar.rs` → `dem`).
+fn module_of(src: &Path, file: &Path) -> String {
+    let rel = file.strip_prefix(src).unwrap();
+    let first = rel
+        .components()
+        .next()
+        .unwrap()
+        .as_os_str()
+        .to_string_lossy();
+    first.trim_end_matches(".rs").to_string()
+}
+
+/// The file's lines up to its test module (`#[cfg(test)]`); none for `tests.rs` files.
+fn non_test_lines(file: &Path) -> Vec<(usize, String)> {
+    if file.file_name().is_some_and(|n| n == "tests.rs") {
+        return Vec::new();
+    }
+    std::fs::read_to_string(file)
+        .unwrap()
+        .lines()
+        .enumerate()
+        .take_while(|(_, l)| !l.trim_start().starts_with("#[cfg(test)]"))
+        .map(|(i, l)| (i + 1, l.to_string()))
+        .collect()
+}
+
+/// Every `crate::name` on a line (comments included: a doc link is an arrow too).
+fn crate_refs(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = line;
+    while let Some(i) = rest.find("crate::") {
+        let tail = &rest[i + "crate::".len()..];
+        let name: String = tail
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect();
+        if !name.is_empty() {
+            out.push(name);
+        }
+        rest = tail;
+    }
+    out
+}
+
+/// (module → modules it references, with a place for each).
+fn graph() -> BTreeMap<String, BTreeMap<String, String>> {
+    let src = Path::new(ROOT).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let mut g: BTreeMap<String, BTreeMap<String, String>> = BTreeMap::new();
+    for f in &files {
+        let m = module_of(&src, f);
+        let entry = g.entry(m.clone()).or_default();
+        for (n, line) in non_test_lines(f) {
+            for r in crate_refs(&line) {
+                if r != m {
+                    entry
+                        .entry(r)
+                        .or_insert_with(|| format!("{}:{n}", f.display()));
+                }
+            }
+        }
+    }
+    g
+}
+
+#[test]
+fn no_module_references_a_layer_above_it() {
+    let g = graph();
+    assert!(
+        g.contains_key("dem") && g.contains_key("fit"),
+        "{:?}",
+        g.keys()
+    );
+    let mut bad = Vec::new();
+    for (m, forbidden) in FORBIDDEN {
+        for (to, at) in g.get(*m).into_iter().flatten() {
+            if forbidden.contains(&to.as_str()) {
+                bad.push(format!("{m} → {to} at {at}"));
+            }
+        }
+    }
+    let src = Path::new(ROOT).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    for (m, words) in FORBIDDEN_WORDS {
+        for f in files.iter().filter(|f| module_of(&src, f) == *m) {
+            for (n, line) in non_test_lines(f) {
+                for w in *words {
+                    if line.contains(w) {
+                        bad.push(format!("{m} uses {w} at {}:{n}", f.display()));
+                    }
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "forbidden arrows:\n{}", bad.join("\n"));
+}
+
+#[test]
+fn the_module_graph_has_no_cycle() {
+    let g = graph();
+    // Depth-first search; a node met again while on the stack closes a cycle.
+    fn visit(
+        n: &str,
+        g: &BTreeMap<String, BTreeMap<String, String>>,
+        stack: &mut Vec<String>,
+        done: &mut BTreeSet<String>,
+    ) -> Option<Vec<String>> {
+        if let Some(i) = stack.iter().position(|s| s == n) {
+            let mut c = stack[i..].to_vec();
+            c.push(n.to_string());
+            return Some(c);
+        }
+        if done.contains(n) {
+            return None;
+        }
+        stack.push(n.to_string());
+        for to in g.get(n).into_iter().flat_map(|e| e.keys()) {
+            if let Some(c) = visit(to, g, stack, done) {
+                return Some(c);
+            }
+        }
+        stack.pop();
+        done.insert(n.to_string());
+        None
+    }
+    let mut done = BTreeSet::new();
+    for n in g.keys() {
+        if let Some(c) = visit(n, &g, &mut Vec::new(), &mut done) {
+            let places: Vec<String> = c
+                .windows(2)
+                .map(|w| format!("{} → {} at {}", w[0], w[1], g[&w[0]][&w[1]]))
+                .collect();
+            panic!("module cycle:\n{}", places.join("\n"));
+        }
+    }
+}
