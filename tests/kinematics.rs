@@ -141,10 +141,10 @@ fn ovito_convention_scales_d2min_by_neighbour_count() {
     assert_eq!(rp.len(), ro.len());
     let mut checked = 0;
     for (x, y) in rp.iter().zip(&ro) {
-        // columns: n_neighbors 7, valid 8, d2min 19
-        if x[8] == "true" && x[7] == y[7] {
+        // columns: n_neighbors 7, valid 8, status 9, d2min 20
+        if x[8] == "true" && x[9] == "ok" && x[7] == y[7] {
             let n: f64 = x[7].parse().unwrap();
-            let (dp, dov): (f64, f64) = (x[19].parse().unwrap(), y[19].parse().unwrap());
+            let (dp, dov): (f64, f64) = (x[20].parse().unwrap(), y[20].parse().unwrap());
             assert!(
                 (dp * n - dov).abs() <= 1e-9 * dov.abs().max(1e-30),
                 "{dp} * {n} vs {dov}"
@@ -231,9 +231,11 @@ fn synth_tracks_through_the_stage_recover_the_map() {
                 }
             })
             .collect();
-        assert!((v[9] - 0.98).abs() < 1e-10 && (v[10] - 0.03).abs() < 1e-10);
-        assert!((v[17] - want.eta_s).abs() < 1e-10);
-        assert!(v[19].abs() < 1e-20);
+        // Columns after `valid` (8) and `status` (9): j11 10, j12 11, eta_s 18, d2min 20.
+        assert!(l.split(',').nth(9) == Some("ok"), "{l}");
+        assert!((v[10] - 0.98).abs() < 1e-10 && (v[11] - 0.03).abs() < 1e-10);
+        assert!((v[18] - want.eta_s).abs() < 1e-10);
+        assert!(v[20].abs() < 1e-20);
     }
 }
 

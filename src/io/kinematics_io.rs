@@ -37,6 +37,10 @@ pub fn kinematics_dataframe(
             "valid".into(),
             ks.iter().map(|k| k.valid).collect::<Vec<bool>>(),
         ),
+        Column::new(
+            "status".into(),
+            ks.iter().map(|k| k.status.name()).collect::<Vec<&str>>(),
+        ),
         Column::new("j11".into(), f(|k| k.j.a11)),
         Column::new("j12".into(), f(|k| k.j.a12)),
         Column::new("j21".into(), f(|k| k.j.a21)),

@@ -39,7 +39,32 @@ pub const SINGULAR_TOL: f64 = 1e-10;
 /// Minimum neighbours for a 2D affine fit (Y has rank 2 only with ≥ 2 non-collinear).
 pub const MIN_NEIGHBORS: usize = 2;
 
-/// One particle's result. Invalid particles carry zeros in every derived field.
+/// Whether a particle's deformation is determined, and if not, why.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Status {
+    /// J, the strains and D²min are determined.
+    Ok,
+    /// Fewer than [`MIN_NEIGHBORS`] neighbours within R_c.
+    #[default]
+    TooFewNeighbours,
+    /// The neighbour matrix Y is singular (all neighbours on one line).
+    Singular,
+}
+
+impl Status {
+    /// The name in the `status` column: `ok`, `too_few_neighbours`, `singular`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::TooFewNeighbours => "too_few_neighbours",
+            Status::Singular => "singular",
+        }
+    }
+}
+
+/// One particle's result. Where the deformation is undetermined (`status` not `Ok`),
+/// J, the strains, J2 and D²min are NaN — never a number that looks like "no
+/// deformation"; the velocity is still the particle's own.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ParticleKinematics {
     pub particle: i64,
@@ -48,7 +73,9 @@ pub struct ParticleKinematics {
     pub species: i32,
     /// N_i: neighbours within R_c at t present in both frames.
     pub n_neighbors: u32,
+    /// `status == Status::Ok`, kept as its own column for readers of older tables.
     pub valid: bool,
+    pub status: Status,
     /// Best-fit affine transform J = X Y⁻¹ (Eq. 14), dimensionless.
     pub j: Mat2,
     pub strain: LocalStrain,
@@ -169,12 +196,10 @@ pub fn frame_pair(
         ..Default::default()
     };
     for k in &out {
-        if !k.valid {
-            if (k.n_neighbors as usize) < MIN_NEIGHBORS {
-                c.invalid_few_neighbors += 1;
-            } else {
-                c.invalid_singular += 1;
-            }
+        match k.status {
+            Status::Ok => {}
+            Status::TooFewNeighbours => c.invalid_few_neighbors += 1,
+            Status::Singular => c.invalid_singular += 1,
         }
     }
     Ok((out, c))
@@ -213,8 +238,28 @@ fn particle(
         velocity: di * (1.0 / dt),
         ..Default::default()
     };
+    let undetermined = |mut k: ParticleKinematics, status| {
+        let nan = f64::NAN;
+        k.status = status;
+        k.j = Mat2 {
+            a11: nan,
+            a12: nan,
+            a21: nan,
+            a22: nan,
+        };
+        k.strain = LocalStrain {
+            eta_xx: nan,
+            eta_xy: nan,
+            eta_yy: nan,
+            eta_m: nan,
+            eta_s: nan,
+        };
+        k.j2 = nan;
+        k.d2min = nan;
+        k
+    };
     if buf.len() < MIN_NEIGHBORS {
-        return k;
+        return undetermined(k, Status::TooFewNeighbours);
     }
     let (mut x, mut y) = (Mat2::ZERO, Mat2::ZERO);
     for &(r0, r1) in buf.iter() {
@@ -222,7 +267,7 @@ fn particle(
         y = y + Mat2::outer(r0, r0);
     }
     let Some(yinv) = y.inverse(SINGULAR_TOL) else {
-        return k;
+        return undetermined(k, Status::Singular);
     };
     let j = x * yinv;
     let mut d2 = 0.0;
@@ -233,6 +278,7 @@ fn particle(
         d2 /= buf.len() as f64;
     }
     k.valid = true;
+    k.status = Status::Ok;
     k.j = j;
     k.strain = strain_from_j(&j, conv);
     k.j2 = k.strain.eta_s / dt;

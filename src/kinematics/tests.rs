@@ -274,8 +274,15 @@ fn isolated_collinear_and_missing_particles_are_counted() {
     assert_eq!(c.invalid_few_neighbors, 3); // 0 (none), 1 and 3 (one each)
     assert_eq!(c.invalid_singular, 1); // 2: two neighbours on a line
     for k in &ks {
-        assert!(!k.valid);
-        assert!(k.d2min == 0.0 && k.strain.eta_s == 0.0 && k.j == Mat2::ZERO);
+        assert!(!k.valid && k.status != Status::Ok);
+        // Undetermined, not zero: NaN in every derived field.
+        assert!(k.d2min.is_nan() && k.strain.eta_s.is_nan() && k.j.a12.is_nan() && k.j2.is_nan());
         assert!(close(k.velocity.x, 0.01, 1e-9));
     }
+    let singular = ks.iter().filter(|k| k.status == Status::Singular).count();
+    let few = ks
+        .iter()
+        .filter(|k| k.status == Status::TooFewNeighbours)
+        .count();
+    assert_eq!((few, singular), (3, 1));
 }
