@@ -116,8 +116,8 @@ fn report_opens_in_headless_chromium_when_available() {
                 .is_ok_and(|o| o.status.success())
         });
     let Some(browser) = browser else {
-        eprintln!(
-            "no chromium on this machine: the browser check is skipped (.ci/run installs it)"
+        common::cannot_check(
+            "no chromium on this machine: the browser check is skipped (.ci/run installs it)",
         );
         return;
     };

@@ -632,8 +632,13 @@ fn slot_kernel_gives_the_straight_loops_run_bit_for_bit() {
             "{model:?}: the list was never rebuilt"
         );
         for max in [Level::Baseline, Level::Avx2, Level::Avx512] {
+            if detected() < max {
+                // Missing hardware is a skip, said so, not a pass.
+                eprintln!("SKIP: this CPU has no {max:?}: that kernel is not compared");
+                continue;
+            }
             use_at_most(max);
-            assert_eq!(level(), max.min(detected()));
+            assert_eq!(level(), max);
             let mut fast = start.clone();
             for _ in 0..600 {
                 fast.step();

@@ -304,11 +304,6 @@ pub struct PointFit {
     pub iterations: u64,
 }
 
-/// Fit Eq. 19 to reduced points in log space (see [`fit_method`]).
-pub fn fit_points(pts: &[BinPoint]) -> Result<PointFit> {
-    fit_method(pts, Method::BinnedMedian)
-}
-
 /// Fit Eq. 19 to points reduced for `method`: in log space, or for `WeightedMean` in
 /// linear space weighted by 1/se². For each η_c the best Θ is closed form, so the cost
 /// is minimised over ln η_c alone: the best node of a coarse grid, then Brent's method

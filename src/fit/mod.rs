@@ -7,7 +7,7 @@ pub mod estimate;
 pub mod model;
 pub mod range;
 
-pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, fit_points, reduce};
+pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, reduce};
 pub use model::d2min_over_r2;
 pub use range::{FitRange, RangeRule};
 
@@ -132,9 +132,13 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     let mut groups: Vec<u32> = group.clone();
     groups.sort_unstable();
     groups.dedup();
+    // Each start's samples, for the points estimator's replicates (the binned ones weigh
+    // starts instead).
     let mut members: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
-    for (k, g) in group.iter().enumerate() {
-        members.entry(*g).or_default().push(k);
+    if method == Method::Points {
+        for (k, g) in group.iter().enumerate() {
+            members.entry(*g).or_default().push(k);
+        }
     }
     let reps = if method == Method::Points {
         set.bootstrap.min(POINTS_REPLICATES_MAX)

@@ -11,7 +11,7 @@ use crate::fit::{
     by_thirds, fit_all, json_nonfinite, sensitivity,
 };
 use crate::io::sink::stream_table;
-use crate::io::{atomic_write_str, sha256_file};
+use crate::io::{atomic_write_str, read_tracks, sha256_file};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -297,10 +297,17 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         return Err(Error::param("rc", "R_c must be > 0"));
     }
     let mut warnings = Vec::new();
-    let (samples, rows, protocol) = if is_kinematics(input)? {
-        from_kinematics(input, opt, &mut warnings)?
+    // Tracks are read once: the sensitivity table reruns the protocol on them.
+    let tracks = if is_kinematics(input)? {
+        None
     } else {
-        from_tracks(input, opt, &mut warnings)?
+        let (t, w) = read_tracks(input)?;
+        warnings.extend(w);
+        Some(t)
+    };
+    let (samples, rows, protocol) = match &tracks {
+        None => from_kinematics(input, opt, &mut warnings)?,
+        Some(t) => from_tracks(input, t, opt, &mut warnings)?,
     };
     let settings = FitSettings {
         method: opt.method,
@@ -313,7 +320,7 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         .map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
     let stationarity = by_thirds(&samples, &settings, &range);
     let mut sensitivity = sensitivity(&samples, opt.rc_over_d, range.lo, &opt.binning);
-    if protocol.source == "tracks" {
+    if let Some(t) = &tracks {
         // The neighbourhood radius is the paper's choice too (Sec. IV); from tracks the
         // protocol can be rerun with the others.
         for rc in SENSITIVITY_RC {
@@ -325,7 +332,7 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
                 quiet: true,
                 ..opt.clone()
             };
-            let (other, _, _) = from_tracks(input, &o, &mut Vec::new())?;
+            let (other, _, _) = from_tracks(input, t, &o, &mut Vec::new())?;
             sensitivity.extend(crate::fit::sensitivity(&other, rc, range.lo, &opt.binning));
         }
     }

@@ -8,9 +8,9 @@ use super::fit::{
 use crate::error::{Error, Result};
 use crate::fit::Samples;
 use crate::io::csvdiag::Expect;
-use crate::io::read_tracks;
 use crate::io::table::read_table;
 use crate::kinematics::{Convention, KinematicsParams, frame_pair};
+use crate::tracks::Tracks;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -35,12 +35,11 @@ fn nearest_frame(frames: &[i64], times: &BTreeMap<i64, f64>, t: f64) -> i64 {
 /// Run the protocol on tracks: samples plus the protocol actually used.
 pub(crate) fn from_tracks(
     input: &Path,
+    tracks: &Tracks,
     opt: &FitOptions,
     warnings: &mut Vec<String>,
 ) -> Result<(Samples, ScatterRows, Protocol)> {
     let file = input.display().to_string();
-    let (tracks, w) = read_tracks(input)?;
-    warnings.extend(w);
     let d = match opt.diameter {
         Some(d) => d,
         None => tracks

@@ -45,6 +45,16 @@ pub mod sim_tables;
 pub mod simulate;
 pub mod sweep;
 
+/// A checkpoint's bytes for `--resume`, or an error naming the file.
+pub(crate) fn read_checkpoint_bytes(ckpt: &std::path::Path) -> crate::error::Result<Vec<u8>> {
+    std::fs::read(ckpt).map_err(|e| {
+        crate::error::Error::input(
+            ckpt.display(),
+            format!("cannot resume: no checkpoint here ({e})"),
+        )
+    })
+}
+
 /// Write a simulation checkpoint atomically; with `halt_after` (tests of resuming) stop
 /// the run with an error once `step` has reached it.
 pub(crate) fn write_checkpoint(

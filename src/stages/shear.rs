@@ -139,12 +139,7 @@ pub struct Resumed {
 /// Read a sheared-disk checkpoint: the state and the output bookkeeping. Errors name the
 /// file (and the byte, for a truncated or corrupt one).
 pub fn read_checkpoint(ckpt: &Path) -> Result<Resumed> {
-    let bytes = std::fs::read(ckpt).map_err(|e| {
-        Error::input(
-            ckpt.display(),
-            format!("cannot resume: no checkpoint here ({e})"),
-        )
-    })?;
+    let bytes = super::read_checkpoint_bytes(ckpt)?;
     let bad = |e: String| Error::input(ckpt.display(), e);
     let (sim, extra) = ShearSim::load(&bytes).map_err(bad)?;
     let mut d = Dec::new(&extra);

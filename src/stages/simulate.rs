@@ -189,12 +189,7 @@ impl Progress {
 /// checked against each other. Errors name the file (and the byte, for a truncated or
 /// corrupt one).
 pub fn read_checkpoint(ckpt: &Path) -> Result<(PillarSim, Progress)> {
-    let bytes = std::fs::read(ckpt).map_err(|e| {
-        Error::input(
-            ckpt.display(),
-            format!("cannot resume: no checkpoint here ({e})"),
-        )
-    })?;
+    let bytes = super::read_checkpoint_bytes(ckpt)?;
     let bad = |e: String| Error::input(ckpt.display(), e);
     let (sim, extra) = PillarSim::load(&bytes).map_err(bad)?;
     let prog = Progress::decode(&extra).map_err(|e| bad(format!("output bookkeeping: {e}")))?;
