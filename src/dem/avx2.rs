@@ -18,7 +18,7 @@ pub(crate) fn neg4(v: __m256d) -> __m256d {
     _mm256_xor_pd(v, _mm256_set1_pd(-0.0))
 }
 
-/// `a` where `m`, else `b` (as `contact::pick`).
+/// `a` where `m`, else `b` (as `law::pick`).
 #[inline]
 #[target_feature(enable = "avx2")]
 pub(crate) fn pick4(m: __m256d, a: __m256d, b: __m256d) -> __m256d {

@@ -2,8 +2,8 @@
 //!
 //! One core serves both papers' systems: grains stored as structure-of-arrays
 //! ([`grains`]), a Verlet pair list that carries each contact's history across rebuilds
-//! ([`verlet`]), and small pluggable contact laws ([`contact`]: normal, tangential,
-//! substrate) in the spirit of LAMMPS's granular sub-models. [`pillar`] assembles them
+//! ([`verlet`]), and the contact laws as closed enums with one scalar reference
+//! ([`law`]: normal, damping, tangential, contact point; substrate) in the spirit of LAMMPS's granular sub-models. [`pillar`] assembles them
 //! into li-granular-pillars Sec. II (grains on a frictional substrate between two bars);
 //! [`pack`] is that paper's packing protocol (Sec. II.A). The simulators know nothing of
 //! analysis: they emit the canonical `tracks` schema that `ingest`/`kinematics` read.
@@ -14,9 +14,9 @@
 mod avx2;
 pub mod barrier;
 pub mod checkpoint;
-pub mod contact;
 pub mod forces;
 pub mod grains;
+pub mod law;
 pub mod pack;
 pub mod params;
 pub mod pillar;

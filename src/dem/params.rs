@@ -1,6 +1,37 @@
 //! Model parameters of li-granular-pillars Sec. II.C, in SI units, and the presets.
 
+use super::law::{ContactLaw, ContactPoint, Damping, Normal, Tangential};
 use serde::{Deserialize, Serialize};
+
+/// The grain–grain normal law of a pillar run (li-granular-pillars uses `linear`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NormalLawName {
+    /// F_n = k_n δ (Eq. 4), the paper's.
+    #[default]
+    Linear,
+    /// F_n = k δ^{3/2} (the power law of vågberg-sheared-disks Eq. 1 with α = 5/2).
+    Hertz,
+}
+
+impl NormalLawName {
+    pub fn is_linear(&self) -> bool {
+        *self == NormalLawName::Linear
+    }
+}
+
+impl std::str::FromStr for NormalLawName {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "linear" => Ok(NormalLawName::Linear),
+            "hertz" => Ok(NormalLawName::Hertz),
+            _ => Err(format!(
+                "unknown normal law '{s}'; expected linear or hertz"
+            )),
+        }
+    }
+}
 
 /// Everything that defines a pillar run's physics (SI units throughout).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -30,6 +61,14 @@ pub struct PillarParams {
     pub damping_n: f64,
     /// Time step δt (s).
     pub dt: f64,
+    /// Grain–grain normal law; grain–bar contacts use the same with twice the
+    /// stiffness.
+    #[serde(default, skip_serializing_if = "NormalLawName::is_linear")]
+    pub normal_law: NormalLawName,
+    /// Hertzian stiffness k (N/m^{3/2}) when `normal_law` is `hertz`; 0 takes
+    /// [`PillarParams::hertz_k`]'s default.
+    #[serde(default)]
+    pub k_hertz: f64,
     /// Top-bar speed v_c (m/s).
     pub bar_speed: f64,
     /// Gravitational acceleration g (m/s²).
@@ -52,6 +91,8 @@ impl PillarParams {
             kt_over_kn: 2.0 / 7.0,
             damping_n: 0.0,
             dt: 1.0e-5,
+            normal_law: NormalLawName::Linear,
+            k_hertz: 0.0,
             bar_speed: 0.0084667e-2,
             g: 9.81,
         }
@@ -86,6 +127,55 @@ impl PillarParams {
     /// δt / √(m_small / (2 k_n)): the stiffest contact's oscillation resolution.
     pub fn stiffness_ratio(&self) -> f64 {
         self.dt / (self.m_small / (2.0 * self.k_n)).sqrt()
+    }
+
+    /// The Hertzian stiffness in use (N/m^{3/2}): `k_hertz`, or by default the one
+    /// that gives the linear law's force at the overlap δ_u = m g μ / k_n where the
+    /// linear spring carries the force unit, k = k_n/√δ_u. The two laws then agree
+    /// where the pillar's contact forces live; above it the Hertzian contact stiffens
+    /// as F^{1/3}.
+    pub fn hertz_k(&self) -> f64 {
+        if self.k_hertz > 0.0 {
+            return self.k_hertz;
+        }
+        self.k_n / (self.force_unit() / self.k_n).sqrt()
+    }
+
+    /// The grain–grain contact law: `normal_law`, viscous normal damping γ_n,
+    /// Cundall–Strack friction μ_g with k_t = (k_t/k_n) k_n, lever arms ½|r_ij|
+    /// (Eqs. 4, 7, 8).
+    pub fn grain_law(&self) -> Result<ContactLaw, String> {
+        let normal = match self.normal_law {
+            NormalLawName::Linear => Normal::Linear { k_n: self.k_n },
+            NormalLawName::Hertz => Normal::PowerLaw {
+                k: self.hertz_k(),
+                alpha: 2.5,
+            },
+        };
+        ContactLaw::new(
+            normal,
+            Damping::ViscousNormal {
+                gamma_n: self.damping_n,
+            },
+            Tangential::CundallStrack {
+                k_t: self.kt_over_kn * self.k_n,
+                mu: self.mu_g,
+            },
+            ContactPoint::Midway,
+        )
+    }
+
+    /// The grain–bar law: the grains' with twice the stiffnesses (bars are grains of
+    /// infinite radius, Sec. II.B.2) and the bar's friction μ_bar.
+    pub fn bar_law(&self) -> Result<ContactLaw, String> {
+        let mut law = self.grain_law()?.stiffer(2.0);
+        if let Tangential::CundallStrack { k_t, .. } = law.tangential {
+            law.tangential = Tangential::CundallStrack {
+                k_t,
+                mu: self.mu_bar,
+            };
+        }
+        Ok(law)
     }
 
     /// The paper's force unit m g μ with m the large-grain mass (N).
@@ -126,6 +216,13 @@ impl PillarParams {
                 return Err(format!("{k} must be ≥ 0 and finite, got {v}"));
             }
         }
+        if !(self.k_hertz.is_finite() && self.k_hertz >= 0.0) {
+            return Err(format!(
+                "k_hertz must be ≥ 0 and finite (0: the default), got {}",
+                self.k_hertz
+            ));
+        }
+        self.bar_law()?;
         if self.stiffness_ratio() > 0.2 {
             return Err(format!(
                 "dt = {} s is too large for k_n = {} N/m: dt/√(m_s/2k_n) = {:.3} (> 0.2, unstable)",

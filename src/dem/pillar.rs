@@ -13,9 +13,9 @@
 //!
 //! The substrate's static test uses grain–grain and grain–bar forces only.
 
-use super::contact::{CundallStrack, Hooke, NormalLaw, SubstrateFriction};
 use super::forces::ContactRecord;
 use super::grains::{Grains, LARGE};
+use super::law::{ContactLaw, SubstrateFriction};
 use super::params::PillarParams;
 use super::pillar_par::StepBuffers;
 use super::verlet::{Boundary, PairList};
@@ -279,17 +279,22 @@ impl PillarSim {
         s
     }
 
-    pub fn normal(&self) -> Hooke {
-        Hooke {
-            k_n: self.params.k_n,
-            damping: self.params.damping_n,
-        }
+    /// The grain–grain contact law ([`PillarParams::grain_law`]).
+    ///
+    /// # Panics
+    /// If the parameters do not validate: every way into a run (options, checkpoints)
+    /// validates them first.
+    pub fn law(&self) -> ContactLaw {
+        self.params
+            .grain_law()
+            .expect("pillar parameters are validated before a run")
     }
-    pub fn tangential(&self) -> CundallStrack {
-        CundallStrack {
-            k_t: self.params.kt_over_kn * self.params.k_n,
-            mu: self.params.mu_g,
-        }
+
+    /// The grain–bar contact law ([`PillarParams::bar_law`]); panics as [`Self::law`].
+    pub fn bar_law(&self) -> ContactLaw {
+        self.params
+            .bar_law()
+            .expect("pillar parameters are validated before a run")
     }
     pub fn substrate(&self) -> SubstrateFriction {
         SubstrateFriction {
@@ -330,18 +335,21 @@ impl PillarSim {
 
     /// Grain–grain elastic energy (J), for tests and diagnostics.
     pub fn contact_energy(&self) -> f64 {
-        let normal = self.normal();
+        let law = self.law();
+        let k_t = match law.tangential {
+            super::law::Tangential::CundallStrack { k_t, .. } => k_t,
+            super::law::Tangential::None => 0.0,
+        };
         let g = &self.grains;
         let mut e = 0.0;
         for i in 0..g.len() {
             for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
                 let j = self.list.j[k] as usize;
                 let (dx, dy) = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
-                let delta = g.radius[i] + g.radius[j] - (dx * dx + dy * dy).sqrt();
-                if delta > 0.0 {
-                    e += normal.energy(delta);
-                    let kt = self.tangential().k_t;
-                    e += 0.5 * kt * self.list.shear[k] * self.list.shear[k];
+                let (rs, dist) = (g.radius[i] + g.radius[j], (dx * dx + dy * dy).sqrt());
+                if dist < rs {
+                    e += law.energy(dist, rs);
+                    e += 0.5 * k_t * self.list.shear[k] * self.list.shear[k];
                 }
             }
         }

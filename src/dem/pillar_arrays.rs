@@ -10,7 +10,7 @@
 //! reached through raw pointers refreshed by the first thread after any reallocation
 //! (a list rebuild), while the others wait at the barrier.
 
-use super::contact::{CundallStrack, Hooke, SubstrateFriction};
+use super::law::{ContactLaw, SubstrateFriction};
 use super::pillar::{PillarSim, top_y_at};
 #[cfg(target_arch = "x86_64")]
 use super::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
@@ -132,8 +132,8 @@ unsafe impl Sync for Arrays {}
 /// thread updates its totals during the pair phase.
 #[derive(Clone, Copy)]
 pub(crate) struct StepLaws {
-    normal: Hooke,
-    tangential: CundallStrack,
+    /// The grain–grain law.
+    law: ContactLaw,
     /// The bars (their `top` set per step by [`StepLaws::bars_at`]).
     bars: Bars,
     sub: SubstrateFriction,
@@ -153,17 +153,9 @@ impl StepLaws {
         let sub = s.substrate();
         let xi_v = sub.xi_v(p.dt);
         StepLaws {
-            normal: s.normal(),
-            tangential: s.tangential(),
+            law: s.law(),
             bars: Bars {
-                normal: Hooke {
-                    k_n: 2.0 * p.k_n,
-                    damping: p.damping_n,
-                },
-                tangential: CundallStrack {
-                    k_t: 2.0 * p.kt_over_kn * p.k_n,
-                    mu: p.mu_bar,
-                },
+                law: s.bar_law(),
                 top: s.top_y(),
                 bottom: s.bottom_y,
                 v_bar: p.bar_speed,
@@ -423,7 +415,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
             touching: a.rec_touch.part(slots.clone()),
         });
         let skipped = a.skipped.part(half(a, parity, t));
-        let laws = (&laws.normal, &laws.tangential, laws.dt);
+        let (law, dt) = (&laws.law, laws.dt);
         let rev = &*a.rev;
         // SAFETY: each slot's two term places are its own (`Reverse::build`), checked
         // in bounds by `sync_list_buffers`; no phase reads the terms while pairs run.
@@ -436,7 +428,9 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
         let rest = a.freeze.then(|| resting(a, parity));
         let n = a.x.1;
         #[cfg(target_arch = "x86_64")]
-        if rec.is_none() && level() >= Level::Avx2 {
+        if let Some(coeffs) = law.is_linear_cundall_strack().filter(|_| rec.is_none())
+            && level() >= Level::Avx2
+        {
             let packed = PackedGrains {
                 state: a.packed_state.all(),
                 spin: a.packed_spin.all(),
@@ -454,7 +448,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
                 a.shear.part(slots.clone()),
                 sink,
                 rest,
-                laws,
+                (coeffs, law, dt),
             );
             return;
         }
@@ -465,7 +459,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
             a.shear.part(slots.clone()),
             sink,
             rest,
-            laws,
+            (law, dt),
             rec,
         );
     }

@@ -18,7 +18,7 @@
 //! contact history by bits.
 
 use super::avx2::{abs4, lanes, neg4, pick4, transpose};
-use super::contact::{CundallStrack, Hooke};
+use super::law::ContactLaw;
 use super::pillar_kernels::{
     Drift, DriftInputs, SubstrateInputs, SubstrateState, kick_drift_scalar, substrate_kick_scalar,
 };
@@ -253,9 +253,11 @@ pub(crate) unsafe fn pair_slots(
     shear: &mut [f64],
     sink: TermSink,
     resting: Option<&[bool]>,
-    laws: (&Hooke, &CundallStrack, f64),
+    laws: ((f64, f64, f64, f64), &ContactLaw, f64),
 ) -> u64 {
-    let ((owner, js), (normal, tangential, dt)) = (ids, laws);
+    // The coefficients are `law.is_linear_cundall_strack()`'s: the law this kernel
+    // implements (the caller checks); the tail runs the law's scalar reference.
+    let ((owner, js), ((k_n, gamma_n, k_t, mu), law, dt)) = (ids, laws);
     unsafe {
         let len = slots.len();
         let len4 = len / 4 * 4;
@@ -267,13 +269,13 @@ pub(crate) unsafe fn pair_slots(
         let flip = _mm256_set_pd(0.0, 0.0, -0.0, -0.0);
         let (state, spin) = (packed.state.as_ptr(), packed.spin.as_ptr());
         let zero = _mm256_setzero_pd();
-        let (k_n, damping) = (_mm256_set1_pd(normal.k_n), _mm256_set1_pd(normal.damping));
-        let (k_t, minus_k_t) = (
-            _mm256_set1_pd(tangential.k_t),
-            _mm256_set1_pd(-tangential.k_t),
+        let (k_n, damping) = (_mm256_set1_pd(k_n), _mm256_set1_pd(gamma_n));
+        let (k_t, minus_k_t, mu_over_k_t) = (
+            _mm256_set1_pd(k_t),
+            _mm256_set1_pd(-k_t),
+            _mm256_set1_pd(mu / k_t),
         );
-        let (mu, dt4) = (_mm256_set1_pd(tangential.mu), _mm256_set1_pd(dt));
-        let mu_over_k_t = _mm256_set1_pd(tangential.mu_over_k_t());
+        let (mu, dt4) = (_mm256_set1_pd(mu), _mm256_set1_pd(dt));
         let one = _mm256_set1_pd(1.0);
         let (half, minus_half) = (_mm256_set1_pd(0.5), _mm256_set1_pd(-0.5));
         let sign_bit = _mm256_set1_pd(-0.0);
@@ -378,7 +380,7 @@ pub(crate) unsafe fn pair_slots(
                 &g,
                 &mut shear[s],
                 &mut force,
-                (normal, tangential, dt),
+                (law, dt),
             );
             sink.put(s, force);
         }

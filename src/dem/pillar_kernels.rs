@@ -5,7 +5,7 @@
 //! Resting and moving grains mix at random, so choices between them are bit masks, not
 //! branches that would mispredict.
 
-use super::contact::{SubstrateFriction, pick};
+use super::law::{SubstrateFriction, pick};
 use super::pillar_phases::GrainState;
 use super::simd::{Pos, Quad};
 use std::ops::Range;

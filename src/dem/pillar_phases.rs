@@ -12,7 +12,7 @@
 //! and the chunks added in order; threads get whole chunks. So every thread count gives
 //! the same numbers, bit for bit.
 
-use super::contact::{CundallStrack, Hooke, NormalLaw, TangentialLaw};
+use super::law::{ContactLaw, Motion};
 use super::pillar_kernels::{SubstrateInputs, SubstrateState, substrate_kick, sum4};
 use super::simd::Quad;
 use std::ops::Range;
@@ -263,7 +263,7 @@ pub fn pair_slots(
     shear: &mut [f64],
     sink: TermSink,
     resting: Option<&[bool]>,
-    laws: (&Hooke, &CundallStrack, f64),
+    laws: (&ContactLaw, f64),
     mut rec: Option<SlotRecord>,
 ) -> u64 {
     let k0 = start[range.start] as usize;
@@ -292,11 +292,11 @@ pub fn pair_slots(
     skipped
 }
 
-/// The contact of grains i and j (Eqs. 4, 7, 8): into `out` the force on i (N, x and
-/// y), the torque on each grain (N m) and a zero; `shear` is the slot's tangential
-/// spring (m). Normal along n = r_ij/|r_ij|, tangential along t̂ = ẑ × n from the contact
-/// history; lever arms ½|r_ij|. Separated pairs forget their history and hold zeros
-/// (and return `None`); touching ones return (F_n, F_t) (N).
+/// The contact of grains i and j by the law's scalar reference
+/// ([`ContactLaw::pair`]): into `out` the force on i (N, x and y), the torque on each
+/// grain (N m; the laws the pillar uses give both grains the same) and a zero; `shear`
+/// is the slot's tangential spring (m). Separated pairs forget their history and hold
+/// zeros (and return `None`); touching ones return (F_n, F_t) (N).
 #[inline(always)]
 pub fn slot_contact(
     i: usize,
@@ -304,32 +304,29 @@ pub fn slot_contact(
     g: &GrainState,
     shear: &mut f64,
     out: &mut Quad,
-    (normal, tangential, dt): (&Hooke, &CundallStrack, f64),
+    (law, dt): (&ContactLaw, f64),
 ) -> Option<(f64, f64)> {
-    let (dx, dy) = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
-    let rs = g.radius[i] + g.radius[j];
-    let r2 = dx * dx + dy * dy;
-    if r2 >= rs * rs {
-        *shear = 0.0;
-        *out = Quad([0.0; 4]);
-        return None;
+    let m = Motion {
+        dvx: g.vx[i] - g.vx[j],
+        dvy: g.vy[i] - g.vy[j],
+        w_i: g.omega[i],
+        w_j: g.omega[j],
+    };
+    let d = (g.x[i] - g.x[j], g.y[i] - g.y[j]);
+    match law.pair(d, (g.radius[i], g.radius[j]), m, shear, dt) {
+        None => {
+            *out = Quad([0.0; 4]);
+            None
+        }
+        Some(c) => {
+            debug_assert!(
+                c.t_i == c.t_j,
+                "the pillar's sink stores one torque per slot"
+            );
+            *out = Quad([c.fx, c.fy, c.t_i, 0.0]);
+            Some((c.f_n, c.f_t))
+        }
     }
-    let dist = r2.sqrt();
-    // One division for both components (the vector kernels' divider is their
-    // bottleneck); within an ulp of dx / dist.
-    let inv_dist = 1.0 / dist;
-    let (nx, ny) = (dx * inv_dist, dy * inv_dist);
-    let (dvx, dvy) = (g.vx[i] - g.vx[j], g.vy[i] - g.vy[j]);
-    let f_n = normal.force(rs - dist, dvx * nx + dvy * ny);
-    let vt = dvy * nx - dvx * ny - 0.5 * dist * (g.omega[i] + g.omega[j]);
-    let f_t = tangential.force(shear, vt, dt, f_n);
-    *out = Quad([
-        f_n * nx - f_t * ny,
-        f_n * ny + f_t * nx,
-        -0.5 * dist * f_t,
-        0.0,
-    ]);
-    Some((f_n, f_t))
 }
 
 /// The bars as grains of infinite radius with 2 k_n and 2 k_t and friction μ_bar
@@ -337,8 +334,8 @@ pub fn slot_contact(
 /// bottom face at `bottom` (m), fixed; time step `dt` (s).
 #[derive(Clone, Copy)]
 pub struct Bars {
-    pub normal: Hooke,
-    pub tangential: CundallStrack,
+    /// The grain–bar law ([`super::params::PillarParams::bar_law`]).
+    pub law: ContactLaw,
     pub top: f64,
     pub bottom: f64,
     pub v_bar: f64,
@@ -388,7 +385,7 @@ pub fn bar_contacts(
             i += 1;
             continue;
         }
-        // n points from the bar into the grain; t̂ = ẑ × n.
+        // n points from the bar into the grain.
         for (face, ny, bar_vy, shear, total) in [
             (b.top, -1.0, -b.v_bar, &mut g.top_shear[i], &mut top_force),
             (
@@ -400,22 +397,14 @@ pub fn bar_contacts(
             ),
         ] {
             let gap = (g.y[i] - face) * ny;
-            let delta = r - gap;
-            if delta <= 0.0 {
-                *shear = 0.0;
-                continue;
+            let motion = (g.vx[i], g.vy[i] - bar_vy, g.omega[i]);
+            if let Some(c) = b.law.wall(gap, (0.0, ny), r, motion, shear, b.dt) {
+                fx[i] += c.fx;
+                shear_force += c.fx;
+                fy[i] += c.fy;
+                tq[i] += c.t_i;
+                *total += c.f_n;
             }
-            let vn = (g.vy[i] - bar_vy) * ny;
-            let f_n = b.normal.force(delta, vn);
-            // t̂ = (−n_y, 0); contact point at −gap n from the centre.
-            let tx = -ny;
-            let vt = g.vx[i] * tx - gap * g.omega[i];
-            let f_t = b.tangential.force(shear, vt, b.dt, f_n);
-            fx[i] += f_t * tx;
-            shear_force += f_t * tx;
-            fy[i] += f_n * ny;
-            tq[i] += -gap * f_t;
-            *total += f_n;
         }
         i += 1;
     }

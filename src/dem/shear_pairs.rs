@@ -4,6 +4,7 @@
 //! actual states keep the contact bookkeeping (the predictor of Eq. 22 needs forces
 //! only); `VIRIAL`: the virial, only at the states the outputs sample.
 
+use super::law::{ContactLaw, ContactPoint, Damping, Motion, Normal, Tangential};
 use super::shear::{Collisions, Virial};
 use super::shear_near::contact_event;
 use super::verlet::rint;
@@ -11,13 +12,15 @@ use super::verlet::rint;
 /// Everything the pair loop reads besides the state (units d_s = m = τ_e = 1).
 #[derive(Debug, Clone, Copy)]
 pub struct PairParams {
-    /// k_d = 1/Q.
+    /// The contact law (Eqs. 2–3 or 5–7): the vector kernels implement the harmonic
+    /// one (`ContactLaw::is_harmonic_vagberg`), the reference loop any.
+    pub law: ContactLaw,
+    /// The law's k_d = 1/Q and exponent α of Eq. 1, for the kernels.
     pub kd: f64,
-    /// Exponent α of Eq. 1.
     pub alpha: f64,
     /// γ̇ L, the velocity jump across the Lees–Edwards boundary.
     pub shear_v: f64,
-    /// CDrot (contact-point velocities, Eq. 6) rather than CD.
+    /// The law is CDrot (contact-point velocities, Eq. 6) rather than CD.
     pub cdrot: bool,
     /// Box side L, 1/L, Lees–Edwards offset γ L.
     pub ll: f64,
@@ -30,11 +33,23 @@ pub struct PairParams {
 impl PairParams {
     /// For `p` in a box of side `l` with Lees–Edwards offset `offset` at time `now`.
     pub fn new(p: &super::shear::ShearParams, l: f64, offset: f64, now: f64) -> Self {
+        let cdrot = p.model == super::shear::Dissipation::Cdrot;
+        let k_d = 1.0 / p.q;
         PairParams {
-            kd: 1.0 / p.q,
+            law: ContactLaw {
+                normal: Normal::RelativePowerLaw { alpha: p.alpha },
+                damping: if cdrot {
+                    Damping::CdRot { k_d }
+                } else {
+                    Damping::Cd { k_d }
+                },
+                tangential: Tangential::None,
+                point: ContactPoint::RadiusRatio,
+            },
+            kd: k_d,
             alpha: p.alpha,
             shear_v: p.rate * l,
-            cdrot: p.model == super::shear::Dissipation::Cdrot,
+            cdrot,
             ll: l,
             inv_l: 1.0 / l,
             offset,
@@ -75,7 +90,7 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
     }
     let mut vir = Virial::default();
     let track = HISTORY;
-    let (kd, alpha, shear_v, cdrot) = (pp.kd, pp.alpha, pp.shear_v, pp.cdrot);
+    let (law, shear_v) = (&pp.law, pp.shear_v);
     let (ll, inv_l, offset, now) = (pp.ll, pp.inv_l, pp.offset, pp.now);
     for i in 0..x.len() {
         for k in start[i] as usize..start[i + 1] as usize {
@@ -87,50 +102,32 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
             let dy = dy - img * ll;
             let dx = dx - img * offset;
             let dx = dx - ll * rint(dx * inv_l);
-            let dij = r[i] + r[j];
-            let r2 = dx * dx + dy * dy;
-            let touch = !(r2 >= dij * dij);
+            // Relative velocity; j's image moves img·γ̇L faster along x.
+            let m = Motion {
+                dvx: vx[i] - vx[j] - img * shear_v,
+                dvy: vy[i] - vy[j],
+                w_i: w[i],
+                w_j: w[j],
+            };
+            let mut no_history = 0.0;
+            let c = law.pair((dx, dy), (r[i], r[j]), m, &mut no_history, 0.0);
             if track {
-                hist[k] = contact_event(hist[k], touch, (dx, dy), now, coll);
+                hist[k] = contact_event(hist[k], c.is_some(), (dx, dy), now, coll);
             }
-            if !touch {
-                continue;
-            }
+            let Some(c) = c else { continue };
             if VIRIAL {
                 vir.contacts += 1;
             }
-            let dist = r2.sqrt();
-            let inv_dist = 1.0 / dist;
-            let inv_dij = 1.0 / dij;
-            let (nx, ny) = (dx * inv_dist, dy * inv_dist);
-            // Eq. 2 with d_ij = (d_i + d_j)/2 = R_i + R_j and k_e = 1.
-            let overlap = 1.0 - dist * inv_dij;
-            let fe = if alpha == 2.0 {
-                overlap * inv_dij
-            } else {
-                overlap.powf(alpha - 1.0) * inv_dij
-            };
-            let (ex, ey) = (fe * nx, fe * ny);
-            // Relative velocity; j's image moves img·γ̇L faster along x.
-            let (mut dvx, mut dvy) = (vx[i] - vx[j] - img * shear_v, vy[i] - vy[j]);
-            // Moment arms s_ji (i to contact) = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
-            let (si, sj) = (r[i] * inv_dij, r[j] * inv_dij);
-            let (six, siy, sjx, sjy) = (-dx * si, -dy * si, dx * sj, dy * sj);
-            if cdrot {
-                // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
-                dvx += -w[i] * siy + w[j] * sjy;
-                dvy += w[i] * six - w[j] * sjx;
-            }
-            let (ddx, ddy) = (-kd * dvx, -kd * dvy);
-            fx[i] += ex + ddx;
-            fy[i] += ey + ddy;
-            fx[j] -= ex + ddx;
-            fy[j] -= ey + ddy;
-            // Eq. 7: torques of the dissipative force about each centre.
-            tq[i] += six * ddy - siy * ddx;
-            tq[j] += sjx * (-ddy) - sjy * (-ddx);
+            fx[i] += c.fx;
+            fy[i] += c.fy;
+            fx[j] -= c.fx;
+            fy[j] -= c.fy;
+            tq[i] += c.t_i;
+            tq[j] += c.t_j;
             if VIRIAL {
                 // f ⊗ r_ij (Eqs. 12–13), per unit area later.
+                let (ex, ey) = (c.f_n * c.n.0, c.f_n * c.n.1);
+                let (ddx, ddy) = c.dis;
                 vir.el[0] += ex * dx;
                 vir.el[1] += ex * dy;
                 vir.el[2] += ey * dx;

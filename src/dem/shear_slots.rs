@@ -14,6 +14,7 @@
 //! loop ([`super::shear_pairs::pair_loop`]) does and the sums add in its order, so the
 //! results are the same bit for bit (a test holds them to it).
 
+use super::law::{ContactLaw, ContactPoint, Damping, Motion, Normal, Tangential};
 use super::shear::Collisions;
 use super::shear_near::{History, Slots};
 use super::shear_pairs::{PairParams, StateSlices};
@@ -96,7 +97,8 @@ pub fn evaluate<const TRACK: bool>(
             && slots.hist.len() >= slots.len(),
         "state does not match the slot table"
     );
-    let harmonic = pp.alpha == 2.0;
+    // The vector kernels implement the harmonic law only.
+    let harmonic = pp.law.is_harmonic_vagberg().is_some();
     #[cfg(target_arch = "x86_64")]
     if harmonic && super::simd::level() >= super::simd::Level::Avx2 {
         packed.fill(st);
@@ -259,7 +261,9 @@ forces_variant!(forces_cd_harmonic, false, true);
 forces_variant!(forces_cdrot_general, true, false);
 forces_variant!(forces_cd_general, false, false);
 
-/// Force and torques of each touching slot of one block (Eqs. 2, 3 or 5–7).
+/// Force and torques of each touching slot of one block by the law's scalar reference
+/// ([`ContactLaw::pair`], Eqs. 2, 3 or 5–7), with the law rebuilt from the constants
+/// so that its choices fold away.
 #[inline(always)]
 fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
     (_, _, vx, vy, w, r): StateSlices,
@@ -270,10 +274,23 @@ fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
     b: &Seps,
     o: &mut Forces,
 ) {
-    let (kd, alpha, shear_v) = (pp.kd, pp.alpha, pp.shear_v);
+    let k_d = pp.kd;
+    let law = ContactLaw {
+        normal: Normal::RelativePowerLaw {
+            alpha: if HARMONIC { 2.0 } else { pp.alpha },
+        },
+        damping: if CDROT {
+            Damping::CdRot { k_d }
+        } else {
+            Damping::Cd { k_d }
+        },
+        tangential: Tangential::None,
+        point: ContactPoint::RadiusRatio,
+    };
+    debug_assert!(law == pp.law);
+    let shear_v = pp.shear_v;
     // Every listed slot k < the block's length (`separations` wrote them), and every
-    // slice here holds the block: `at` may skip the bounds checks that would keep this
-    // loop from vectorising.
+    // slice here holds the block: `at` may skip the bounds checks.
     debug_assert!(si.len() <= BLOCK && sj.len() == si.len() && inv_dij.len() == si.len());
     for m in 0..b.contacts.min(BLOCK) {
         let k = b.slot[m] as usize % BLOCK;
@@ -281,37 +298,24 @@ fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
         // SAFETY (this and the reads below): see `at`.
         let (i, j) = unsafe { (at(si, k) as usize, at(sj, k) as usize) };
         let (dx, dy, img) = (b.dx[k], b.dy[k], b.img[k]);
-        let r2 = dx * dx + dy * dy;
-        let dist = r2.sqrt();
-        let inv_dist = 1.0 / dist;
-        let inv_dij = unsafe { at(inv_dij, k) };
-        let (nx, ny) = (dx * inv_dist, dy * inv_dist);
-        // Eq. 2 with d_ij = R_i + R_j and k_e = 1.
-        let overlap = 1.0 - dist * inv_dij;
-        let fe = if HARMONIC {
-            overlap * inv_dij
-        } else {
-            overlap.powf(alpha - 1.0) * inv_dij
+        // j's image moves img·γ̇L faster along x.
+        let motion = unsafe {
+            Motion {
+                dvx: at(vx, i) - at(vx, j) - img * shear_v,
+                dvy: at(vy, i) - at(vy, j),
+                w_i: at(w, i),
+                w_j: at(w, j),
+            }
         };
-        let (ex, ey) = (fe * nx, fe * ny);
-        // Relative velocity; j's image moves img·γ̇L faster along x.
-        let (mut dvx, mut dvy) =
-            unsafe { (at(vx, i) - at(vx, j) - img * shear_v, at(vy, i) - at(vy, j)) };
-        // Moment arms s_ji (i to contact) = −r_ij R_i/d_ij, s_ij = r_ij R_j/d_ij.
-        let (s_i, s_j) = unsafe { (at(r, i) * inv_dij, at(r, j) * inv_dij) };
-        let (six, siy, sjx, sjy) = (-dx * s_i, -dy * s_i, dx * s_j, dy * s_j);
-        if CDROT {
-            // v_i + ω_i ẑ×s_ji − (v_j + ω_j ẑ×s_ij), Eq. 6.
-            let (wi, wj) = unsafe { (at(w, i), at(w, j)) };
-            dvx += -wi * siy + wj * sjy;
-            dvy += wi * six - wj * sjx;
-        }
-        let (ddx, ddy) = (-kd * dvx, -kd * dvy);
-        o.fx[m] = ex + ddx;
-        o.fy[m] = ey + ddy;
-        // Eq. 7: torques of the dissipative force about each centre.
-        o.ti[m] = six * ddy - siy * ddx;
-        o.tj[m] = sjx * (-ddy) - sjy * (-ddx);
+        let radii = unsafe { (at(r, i), at(r, j)) };
+        let mut no_history = 0.0;
+        // `separations` listed the slot as touching, by the same test.
+        let inv = unsafe { at(inv_dij, k) };
+        let c = law.in_contact((dx, dy), radii, inv, motion, &mut no_history, 0.0);
+        o.fx[m] = c.fx;
+        o.fy[m] = c.fy;
+        o.ti[m] = c.t_i;
+        o.tj[m] = c.t_j;
     }
 }
 

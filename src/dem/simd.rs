@@ -64,7 +64,40 @@ pub fn use_at_most(max: Level) {
     STATE.store(max.min(detected()) as u8, Ordering::Relaxed);
 }
 
-/// The level in use (detected once).
+impl Level {
+    /// The name users write (`PILLAR_PIPE_SIMD`) and manifests record.
+    pub fn name(self) -> &'static str {
+        match self {
+            Level::Baseline => "baseline",
+            Level::Avx2 => "avx2",
+            Level::Avx512 => "avx512",
+        }
+    }
+
+    fn parse(s: &str) -> Option<Level> {
+        match s.trim() {
+            "baseline" => Some(Level::Baseline),
+            "avx2" => Some(Level::Avx2),
+            "avx512" => Some(Level::Avx512),
+            _ => None,
+        }
+    }
+}
+
+/// The level the environment variable `PILLAR_PIPE_SIMD` (`baseline`, `avx2`,
+/// `avx512`) caps this process at, for timing one kernel against another and for
+/// ruling a kernel out; an unknown value is an error, not a silent default.
+pub fn cap_from_env() -> Result<Option<Level>, String> {
+    match std::env::var("PILLAR_PIPE_SIMD") {
+        Err(_) => Ok(None),
+        Ok(v) => Level::parse(&v)
+            .map(Some)
+            .ok_or_else(|| format!("PILLAR_PIPE_SIMD = '{v}': expected baseline, avx2 or avx512")),
+    }
+}
+
+/// The level in use: the processor's best, capped by `PILLAR_PIPE_SIMD` (which the
+/// CLI checks at start, so an unknown value never gets here) or `use_at_most`.
 #[inline(always)]
 pub fn level() -> Level {
     match STATE.load(Ordering::Relaxed) {
@@ -72,7 +105,10 @@ pub fn level() -> Level {
         2 => Level::Avx2,
         3 => Level::Avx512,
         _ => {
-            let l = detected();
+            let mut l = detected();
+            if let Ok(Some(cap)) = cap_from_env() {
+                l = l.min(cap);
+            }
             STATE.store(l as u8, Ordering::Relaxed);
             l
         }

@@ -414,10 +414,10 @@ fn each_grain_sums_exactly_its_own_contacts() {
         omega: &g.omega,
         radius: &g.radius,
     };
-    let (normal, tangential) = (before.normal(), before.tangential());
+    let law = before.law();
     let l = &before.list;
     let mut force = vec![Quad::default(); l.len()];
-    let laws = (&normal, &tangential, before.params.dt);
+    let laws = (&law, before.params.dt);
     for i in 0..g.len() {
         let own = l.start[i] as usize..l.start[i + 1] as usize;
         for ((out, &j), &shear) in force[own.clone()]
