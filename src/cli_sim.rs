@@ -31,6 +31,11 @@ pub struct PillarArgs {
     /// Override a model parameter (SI units), e.g. --param k_n=5000 --param mu_g=0.3.
     #[arg(long = "param", value_parser = parse_kv)]
     params: Vec<(String, f64)>,
+    /// Grain–grain normal law: linear (F = k_n δ, the paper's Eq. 4) or hertz
+    /// (F = k δ^{3/2}; k = --param k_hertz=…, by default matched to the linear law at the
+    /// force unit m g μ). Bars use the same law with twice the stiffness.
+    #[arg(long, default_value = "linear", value_name = "LAW")]
+    normal_law: pillar_pipe::dem::params::NormalLawName,
     /// Final strain ε = ΔH/H0.
     #[arg(long, default_value_t = 0.3)]
     strain: f64,
@@ -167,6 +172,7 @@ pub fn simulate(cmd: SimulateCmd) -> Result<()> {
         packing: a.packing,
         preset: a.preset,
         set: a.params.into_iter().collect::<BTreeMap<_, _>>(),
+        normal_law: a.normal_law,
         strain: a.strain,
         output_every: a.output_every,
         forces_every: a.forces_every,

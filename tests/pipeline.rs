@@ -215,35 +215,44 @@ fn bundled_pipelines_validate() {
     assert!(!d.join("runs").exists(), "--dry-run writes nothing");
 }
 
+/// A simulate stage runs from a pipeline file, its tables are the stage's outputs,
+/// and the `normal_law` key reaches the simulator (the Hertzian law runs on the scalar
+/// reference; its manifest says so); a law the simulator does not know is refused
+/// naming the key and the choices.
 #[test]
-fn simulate_stage_runs_or_says_it_is_not_implemented() {
+fn simulate_stage_runs_with_the_hertzian_law() {
     let d = tmpdir("sim");
     let runs = d.join("runs");
     let file = d.join("sim.toml");
     std::fs::write(
         &file,
-        "[simulation.simulate]\npreset = \"fast\"\nn = 200\nstrain = 0.02\nseed = 3\n",
+        "[simulation.simulate]\npreset = \"fast\"\nn = 200\nstrain = 0.02\nseed = 3\nnormal_law = \"hertz\"\n",
     )
     .unwrap();
     let (ok, out, err) = pp(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    assert!(ok, "{out}\n{err}");
     let m = latest(&runs);
-    if ok {
-        // Once the simulator is merged: its tables are the stage's outputs.
-        let st = &m["stages"][0];
-        assert!(st["outputs"]["tracks"].is_string(), "{st}");
-        let tracks = runs
-            .join(st["dir"].as_str().unwrap())
-            .join(st["outputs"]["tracks"].as_str().unwrap());
-        assert!(tracks.is_file(), "{}", tracks.display());
-        assert!(m["metrics"]["simulation.simulate"]["n"].is_u64(), "{m}");
-    } else {
-        assert!(
-            err.contains("stage 'simulation.simulate' (simulate) failed")
-                && err.contains("not implemented"),
-            "{out}\n{err}"
-        );
-        assert_eq!(m["failed_stage"], "simulation.simulate");
-    }
+    let st = &m["stages"][0];
+    let dir = runs.join(st["dir"].as_str().unwrap());
+    let tracks = dir.join(st["outputs"]["tracks"].as_str().unwrap());
+    assert!(tracks.is_file(), "{}", tracks.display());
+    assert!(m["metrics"]["simulation.simulate"]["n"].is_u64(), "{m}");
+    let sim: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(sim["params"]["normal_law"], "hertz", "{sim}");
+    assert_eq!(sim["pair_kernel_this_session"], "scalar", "{sim}");
+
+    std::fs::write(
+        &file,
+        "[simulation.simulate]\npreset = \"fast\"\nn = 200\nnormal_law = \"hooke\"\n",
+    )
+    .unwrap();
+    let (ok, out, err) = pp(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    assert!(!ok, "{out}");
+    assert!(
+        err.contains("normal_law") && err.contains("linear") && err.contains("hertz"),
+        "{err}"
+    );
 }
 
 /// The schema file documents exactly the keys the option structs take, with the same

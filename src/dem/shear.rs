@@ -9,6 +9,7 @@
 //! by n γ̇ L, which is the Lees–Edwards rule without any remapping of stored state.
 
 use super::grains::{Grains, LARGE, SMALL};
+use super::law::{ContactLaw, ContactPoint, Damping, Normal, Tangential};
 use super::shear_integrate::{Packed, Quad, correct, predict};
 use super::shear_near::Slots;
 use super::shear_pairs::{PairParams, pair_loop};
@@ -74,6 +75,21 @@ impl ShearParams {
         }
         Ok(())
     }
+    /// The contact law: Eq. 2's repulsion (exponent α) with CD (Eq. 3) or CDrot
+    /// (Eqs. 5–7) dissipation, k_d = 1/Q, frictionless, in units where k_e = 1.
+    pub fn law(&self) -> ContactLaw {
+        let k_d = 1.0 / self.q;
+        ContactLaw {
+            normal: Normal::RelativePowerLaw { alpha: self.alpha },
+            damping: match self.model {
+                Dissipation::Cdrot => Damping::CdRot { k_d },
+                Dissipation::Cd => Damping::Cd { k_d },
+            },
+            tangential: Tangential::None,
+            point: ContactPoint::RadiusRatio,
+        }
+    }
+
     /// Box side L from φ (Eq. 11), in d_s.
     pub fn box_side(&self) -> f64 {
         let area = std::f64::consts::PI * self.n as f64 / 2.0 * (0.25 + 0.25 * 1.4 * 1.4);
@@ -318,6 +334,20 @@ impl ShearSim {
             } else {
                 evaluate::<false>(st, slots, packed, hist, &pp, fx, fy, tq, coll);
             }
+        }
+    }
+
+    /// The force kernel the steps run, as manifests record it: `reference` (the
+    /// straight loop over the law's scalar reference), `avx512` or `avx2` (the
+    /// hand-written kernels of the harmonic law), or `portable` (the slot loop over the
+    /// scalar reference, for any other law or processor).
+    pub fn kernel_name(&self) -> &'static str {
+        if self.kernel == ShearKernel::Straight {
+            "reference"
+        } else if super::shear_integrate::Packed::used_for(&self.p) {
+            super::simd::level().name()
+        } else {
+            "portable"
         }
     }
 

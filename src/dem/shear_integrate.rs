@@ -21,11 +21,12 @@ impl PartialEq for Packed {
 }
 
 impl Packed {
-    /// Whether the steps of `p` run packed: the AVX2 force kernel (α = 2) and the
-    /// packed integrator. Read once per step: the level is global, and tests switch it.
+    /// Whether the steps of `p` run packed: the vector force kernels (which implement
+    /// the harmonic law only) and the packed integrator. Read once per step: the level
+    /// is global, and tests switch it.
     pub fn used_for(p: &super::shear::ShearParams) -> bool {
         cfg!(target_arch = "x86_64")
-            && p.alpha == 2.0
+            && p.law().is_harmonic_vagberg().is_some()
             && super::simd::level() >= super::simd::Level::Avx2
     }
 

@@ -4,7 +4,7 @@
 //! actual states keep the contact bookkeeping (the predictor of Eq. 22 needs forces
 //! only); `VIRIAL`: the virial, only at the states the outputs sample.
 
-use super::law::{ContactLaw, ContactPoint, Damping, Motion, Normal, Tangential};
+use super::law::{ContactLaw, Damping, Motion};
 use super::shear::{Collisions, Virial};
 use super::shear_near::contact_event;
 use super::verlet::rint;
@@ -33,19 +33,14 @@ pub struct PairParams {
 impl PairParams {
     /// For `p` in a box of side `l` with Lees–Edwards offset `offset` at time `now`.
     pub fn new(p: &super::shear::ShearParams, l: f64, offset: f64, now: f64) -> Self {
-        let cdrot = p.model == super::shear::Dissipation::Cdrot;
-        let k_d = 1.0 / p.q;
+        let law = p.law();
+        let (k_d, cdrot) = match law.damping {
+            Damping::CdRot { k_d } => (k_d, true),
+            Damping::Cd { k_d } => (k_d, false),
+            Damping::None | Damping::ViscousNormal { .. } => (0.0, false),
+        };
         PairParams {
-            law: ContactLaw {
-                normal: Normal::RelativePowerLaw { alpha: p.alpha },
-                damping: if cdrot {
-                    Damping::CdRot { k_d }
-                } else {
-                    Damping::Cd { k_d }
-                },
-                tangential: Tangential::None,
-                point: ContactPoint::RadiusRatio,
-            },
+            law,
             kd: k_d,
             alpha: p.alpha,
             shear_v: p.rate * l,

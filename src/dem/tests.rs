@@ -116,6 +116,56 @@ fn a_push_below_m_g_mu_never_moves_a_grain_and_above_it_does() {
     assert_eq!(s.grains.vx, vec![0.0, 0.0]);
 }
 
+/// The α = 5/2 option in a whole pillar step: two small grains held by the substrate
+/// exactly while k δ^{3/2} ≤ m g μ. At 0.9 of the Hertzian threshold overlap the
+/// linear law would push (k_n δ > m g μ there), the Hertzian law must not; from 1.5
+/// of it they separate until the Hertzian force no longer beats the substrate.
+#[test]
+fn hertzian_contacts_hold_exactly_below_m_g_mu() {
+    use crate::dem::params::NormalLawName;
+    let mut p = still_bars(PillarParams::paper());
+    p.normal_law = NormalLawName::Hertz;
+    p.validate().unwrap();
+    let k = p.hertz_k();
+    let f_static = p.m_small * p.g * p.mu;
+    let threshold = (f_static / k).powf(2.0 / 3.0);
+    let hertz_pair = |delta: f64| {
+        let r = 0.5 * p.d_small;
+        let mut g = Grains::default();
+        g.push(0, SMALL, r, p.m_small, 0.0, 0.0);
+        g.push(1, SMALL, r, p.m_small, 2.0 * r - delta, 0.0);
+        PillarSim::with_bars(p.clone(), g, -1.0, 1.0)
+    };
+    let below = 0.9 * threshold;
+    assert!(p.k_n * below > f_static, "the linear law would move these");
+    let mut s = hertz_pair(below);
+    assert_eq!(
+        s.pair_kernel(),
+        "scalar",
+        "no vector kernel implements Hertz"
+    );
+    let x0 = s.grains.x.clone();
+    for _ in 0..20_000 {
+        s.step();
+    }
+    assert_eq!(s.grains.x, x0, "held by the substrate");
+    let start = 1.5 * threshold;
+    let mut s = hertz_pair(start);
+    for _ in 0..20_000 {
+        s.step();
+    }
+    let overlap = p.d_small - (s.grains.x[1] - s.grains.x[0]).abs();
+    assert!(
+        overlap < 0.99 * start,
+        "moved: overlap {overlap} of {start}"
+    );
+    assert!(
+        k * overlap.powf(1.5) <= f_static * (1.0 + 1e-12),
+        "stopped only once k δ^3/2 ≤ m g μ: overlap {overlap}, threshold {threshold}"
+    );
+    assert_eq!(s.grains.vx, vec![0.0, 0.0]);
+}
+
 #[test]
 fn frictionless_collision_conserves_momentum_and_energy() {
     let mut p = still_bars(PillarParams::paper());

@@ -430,6 +430,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet"), "contact_velocities": out.join("contact_velocities.parquet"), "fields": out.join("fields.parquet")},
         "elapsed_s": rep.elapsed_s,
         "ns_per_particle_step": rep.elapsed_s * 1e9 / (sim.g.len() as f64 * sim.step.max(1) as f64),
+        "force_kernel": sim.kernel_name(),
         "decisions": [
             "units d_s = m = tau_e = 1: k_e = 1, k_d = 1/Q",
             "positions unwrapped; minimum image with the Lees–Edwards offset gamma L, the image's velocity shifted by n gamma_dot L",

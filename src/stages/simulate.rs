@@ -6,7 +6,7 @@
 use super::sim_tables::{Buffers, FrameStats, TABLES, drop_parts_from, merge_parts};
 use crate::dem::checkpoint::{Dec, Enc};
 use crate::dem::forces::ContactRecord;
-use crate::dem::params::PillarParams;
+use crate::dem::params::{NormalLawName, PillarParams};
 use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};
 use crate::interrupt::CheckpointClock;
@@ -30,6 +30,8 @@ pub struct SimulateOptions {
     pub preset: String,
     /// Parameter overrides by name (SI units), e.g. `k_n = 5000.0`, `mu_g = 0.3`.
     pub set: BTreeMap<String, f64>,
+    /// Grain–grain normal law (`linear`, the paper's, or `hertz`).
+    pub normal_law: NormalLawName,
     /// Final engineering strain ε = ΔH/H0.
     pub strain: f64,
     /// Steps between output frames (default: the preset's, Δt_frame = R/(15 v_c)).
@@ -62,6 +64,7 @@ impl Default for SimulateOptions {
             packing: None,
             preset: "fast".into(),
             set: BTreeMap::new(),
+            normal_law: NormalLawName::Linear,
             strain: 0.3,
             output_every: None,
             forces_every: 5,
@@ -78,6 +81,57 @@ impl Default for SimulateOptions {
 /// Options that say how a run proceeds, not what it computes: a resumed run may change
 /// them, and they enter no cache key.
 pub const RUN_ONLY: [&str; 4] = ["resume", "quiet", "checkpoint_every", "checkpoint_interval"];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checkpoints_of_earlier_versions_resume_when_new_options_are_default() {
+        let now = SimulateOptions::default();
+        let mut then = now.physics();
+        then.as_object_mut().unwrap().remove("normal_law");
+        let then = serde_json::to_string(&then).unwrap();
+        let now_s = serde_json::to_string(&now.physics()).unwrap();
+        assert!(same_physics(&then, &now_s));
+        let hertz = SimulateOptions {
+            normal_law: NormalLawName::Hertz,
+            ..now.clone()
+        };
+        let hertz = serde_json::to_string(&hertz.physics()).unwrap();
+        assert!(
+            !same_physics(&then, &hertz),
+            "a changed law must not resume"
+        );
+        let other = SimulateOptions { seed: 9, ..now };
+        let other = serde_json::to_string(&other.physics()).unwrap();
+        assert!(!same_physics(&now_s, &other));
+    }
+}
+
+/// Whether a checkpoint's options (`then`, JSON) are `now`'s: equal, or equal once
+/// options added since that checkpoint was written take their defaults (a run
+/// checkpointed by an earlier version resumes when nothing it did changes).
+fn same_physics(then: &str, now: &str) -> bool {
+    if then == now {
+        return true;
+    }
+    let (Ok(mut a), Ok(b)) = (
+        serde_json::from_str::<serde_json::Value>(then),
+        serde_json::from_str::<serde_json::Value>(now),
+    ) else {
+        return false;
+    };
+    let defaults = SimulateOptions::default().physics();
+    if let (Some(a), Some(b)) = (a.as_object_mut(), b.as_object()) {
+        for (k, v) in b {
+            if !a.contains_key(k) && defaults.get(k) == Some(v) {
+                a.insert(k.clone(), v.clone());
+            }
+        }
+    }
+    a == b
+}
 
 impl SimulateOptions {
     /// The options that determine the numbers (a resume must match these).
@@ -101,13 +155,14 @@ impl SimulateOptions {
             )
         })?;
         let mut v = serde_json::to_value(&base).expect("params serialise");
+        v["normal_law"] = serde_json::json!(self.normal_law);
         for (k, x) in &self.set {
-            if k == "preset" || v.get(k).is_none() {
+            if k == "preset" || k == "normal_law" || v.get(k).is_none() {
                 let known: Vec<&String> = v
                     .as_object()
                     .expect("object")
                     .keys()
-                    .filter(|k| *k != "preset")
+                    .filter(|k| *k != "preset" && *k != "normal_law")
                     .collect();
                 return Err(Error::param(
                     "set",
@@ -228,7 +283,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
     let physics = serde_json::to_string(&opt.physics()).expect("json");
     let (mut sim, mut prog) = if opt.resume {
         let (sim, prog) = read_checkpoint(&ckpt)?;
-        if prog.physics != physics {
+        if !same_physics(&prog.physics, &physics) {
             return Err(Error::param(
                 "resume",
                 format!(
@@ -422,6 +477,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         "report": &report,
         "steps_this_session": sim.step - step0,
         "threads_this_session": sim.threads_for_run(),
+        "pair_kernel_this_session": sim.pair_kernel(),
         "thread_fallbacks_this_session": sim.scratch.fallbacks,
         // How much the exact skip of substrate-held grains saved (docs/performance.md,
         // "Pillar DEM"): grain-steps skipped over grain-steps run, this session.
