@@ -2,9 +2,9 @@
 //! distance pass (the floor any implementation pays) timed in the same run, and an
 //! export of the loaded state for `bench/lammps_pillar.py` (LAMMPS on the same grains).
 
-use crate::dem::pack::{PackOptions, pack};
-use crate::dem::params::PillarParams;
 use crate::dem::pillar::PillarSim;
+use crate::dem::pillar::pack::{PackOptions, pack};
+use crate::dem::pillar::params::PillarParams;
 use crate::error::{Error, Result};
 use serde::Serialize;
 use std::path::Path;

@@ -35,7 +35,7 @@ pub struct PillarArgs {
     /// (F = k δ^{3/2}; k = --param k_hertz=…, by default matched to the linear law at the
     /// force unit m g μ). Bars use the same law with twice the stiffness.
     #[arg(long, default_value = "linear", value_name = "LAW")]
-    normal_law: pillar_pipe::dem::params::NormalLawName,
+    normal_law: pillar_pipe::dem::pillar::params::NormalLawName,
     /// Final strain ε = ΔH/H0.
     #[arg(long, default_value_t = 0.3)]
     strain: f64,

@@ -313,7 +313,7 @@ fn shell_quote(a: &str) -> String {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    pillar_pipe::dem::simd::cap_from_env().map_err(anyhow::Error::msg)?;
+    pillar_pipe::dem::backend::simd::cap_from_env().map_err(anyhow::Error::msg)?;
     match cli.cmd {
         Cmd::Ingest {
             input,

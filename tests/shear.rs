@@ -5,7 +5,7 @@
 mod common;
 
 use common::tmpdir;
-use pillar_pipe::dem::grains::{Grains, SMALL};
+use pillar_pipe::dem::base::grains::{Grains, SMALL};
 use pillar_pipe::dem::shear::{Dissipation, ShearParams, ShearSim};
 use pillar_pipe::io::table::read_table;
 use pillar_pipe::stages::shear::{ShearOptions, run};
@@ -606,8 +606,8 @@ fn re_sorting_into_cell_order_keeps_the_physics_and_every_contact() {
 /// statistics, contact history and virial.
 #[test]
 fn slot_kernel_gives_the_straight_loops_run_bit_for_bit() {
+    use pillar_pipe::dem::backend::simd::{Level, detected, level, use_at_most};
     use pillar_pipe::dem::shear::ShearKernel;
-    use pillar_pipe::dem::simd::{Level, detected, level, use_at_most};
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for (model, alpha, phi) in [
         (Dissipation::Cdrot, 2.0, 0.84),
@@ -740,7 +740,7 @@ fn a_box_smaller_than_twice_the_list_reach_is_refused() {
 /// started at the thinnest and the thickest skin stay bit-identical.
 #[test]
 fn the_near_list_skin_adapts_and_changes_no_number() {
-    use pillar_pipe::dem::shear_near::{NEAR_SKIN_MAX, NEAR_SKIN_MIN};
+    use pillar_pipe::dem::shear::near::{NEAR_SKIN_MAX, NEAR_SKIN_MIN};
     let bits = |s: &ShearSim| {
         let g = &s.g;
         [&g.x, &g.y, &g.vx, &g.vy, &g.omega, &s.fx, &s.tq]

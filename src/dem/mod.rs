@@ -1,47 +1,31 @@
-//! The bundled discrete-element model.
+//! The bundled discrete-element model: one core, two scenarios.
 //!
-//! One core serves both papers' systems: grains stored as structure-of-arrays
-//! ([`grains`]), a Verlet pair list that carries each contact's history across rebuilds
-//! ([`verlet`]), and the contact laws as closed enums with one scalar reference
-//! ([`law`]: normal, damping, tangential, contact point; substrate) in the spirit of LAMMPS's granular sub-models. [`pillar`] assembles them
-//! into li-granular-pillars Sec. II (grains on a frictional substrate between two bars);
-//! [`pack`] is that paper's packing protocol (Sec. II.A). The simulators know nothing of
-//! analysis: they emit the canonical `tracks` schema that `ingest`/`kinematics` read.
+//! - [`law`]: the contact laws as closed enums and **the scalar reference** for a pair
+//!   contact and a wall contact (normal, damping, tangential, contact point; the
+//!   substrate's Coulomb friction). The physics of a contact lives here and only here.
+//! - [`base`]: what both scenarios are made of: grains as structure of arrays, the Verlet
+//!   pair list with its per-contact history and the boundaries (open, periodic,
+//!   Lees–Edwards), force-snapshot records, the checkpoint codec.
+//! - [`pillar`]: li-granular-pillars Sec. II — grains on a frictional substrate between
+//!   two bars (set-up, packing protocol, bars and substrate, the step's phases and their
+//!   threads, observables, checkpoints).
+//! - [`shear`]: vagberg-sheared-disks — frictionless disks under Lees–Edwards shear (the
+//!   integrator of Eqs. 21–24, near lists, observables, checkpoints).
+//! - [`backend`]: fast paths, not physics: SIMD level detection, the hand-written AVX2 and
+//!   AVX-512 kernels (each says which law it implements and must match the reference bit
+//!   for bit), the spin barrier the pillar's threads share. Anything a kernel does not
+//!   implement runs the reference.
 //!
-//! Internal units are SI (m, kg, s, N); the stage layer converts lengths to cm on output.
+//! Dependencies point one way: law → base → scenario; the backends serve the scenarios.
+//! The simulators know nothing of analysis: they emit the canonical `tracks` schema that
+//! `ingest`/`kinematics` read. Internal units are SI (m, kg, s, N) for the pillar and
+//! d_s = m = τ_e = 1 for the sheared disks; the stage layer converts on output.
 
-#[cfg(target_arch = "x86_64")]
-mod avx2;
-pub mod barrier;
-pub mod checkpoint;
-pub mod forces;
-pub mod grains;
+pub mod backend;
+pub mod base;
 pub mod law;
-pub mod pack;
-pub mod params;
 pub mod pillar;
-pub mod pillar_arrays;
-#[cfg(target_arch = "x86_64")]
-pub mod pillar_avx2;
-pub mod pillar_gather;
-pub mod pillar_kernels;
-pub mod pillar_par;
-pub mod pillar_phases;
 pub mod shear;
-#[cfg(target_arch = "x86_64")]
-pub mod shear_avx2;
-#[cfg(target_arch = "x86_64")]
-mod shear_avx512;
-pub mod shear_checkpoint;
-pub mod shear_integrate;
-#[cfg(target_arch = "x86_64")]
-mod shear_integrate_avx2;
-pub mod shear_near;
-pub mod shear_order;
-pub mod shear_pairs;
-pub mod shear_slots;
-pub mod simd;
-pub mod verlet;
 
 #[cfg(test)]
 mod tests;

@@ -1,11 +1,11 @@
 //! Analytic and conservation checks of the DEM (issue 5's correctness list).
 
-use super::forces::ContactRecord;
-use super::grains::{Grains, LARGE, SMALL};
-use super::pack::{Lj, PackOptions, pack};
-use super::params::PillarParams;
-use super::pillar::PillarSim;
-use super::verlet::Boundary;
+use crate::dem::base::forces::ContactRecord;
+use crate::dem::base::grains::{Grains, LARGE, SMALL};
+use crate::dem::base::verlet::Boundary;
+use crate::dem::pillar::PillarSim;
+use crate::dem::pillar::pack::{Lj, PackOptions, pack};
+use crate::dem::pillar::params::PillarParams;
 
 /// One grain far from both bars.
 fn lone(params: PillarParams, species: i32) -> PillarSim {
@@ -122,7 +122,7 @@ fn a_push_below_m_g_mu_never_moves_a_grain_and_above_it_does() {
 /// of it they separate until the Hertzian force no longer beats the substrate.
 #[test]
 fn hertzian_contacts_hold_exactly_below_m_g_mu() {
-    use crate::dem::params::NormalLawName;
+    use crate::dem::pillar::params::NormalLawName;
     let mut p = still_bars(PillarParams::paper());
     p.normal_law = NormalLawName::Hertz;
     p.validate().unwrap();
@@ -368,7 +368,7 @@ fn skipping_frozen_grains_gives_exactly_the_same_run() {
 
 #[test]
 fn frozen_grains_are_marked_only_while_enough_were_frozen() {
-    use super::pillar::{MARK_RETRY, Marking};
+    use crate::dem::pillar::{MARK_RETRY, Marking};
     let mut m = Marking::default();
     assert!(m.now, "marks from the start");
     // A marked step that found 10 % frozen: stop marking...
@@ -446,8 +446,8 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
 /// The global force balance cannot see a term delivered to the wrong grain; this can.
 #[test]
 fn each_grain_sums_exactly_its_own_contacts() {
-    use crate::dem::pillar_phases::{GrainState, slot_contact};
-    use crate::dem::simd::Quad;
+    use crate::dem::backend::simd::Quad;
+    use crate::dem::pillar::phases::{GrainState, slot_contact};
     let mut p = PillarParams::fast();
     p.bar_speed *= 5.0;
     let mut sim = packed_pillar(300, 5, p);
@@ -562,7 +562,7 @@ fn fast_steps_keep_the_books_as_serial_steps_do() {
 
 #[test]
 fn every_kernel_level_gives_the_same_run_bit_for_bit() {
-    use crate::dem::simd::{Level, detected, level, use_at_most};
+    use crate::dem::backend::simd::{Level, detected, level, use_at_most};
     // 203 grains: the last chunk of 32 ends in a tail of three, which the vector
     // kernels leave to the scalar code.
     let mut start = packed_pillar(203, 11, PillarParams::fast());
@@ -641,7 +641,7 @@ fn same_run_bits(base: &PillarSim, fast: &PillarSim) {
 /// skin (the overshoot check).
 #[test]
 fn the_skin_adapts_and_changes_no_number() {
-    use super::pillar::{SKIN_MAX, SKIN_MIN};
+    use crate::dem::pillar::{SKIN_MAX, SKIN_MIN};
     let mut p = PillarParams::fast();
     p.bar_speed *= 20.0;
     let start = packed_pillar(300, 9, p);
@@ -718,7 +718,7 @@ fn the_skin_adapts_and_changes_no_number() {
 /// step. The list is now built (all pairs) and holds exactly the touching pairs.
 #[test]
 fn pair_list_survives_a_grain_at_an_absurd_distance() {
-    use super::verlet::PairList;
+    use crate::dem::base::verlet::PairList;
     for far in [1e40, 1e300, 1e12] {
         // 20 grains in a row, 1 apart, radius 0.6 (each touches its neighbours), and
         // one far away.

@@ -1,8 +1,8 @@
 //! `pack`: a jammed bidisperse packing by li-granular-pillars Sec. II.A, written as a
 //! one-frame canonical tracks table (cm) that `simulate pillar --packing` reads.
 
-use crate::dem::pack::{PackOptions, Packing, pack};
-use crate::dem::params::PillarParams;
+use crate::dem::pillar::pack::{PackOptions, Packing, pack};
+use crate::dem::pillar::params::PillarParams;
 use crate::error::Result;
 use crate::tracks::{FrameBox, Provenance, Tracks, TracksMeta};
 use serde::Serialize;
@@ -62,7 +62,7 @@ pub fn run(out: &Path, n: usize, seed: u64, quiet: bool) -> Result<PackReport> {
     bar.finish_and_clear();
     let d_cm = PillarParams::paper().d_large * 100.0;
     let r = |s: i32| {
-        if s == crate::dem::grains::LARGE {
+        if s == crate::dem::base::grains::LARGE {
             0.5 * d_cm
         } else {
             0.375 * d_cm

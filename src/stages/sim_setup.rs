@@ -2,10 +2,10 @@
 //! (an experiment's first frame, overlaps relaxed), placed between the bars.
 
 use super::simulate::SimulateOptions;
-use crate::dem::grains::{LARGE, SMALL};
-use crate::dem::pack::{PackOptions, pack, relax};
-use crate::dem::params::PillarParams;
+use crate::dem::base::grains::{LARGE, SMALL};
 use crate::dem::pillar::PillarSim;
+use crate::dem::pillar::pack::{PackOptions, pack, relax};
+use crate::dem::pillar::params::PillarParams;
 use crate::error::{Error, Result};
 use crate::io::csvdiag::Expect;
 use crate::io::table::read_table;
@@ -146,8 +146,8 @@ fn read_packing(path: &Path) -> Result<Packed> {
 }
 
 fn max_overlap(x: &[f64], y: &[f64], r: &[f64]) -> f64 {
-    let mut list = crate::dem::verlet::PairList::new(0.0);
-    list.build(x, y, r, crate::dem::verlet::Boundary::Open);
+    let mut list = crate::dem::base::verlet::PairList::new(0.0);
+    list.build(x, y, r, crate::dem::base::verlet::Boundary::Open);
     let mut worst: f64 = 0.0;
     for i in 0..x.len() {
         for k in list.start[i] as usize..list.start[i + 1] as usize {

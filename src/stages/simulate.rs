@@ -4,9 +4,9 @@
 //! so a directory without one holds an unfinished run.
 
 use super::sim_tables::{Buffers, FrameStats, TABLES, drop_parts_from, merge_parts};
-use crate::dem::checkpoint::{Dec, Enc};
-use crate::dem::forces::ContactRecord;
-use crate::dem::params::{NormalLawName, PillarParams};
+use crate::dem::base::forces::ContactRecord;
+use crate::dem::pillar::checkpoint::{Dec, Enc};
+use crate::dem::pillar::params::{NormalLawName, PillarParams};
 use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};
 use crate::interrupt::CheckpointClock;

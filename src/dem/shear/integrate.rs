@@ -2,7 +2,7 @@
 //! (alias-free arguments keep the array pointers in registers; multiplying by stored
 //! 1/m and 1/I instead of dividing saves ten divisions per grain and step).
 
-pub use super::simd::{Pos, Quad};
+pub use crate::dem::backend::simd::{Pos, Quad};
 
 /// A state packed grain by grain for the AVX2 force kernel: (x, y) (d_s) and
 /// (v_x, v_y, ω, R) (d_s/τ_e, d_s/τ_e, 1/τ_e, d_s). The packed integrator
@@ -24,14 +24,14 @@ impl Packed {
     /// Whether the steps of `p` run packed: the vector force kernels (which implement
     /// the harmonic law only) and the packed integrator. Read once per step: the level
     /// is global, and tests switch it.
-    pub fn used_for(p: &super::shear::ShearParams) -> bool {
+    pub fn used_for(p: &crate::dem::shear::ShearParams) -> bool {
         cfg!(target_arch = "x86_64")
             && p.law().is_harmonic_vagberg().is_some()
-            && super::simd::level() >= super::simd::Level::Avx2
+            && crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2
     }
 
     /// Pack the state (x, y, v_x, v_y, ω, R).
-    pub fn fill(&mut self, (x, y, vx, vy, w, r): super::shear_pairs::StateSlices) {
+    pub fn fill(&mut self, (x, y, vx, vy, w, r): crate::dem::shear::pairs::StateSlices) {
         let n = x.len();
         self.pos.clear();
         self.pos.extend(x.iter().zip(y).map(|(&a, &b)| Pos([a, b])));

@@ -1,10 +1,10 @@
 //! Exact binary checkpoints: every f64 is stored bit for bit, so a resumed run
 //! continues with the very numbers an uninterrupted one would have had.
 
-use super::grains::Grains;
-use super::params::PillarParams;
-use super::pillar::{Interval, PillarSim};
-use super::verlet::PairList;
+use crate::dem::base::grains::Grains;
+use crate::dem::base::verlet::PairList;
+use crate::dem::pillar::params::PillarParams;
+use crate::dem::pillar::{Interval, PillarSim};
 
 const MAGIC: &[u8; 8] = b"PPCKPT01";
 
@@ -365,7 +365,7 @@ impl PillarSim {
             bar_shear_force,
             interval,
             record: None,
-            scratch: super::pillar::Scratch {
+            scratch: crate::dem::pillar::Scratch {
                 skip_frozen: true,
                 last_build,
                 ..Default::default()

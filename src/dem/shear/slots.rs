@@ -11,14 +11,14 @@
 //!
 //! No pass stores into a grain's array before the sums, so slots are independent and
 //! nothing waits on a mispredicted contact test. Each lane rounds as the scalar straight
-//! loop ([`super::shear_pairs::pair_loop`]) does and the sums add in its order, so the
+//! loop ([`crate::dem::shear::pairs::pair_loop`]) does and the sums add in its order, so the
 //! results are the same bit for bit (a test holds them to it).
 
-use super::law::{ContactLaw, ContactPoint, Damping, Motion, Normal, Tangential};
-use super::shear::Collisions;
-use super::shear_near::{History, Slots};
-use super::shear_pairs::{PairParams, StateSlices};
-use super::verlet::rint;
+use crate::dem::base::verlet::rint;
+use crate::dem::law::{ContactLaw, ContactPoint, Damping, Motion, Normal, Tangential};
+use crate::dem::shear::Collisions;
+use crate::dem::shear::near::{History, Slots};
+use crate::dem::shear::pairs::{PairParams, StateSlices};
 
 /// Slots per block: pass A's results for one block stay in L1 for pass B.
 const BLOCK: usize = 128;
@@ -79,7 +79,7 @@ impl Forces {
 pub fn evaluate<const TRACK: bool>(
     st: StateSlices,
     slots: &mut Slots,
-    packed: &mut super::shear_integrate::Packed,
+    packed: &mut crate::dem::shear::integrate::Packed,
     all_hist: &mut [f64],
     pp: &PairParams,
     fx: &mut [f64],
@@ -100,7 +100,7 @@ pub fn evaluate<const TRACK: bool>(
     // The vector kernels implement the harmonic law only.
     let harmonic = pp.law.is_harmonic_vagberg().is_some();
     #[cfg(target_arch = "x86_64")]
-    if harmonic && super::simd::level() >= super::simd::Level::Avx2 {
+    if harmonic && crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2 {
         packed.fill(st);
         evaluate_packed_into::<TRACK>(packed, slots, all_hist, pp, coll, (fx, fy, tq));
         return;
@@ -134,12 +134,12 @@ pub fn evaluate<const TRACK: bool>(
 /// into arrays. Same numbers as [`evaluate`].
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn evaluate_packed<const TRACK: bool>(
-    packed: &super::shear_integrate::Packed,
+    packed: &crate::dem::shear::integrate::Packed,
     slots: &mut Slots,
     all_hist: &mut [f64],
     pp: &PairParams,
     coll: &mut Collisions,
-    done: super::shear_avx2::Done,
+    done: crate::dem::backend::shear_avx2::Done,
 ) {
     let n = slots.n;
     assert!(
@@ -155,7 +155,7 @@ pub(crate) fn evaluate_packed<const TRACK: bool>(
     // SAFETY: the processor has AVX2 and the packed state holds the slots' n grains
     // (both checked above); `Slots::sync` checked the slots' indices.
     slots.with_history(all_hist, |slots, hist| unsafe {
-        super::shear_avx2::evaluate::<TRACK>(
+        crate::dem::backend::shear_avx2::evaluate::<TRACK>(
             &packed.pos,
             &packed.vel,
             slots,
@@ -174,16 +174,16 @@ pub(crate) fn evaluate_packed<const TRACK: bool>(
 /// range as they are complete, and left zeroed for the next evaluation.
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn evaluate_packed_into<const TRACK: bool>(
-    packed: &super::shear_integrate::Packed,
+    packed: &crate::dem::shear::integrate::Packed,
     slots: &mut Slots,
     all_hist: &mut [f64],
     pp: &PairParams,
     coll: &mut Collisions,
     (fx, fy, tq): (&mut [f64], &mut [f64], &mut [f64]),
 ) {
-    use super::shear_integrate_avx2::unpack_forces;
+    use crate::dem::backend::shear_integrate_avx2::unpack_forces;
     let mut unpack =
-        |r: std::ops::Range<usize>, f: &mut [super::shear_integrate::Quad], _: &Slots| {
+        |r: std::ops::Range<usize>, f: &mut [crate::dem::shear::integrate::Quad], _: &Slots| {
             unpack_forces(f, (&mut fx[r.clone()], &mut fy[r.clone()], &mut tq[r]));
         };
     evaluate_packed::<TRACK>(packed, slots, all_hist, pp, coll, &mut unpack);

@@ -8,15 +8,22 @@
 //! the pair loop maps separations to the minimum image and shifts the image's velocity
 //! by n γ̇ L, which is the Lees–Edwards rule without any remapping of stored state.
 
-use super::grains::{Grains, LARGE, SMALL};
-use super::law::{ContactLaw, ContactPoint, Damping, Normal, Tangential};
-use super::shear_integrate::{Packed, Quad, correct, predict};
-use super::shear_near::Slots;
-use super::shear_pairs::{PairParams, pair_loop};
-use super::shear_slots::evaluate;
+pub mod checkpoint;
+pub mod integrate;
+pub mod near;
+pub mod order;
+pub mod pairs;
+pub mod slots;
+
+use crate::dem::base::grains::{Grains, LARGE, SMALL};
+use crate::dem::base::verlet::{Boundary, PairList};
+use crate::dem::law::{ContactLaw, ContactPoint, Damping, Normal, Tangential};
+use crate::dem::shear::integrate::{Packed, Quad, correct, predict};
+use crate::dem::shear::near::Slots;
+use crate::dem::shear::pairs::{PairParams, pair_loop};
+use crate::dem::shear::slots::evaluate;
 #[cfg(target_arch = "x86_64")]
-use super::shear_slots::{evaluate_packed, evaluate_packed_into};
-use super::verlet::{Boundary, PairList};
+use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -244,7 +251,7 @@ impl ShearSim {
                 ..Default::default()
             },
             rotate: true,
-            resort_every: super::shear_order::RESORT_EVERY,
+            resort_every: crate::dem::shear::order::RESORT_EVERY,
             pred: Predicted::default(),
             slots: Slots::default(),
             kernel: ShearKernel::default(),
@@ -344,8 +351,8 @@ impl ShearSim {
     pub fn kernel_name(&self) -> &'static str {
         if self.kernel == ShearKernel::Straight {
             "reference"
-        } else if super::shear_integrate::Packed::used_for(&self.p) {
-            super::simd::level().name()
+        } else if crate::dem::shear::integrate::Packed::used_for(&self.p) {
+            crate::dem::backend::simd::level().name()
         } else {
             "portable"
         }
@@ -458,7 +465,7 @@ impl ShearSim {
     /// (`shear_integrate_avx2`). f_0 is in `pred.f0x/f0y/t0`.
     #[cfg(target_arch = "x86_64")]
     fn step_packed(&mut self) {
-        use super::shear_integrate_avx2::{Now, correct_packed, predict_packed};
+        use crate::dem::backend::shear_integrate_avx2::{Now, correct_packed, predict_packed};
         let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
         // The clock first: the near list's stray test, made as the predictor writes
         // the positions, is for the boundary at t + Δt.

@@ -13,12 +13,21 @@
 //!
 //! The substrate's static test uses grain–grain and grain–bar forces only.
 
-use super::forces::ContactRecord;
-use super::grains::{Grains, LARGE};
-use super::law::{ContactLaw, SubstrateFriction};
-use super::params::PillarParams;
-use super::pillar_par::StepBuffers;
-use super::verlet::{Boundary, PairList};
+pub mod arrays;
+pub mod checkpoint;
+pub mod gather;
+pub mod kernels;
+pub mod pack;
+pub mod par;
+pub mod params;
+pub mod phases;
+
+use crate::dem::base::forces::ContactRecord;
+use crate::dem::base::grains::{Grains, LARGE};
+use crate::dem::base::verlet::{Boundary, PairList};
+use crate::dem::law::{ContactLaw, SubstrateFriction};
+use crate::dem::pillar::par::StepBuffers;
+use crate::dem::pillar::params::PillarParams;
 
 /// Sums over an output interval (for averages the paper's σ and κ use).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -337,8 +346,8 @@ impl PillarSim {
     pub fn contact_energy(&self) -> f64 {
         let law = self.law();
         let k_t = match law.tangential {
-            super::law::Tangential::CundallStrack { k_t, .. } => k_t,
-            super::law::Tangential::None => 0.0,
+            crate::dem::law::Tangential::CundallStrack { k_t, .. } => k_t,
+            crate::dem::law::Tangential::None => 0.0,
         };
         let g = &self.grains;
         let mut e = 0.0;

@@ -11,8 +11,8 @@
 //! the thin skin) and every pair with contact history, so the forces, their order of
 //! summation and the contact bookkeeping are those of the whole list.
 
-use super::shear::{Collisions, angle_bin};
-use super::verlet::{Boundary, MinImage, PairList, strain_since, stray_limit, strays};
+use crate::dem::base::verlet::{Boundary, MinImage, PairList, strain_since, stray_limit, strays};
+use crate::dem::shear::{Collisions, angle_bin};
 
 /// Extra distance beyond contact kept in the near list (d_s): the range its skin adapts
 /// in, and where it starts.
@@ -62,7 +62,7 @@ pub struct Slots {
     /// How many times the near list was selected.
     pub selections: u64,
     /// Force sums of the AVX2 kernel (scratch).
-    pub(crate) acc: Vec<super::shear_integrate::Quad>,
+    pub(crate) acc: Vec<crate::dem::shear::integrate::Quad>,
     /// `acc` holds zeros for n grains: the packed integrator zeroes the sums as it
     /// reads them, which spares the kernel a pass.
     pub(crate) acc_zeroed: bool,

@@ -133,15 +133,15 @@ macro_rules! multiversion {
                 fn avx2($($arg: $ty),*) $(-> $ret)? {
                     imp($($arg),*)
                 }
-                match $crate::dem::simd::level() {
+                match $crate::dem::backend::simd::level() {
                     // SAFETY: the processor has these (checked at run time). Not an
                     // AVX-512 build for Level::Avx512: LLVM then autovectorises these
                     // loops with 512-bit registers, which made the sheared-disk step 4 %
                     // slower on the project's Intel machines.
-                    $crate::dem::simd::Level::Avx512 | $crate::dem::simd::Level::Avx2 => {
+                    $crate::dem::backend::simd::Level::Avx512 | $crate::dem::backend::simd::Level::Avx2 => {
                         return unsafe { avx2($($arg),*) }
                     }
-                    $crate::dem::simd::Level::Baseline => {}
+                    $crate::dem::backend::simd::Level::Baseline => {}
                 }
             }
             imp($($arg),*)
@@ -179,7 +179,7 @@ macro_rules! avx2_entry_point {
             // SAFETY: the caller keeps the body's contract (AVX2 present); the level is
             // Avx512 only where the processor has those features too.
             unsafe {
-                if $crate::dem::simd::level() == $crate::dem::simd::Level::Avx512 {
+                if $crate::dem::backend::simd::level() == $crate::dem::backend::simd::Level::Avx512 {
                     avx512 $(::<$($g),*>)? ($($arg),*)
                 } else {
                     avx2 $(::<$($g),*>)? ($($arg),*)

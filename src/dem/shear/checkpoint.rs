@@ -1,7 +1,9 @@
 //! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
 
-use super::checkpoint::{Dec, Enc, check_state, dec_grains, dec_list, enc_grains, enc_list};
-use super::shear::{Collisions, Predicted, ShearParams, ShearSim};
+use crate::dem::pillar::checkpoint::{
+    Dec, Enc, check_state, dec_grains, dec_list, enc_grains, enc_list,
+};
+use crate::dem::shear::{Collisions, Predicted, ShearParams, ShearSim};
 
 const MAGIC: &[u8; 8] = b"PPSHEAR1";
 
@@ -123,7 +125,7 @@ impl ShearSim {
             tq,
             coll,
             rotate,
-            resort_every: super::shear_order::RESORT_EVERY,
+            resort_every: crate::dem::shear::order::RESORT_EVERY,
             pred: Predicted::default(),
             slots: Default::default(),
             kernel: Default::default(),

@@ -8,17 +8,17 @@
 //! vectors. The forces go back the same way: one vector add per grain and slot into
 //! packed (f_x, f_y, T, 0) records.
 //!
-//! Same forces as the straight loop ([`super::shear_pairs::pair_loop`]) bit for bit, so
+//! Same forces as the straight loop ([`crate::dem::shear::pairs::pair_loop`]) bit for bit, so
 //! the same trajectories: every lane does the scalar code's operations in its order (no
 //! fused multiply-add), masked-off lanes add ±0.0 (which leaves every sum as it is: a sum
 //! that starts at +0.0 never becomes −0.0), and each grain's force is summed in slot
 //! order. A test holds it to that.
 
-use super::avx2::{neg4, transpose};
-use super::shear::Collisions;
-use super::shear_integrate::{Pos, Quad};
-use super::shear_near::{History, Slots};
-use super::shear_pairs::PairParams;
+use crate::dem::backend::avx2::{neg4, transpose};
+use crate::dem::shear::Collisions;
+use crate::dem::shear::integrate::{Pos, Quad};
+use crate::dem::shear::near::{History, Slots};
+use crate::dem::shear::pairs::PairParams;
 use std::arch::x86_64::*;
 
 /// Called by the kernels as the force sums of grains `range` are complete (every slot
@@ -65,10 +65,10 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
     // SAFETY: AVX2 is present (this function's contract); `Slots::sync` checked every
     // index against n and padded the tables to a multiple of four.
     unsafe {
-        use super::shear_avx512::slots_x8;
+        use crate::dem::backend::shear_avx512::slots_x8;
         // Eight slots at a time where the processor has AVX-512 (the level is Avx512
         // only then); the same numbers.
-        let wide = super::simd::level() == super::simd::Level::Avx512;
+        let wide = crate::dem::backend::simd::level() == crate::dem::backend::simd::Level::Avx512;
         match (wide, pp.cdrot) {
             (true, true) => slots_x8::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll, done),
             (true, false) => slots_x8::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll, done),

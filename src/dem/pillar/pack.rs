@@ -16,8 +16,8 @@
 //! jamming as in the paper, reached in tens rather than thousands of minimisations.
 //! Lengths are in units of D; ε = 1.
 
-use super::grains::{LARGE, SMALL};
-use super::verlet::{Boundary, PairList};
+use crate::dem::base::grains::{LARGE, SMALL};
+use crate::dem::base::verlet::{Boundary, PairList};
 use crate::rng::Rng;
 use serde::Serialize;
 

@@ -5,8 +5,8 @@
 //! The schedule depends on the step count only, so a resumed run re-sorts exactly where
 //! an uninterrupted one does.
 
-use super::shear::ShearSim;
-use super::verlet::PairList;
+use crate::dem::base::verlet::PairList;
+use crate::dem::shear::ShearSim;
 use std::collections::HashMap;
 
 /// Steps between re-sorts (a sort costs about as much as a few steps at any N).

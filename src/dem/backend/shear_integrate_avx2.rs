@@ -10,9 +10,9 @@
 //! overlaps the kernel's arithmetic. The arrays of the predicted velocities are never
 //! written.
 
-use super::avx2::transpose;
-use super::shear_integrate::{Pos, Quad, Slices5};
-use super::shear_near::StrayTest;
+use crate::dem::backend::avx2::transpose;
+use crate::dem::shear::integrate::{Pos, Quad, Slices5};
+use crate::dem::shear::near::StrayTest;
 use std::arch::x86_64::*;
 
 /// Four lanes of `s` from `i` on.
@@ -268,7 +268,7 @@ pub(crate) fn predict_packed(
     r: &[f64],
     inv: (&[f64], &[f64]),
     f0: (&[f64], &[f64], &[f64]),
-    packed: &mut super::shear_integrate::Packed,
+    packed: &mut crate::dem::shear::integrate::Packed,
     test: Option<StrayTest>,
 ) -> Option<bool> {
     let n = state.0.len();

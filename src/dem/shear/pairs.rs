@@ -4,10 +4,10 @@
 //! actual states keep the contact bookkeeping (the predictor of Eq. 22 needs forces
 //! only); `VIRIAL`: the virial, only at the states the outputs sample.
 
-use super::law::{ContactLaw, Damping, Motion};
-use super::shear::{Collisions, Virial};
-use super::shear_near::contact_event;
-use super::verlet::rint;
+use crate::dem::base::verlet::rint;
+use crate::dem::law::{ContactLaw, Damping, Motion};
+use crate::dem::shear::near::contact_event;
+use crate::dem::shear::{Collisions, Virial};
 
 /// Everything the pair loop reads besides the state (units d_s = m = τ_e = 1).
 #[derive(Debug, Clone, Copy)]
@@ -32,7 +32,7 @@ pub struct PairParams {
 
 impl PairParams {
     /// For `p` in a box of side `l` with Lees–Edwards offset `offset` at time `now`.
-    pub fn new(p: &super::shear::ShearParams, l: f64, offset: f64, now: f64) -> Self {
+    pub fn new(p: &crate::dem::shear::ShearParams, l: f64, offset: f64, now: f64) -> Self {
         let law = p.law();
         let (k_d, cdrot) = match law.damping {
             Damping::CdRot { k_d } => (k_d, true),

@@ -17,13 +17,13 @@
 //! the scalar code. A test runs a pillar both ways and compares the state, forces and
 //! contact history by bits.
 
-use super::avx2::{abs4, lanes, neg4, pick4, transpose};
-use super::law::ContactLaw;
-use super::pillar_kernels::{
+use crate::dem::backend::avx2::{abs4, lanes, neg4, pick4, transpose};
+use crate::dem::backend::simd::{Pos, Quad};
+use crate::dem::law::ContactLaw;
+use crate::dem::pillar::kernels::{
     Drift, DriftInputs, SubstrateInputs, SubstrateState, kick_drift_scalar, substrate_kick_scalar,
 };
-use super::pillar_phases::{GrainState, TermSink, slot_contact};
-use super::simd::{Pos, Quad};
+use crate::dem::pillar::phases::{GrainState, TermSink, slot_contact};
 use std::arch::x86_64::*;
 use std::ops::Range;
 
@@ -62,7 +62,7 @@ unsafe fn bool_mask(f: &[bool], i: usize) -> __m256d {
 }
 
 crate::avx2_entry_point! {
-/// As [`super::pillar_kernels::substrate_kick`] (same arguments, same results).
+/// As [`crate::dem::pillar::kernels::substrate_kick`] (same arguments, same results).
 ///
 /// # Safety
 /// The processor must have AVX2. Every slice but `frozen` must have length
@@ -235,7 +235,7 @@ pub struct PackedGrains<'a> {
 }
 
 crate::avx2_entry_point! {
-/// As [`super::pillar_phases::pair_slots`] without a force record, four slots at a
+/// As [`crate::dem::pillar::phases::pair_slots`] without a force record, four slots at a
 /// time: slots `slots` (of the whole list), owned by `ids.0[k]`, partnered by `ids.1[k]`;
 /// `shear` and `sink` hold the range's slots. The last slots short of a multiple
 /// of four go through the scalar `slot_contact` with `g`. Returns the slots skipped.
@@ -391,7 +391,7 @@ pub(crate) unsafe fn pair_slots(
 }
 
 crate::avx2_entry_point! {
-/// As [`super::pillar_kernels::kick_drift_scalar`] (same arguments, same results).
+/// As [`crate::dem::pillar::kernels::kick_drift_scalar`] (same arguments, same results).
 ///
 /// # Safety
 /// The processor must have AVX2; every slice of `d`, `inp` (the references when

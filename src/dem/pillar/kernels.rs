@@ -5,9 +5,9 @@
 //! Resting and moving grains mix at random, so choices between them are bit masks, not
 //! branches that would mispredict.
 
-use super::law::{SubstrateFriction, pick};
-use super::pillar_phases::GrainState;
-use super::simd::{Pos, Quad};
+use crate::dem::backend::simd::{Pos, Quad};
+use crate::dem::law::{SubstrateFriction, pick};
+use crate::dem::pillar::phases::GrainState;
 use std::ops::Range;
 
 /// `v` when `keep`, else +0, without a branch.
@@ -73,9 +73,11 @@ pub fn kick_drift(
     );
     let refs_ok = inp.x_ref.len() == n && inp.y_ref.len() == n;
     #[cfg(target_arch = "x86_64")]
-    if super::simd::level() >= super::simd::Level::Avx2 {
+    if crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2 {
         // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
-        let m = unsafe { super::pillar_avx2::kick_drift(dt, d, inp, refs_ok, state, spin) };
+        let m = unsafe {
+            crate::dem::backend::pillar_avx2::kick_drift(dt, d, inp, refs_ok, state, spin)
+        };
         return if refs_ok { m } else { f64::INFINITY };
     }
     let m = kick_drift_scalar(dt, d, inp, refs_ok, state, spin);
@@ -266,9 +268,9 @@ pub fn substrate_kick(inp: &SubstrateInputs, out: SubstrateState) {
         "substrate_kick: slices of one length"
     );
     #[cfg(target_arch = "x86_64")]
-    if super::simd::level() >= super::simd::Level::Avx2 {
+    if crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2 {
         // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
-        unsafe { super::pillar_avx2::substrate_kick(inp, out) };
+        unsafe { crate::dem::backend::pillar_avx2::substrate_kick(inp, out) };
         return;
     }
     substrate_kick_scalar(inp, out);

@@ -12,9 +12,9 @@
 //! and the chunks added in order; threads get whole chunks. So every thread count gives
 //! the same numbers, bit for bit.
 
-use super::law::{ContactLaw, Motion};
-use super::pillar_kernels::{SubstrateInputs, SubstrateState, substrate_kick, sum4};
-use super::simd::Quad;
+use crate::dem::backend::simd::Quad;
+use crate::dem::law::{ContactLaw, Motion};
+use crate::dem::pillar::kernels::{SubstrateInputs, SubstrateState, substrate_kick, sum4};
 use std::ops::Range;
 
 /// Grains per reduction chunk.
@@ -334,7 +334,7 @@ pub fn slot_contact(
 /// bottom face at `bottom` (m), fixed; time step `dt` (s).
 #[derive(Clone, Copy)]
 pub struct Bars {
-    /// The grain–bar law ([`super::params::PillarParams::bar_law`]).
+    /// The grain–bar law ([`crate::dem::pillar::params::PillarParams::bar_law`]).
     pub law: ContactLaw,
     pub top: f64,
     pub bottom: f64,

@@ -1,6 +1,6 @@
 //! Model parameters of li-granular-pillars Sec. II.C, in SI units, and the presets.
 
-use super::law::{ContactLaw, ContactPoint, Damping, Normal, Tangential};
+use crate::dem::law::{ContactLaw, ContactPoint, Damping, Normal, Tangential};
 use serde::{Deserialize, Serialize};
 
 /// The grain–grain normal law of a pillar run (li-granular-pillars uses `linear`).

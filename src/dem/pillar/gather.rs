@@ -7,8 +7,8 @@
 //! exit to mispredict per grain, which was most of this phase's cost. Padding changes
 //! no sum (a sum that starts at +0.0 is never −0.0, and x + 0.0 = x otherwise).
 
-use super::pillar_phases::{CHUNK, Reverse};
-use super::simd::Quad;
+use crate::dem::backend::simd::Quad;
+use crate::dem::pillar::phases::{CHUNK, Reverse};
 use std::ops::Range;
 
 /// Grains `range` of the sums into `fx`, `fy` (N) and `tq` (N m), which hold the range's
@@ -47,7 +47,7 @@ pub fn gather(
         let out = (&mut fx[l.clone()], &mut fy[l.clone()], &mut tq[l.clone()]);
         let fz = frozen.map(|f| &f[l]);
         #[cfg(target_arch = "x86_64")]
-        if super::simd::level() >= super::simd::Level::Avx2 {
+        if crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2 {
             // SAFETY: AVX2 present (checked at run time); t holds w places per grain of
             // the chunk's part, and the outputs that part (sliced above).
             unsafe { avx2::sum_terms(w, t, fz, out) };
@@ -87,8 +87,8 @@ pub fn sum_terms(
 /// The sums with AVX2 intrinsics (compiled for AVX2 and AVX-512, `avx2_entry_point!`).
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::super::avx2::transpose;
-    use super::super::simd::Quad;
+    use crate::dem::backend::avx2::transpose;
+    use crate::dem::backend::simd::Quad;
     use std::arch::x86_64::*;
 
     crate::avx2_entry_point! {
@@ -257,7 +257,7 @@ mod tests {
 
     #[test]
     fn frozen_grains_rest_clear_of_the_bars_with_every_partner_at_rest() {
-        use crate::dem::pillar_phases::mark_frozen;
+        use crate::dem::pillar::phases::mark_frozen;
         let n = 70;
         let (start, js) = random_list(n, 5);
         let rev = Reverse::build(n, &start, &js);

@@ -6,14 +6,14 @@
 //! keep being long (a busy machine) finishes on one thread. The numbers never depend on
 //! any of this. The unsafe plumbing is in `pillar_arrays`.
 
-use super::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
-use super::pillar::PillarSim;
-use super::pillar_arrays::{
+use crate::dem::backend::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
+use crate::dem::backend::simd::{Pos, Quad};
+use crate::dem::base::verlet::Boundary;
+use crate::dem::pillar::PillarSim;
+use crate::dem::pillar::arrays::{
     SendPtr, Shared, StepLaws, parity_half, phase_grains, phase_kick, phase_pack, phase_pairs,
 };
-use super::pillar_phases::{CHUNK, Reverse};
-use super::simd::{Pos, Quad};
-use super::verlet::Boundary;
+use crate::dem::pillar::phases::{CHUNK, Reverse};
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
@@ -387,7 +387,8 @@ impl PillarSim {
                 .scratch
                 .last_build
                 .and_then(|b| self.step.checked_sub(b));
-            self.list.skin = super::pillar::adapt_skin(self.list.skin, self.params.d_large, since);
+            self.list.skin =
+                crate::dem::pillar::adapt_skin(self.list.skin, self.params.d_large, since);
             self.scratch.last_build = Some(self.step);
             let g = &self.grains;
             self.list.build(&g.x, &g.y, &g.radius, Boundary::Open);
@@ -405,7 +406,7 @@ impl PillarSim {
         unsafe { fold_totals(self, kick, parity) };
         if let Some(rec) = self.record.as_mut() {
             let n = self.grains.len();
-            *rec = super::forces::ContactRecord::zeroed(n);
+            *rec = crate::dem::base::forces::ContactRecord::zeroed(n);
             let b = &self.scratch.buffers;
             for i in 0..n {
                 for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {

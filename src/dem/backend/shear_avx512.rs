@@ -1,6 +1,6 @@
 //! The sheared disks' force kernel (vagberg-sheared-disks Eqs. 1–3, 5–7, harmonic
 //! α = 2) with 512-bit vectors: eight pair slots at a time, for processors with
-//! AVX-512 F/VL/DQ. Otherwise as [`super::shear_avx2`]: grain records loaded whole and
+//! AVX-512 F/VL/DQ. Otherwise as [`crate::dem::backend::shear_avx2`]: grain records loaded whole and
 //! transposed in registers, each lane doing the straight loop's operations in its order
 //! (no fused multiply-add), masked-off lanes adding +0.0 or −0.0, and each grain's
 //! force summed in slot order, so the same numbers bit for bit (tested).
@@ -11,10 +11,10 @@
 //! passes over a block), overlap more: the kernel alone 8.1 → 6.5 ns per grain and
 //! evaluation at N = 1024 on the project's Intel machine.
 
-use super::shear::Collisions;
-use super::shear_integrate::{Pos, Quad};
-use super::shear_near::{History, Slots};
-use super::shear_pairs::PairParams;
+use crate::dem::shear::Collisions;
+use crate::dem::shear::integrate::{Pos, Quad};
+use crate::dem::shear::near::{History, Slots};
+use crate::dem::shear::pairs::PairParams;
 use std::arch::x86_64::*;
 
 /// `[f(0), …, f(7)]`, always inlined.
@@ -198,7 +198,15 @@ unsafe fn separations8<const TRACK: bool>(
                 _mm512_storeu_pd(dys.as_mut_ptr(), dy);
                 let count = (slots.len() - k).min(8);
                 let t = touch as u32;
-                super::shear_avx2::contact_events(k, count, t, (&dxs, &dys), hist, pp.now, coll);
+                crate::dem::backend::shear_avx2::contact_events(
+                    k,
+                    count,
+                    t,
+                    (&dxs, &dys),
+                    hist,
+                    pp.now,
+                    coll,
+                );
             }
         }
         (dx, dy, img, r2, touch)
@@ -284,7 +292,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
-    done: super::shear_avx2::Done,
+    done: crate::dem::backend::shear_avx2::Done,
 ) {
     let c = Consts {
         ll: _mm512_set1_pd(pp.ll),
@@ -329,7 +337,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         } else {
             n
         };
-        if limit >= complete + super::shear_avx2::DONE_MIN {
+        if limit >= complete + crate::dem::backend::shear_avx2::DONE_MIN {
             done(complete..limit, &mut sums[complete..limit], slots);
             complete = limit;
         }

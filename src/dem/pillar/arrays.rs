@@ -10,19 +10,19 @@
 //! reached through raw pointers refreshed by the first thread after any reallocation
 //! (a list rebuild), while the others wait at the barrier.
 
-use super::law::{ContactLaw, SubstrateFriction};
-use super::pillar::{PillarSim, top_y_at};
 #[cfg(target_arch = "x86_64")]
-use super::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
-use super::pillar_gather::gather;
-use super::pillar_kernels::{
+use crate::dem::backend::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
+use crate::dem::backend::simd::{Level, Pos, Quad, level};
+use crate::dem::law::{ContactLaw, SubstrateFriction};
+use crate::dem::pillar::gather::gather;
+use crate::dem::pillar::kernels::{
     Drift, DriftInputs, GrainConsts, SubstrateInputs, SubstrateState, kick_drift, pack_grains,
 };
-use super::pillar_phases::{
+use crate::dem::pillar::phases::{
     BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, TermSink, bar_contacts, mark_frozen,
     pair_slots, substrate_chunks,
 };
-use super::simd::{Level, Pos, Quad, level};
+use crate::dem::pillar::{PillarSim, top_y_at};
 use std::cell::UnsafeCell;
 use std::ops::Range;
 

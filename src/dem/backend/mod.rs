@@ -1,0 +1,20 @@
+//! Fast paths, not physics. [`simd`] picks the instruction-set level once per process
+//! (`PILLAR_PIPE_SIMD` caps it) and compiles hot loops for each; the hand-written kernels
+//! below implement one contact law each (named in their docs, checked with
+//! `ContactLaw::is_*` before they are called) and give the scalar reference's numbers
+//! bit for bit, which `dem::tests` checks at every level; [`barrier`] is the spin barrier
+//! the pillar's threads share. `unsafe` lives here and in the scenarios' thread
+//! plumbing, each `unsafe fn` with its `# Safety` contract.
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2;
+pub mod barrier;
+#[cfg(target_arch = "x86_64")]
+pub mod pillar_avx2;
+#[cfg(target_arch = "x86_64")]
+pub mod shear_avx2;
+#[cfg(target_arch = "x86_64")]
+mod shear_avx512;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod shear_integrate_avx2;
+pub mod simd;
