@@ -9,7 +9,7 @@ use super::shear_stats::summarize;
 use super::shear_steady::Steady;
 use super::shear_tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
 use super::sim_tables::{drop_parts_from, merge_parts};
-use crate::dem::pillar::checkpoint::{Dec, Enc};
+use crate::dem::base::codec::{Dec, Enc};
 use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;

@@ -2,7 +2,7 @@
 //! angle histograms at contact making and breaking (3.6° bins) and the velocity profile
 //! v_x(y) — both counted only after the transient.
 
-use crate::dem::pillar::checkpoint::{Dec, Enc};
+use crate::dem::base::codec::{Dec, Enc};
 use crate::dem::shear::{ANGLE_BINS, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;

@@ -4,8 +4,8 @@
 //! so a directory without one holds an unfinished run.
 
 use super::sim_tables::{Buffers, FrameStats, TABLES, drop_parts_from, merge_parts};
+use crate::dem::base::codec::{Dec, Enc};
 use crate::dem::base::forces::ContactRecord;
-use crate::dem::pillar::checkpoint::{Dec, Enc};
 use crate::dem::pillar::params::{NormalLawName, PillarParams};
 use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};

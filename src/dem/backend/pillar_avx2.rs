@@ -62,7 +62,7 @@ unsafe fn bool_mask(f: &[bool], i: usize) -> __m256d {
 }
 
 crate::avx2_entry_point! {
-/// As [`crate::dem::pillar::kernels::substrate_kick`] (same arguments, same results).
+/// As [`crate::dem::pillar::kernels::substrate_kick_scalar`] (same arguments, same results).
 ///
 /// # Safety
 /// The processor must have AVX2. Every slice but `frozen` must have length

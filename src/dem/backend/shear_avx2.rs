@@ -15,22 +15,11 @@
 //! order. A test holds it to that.
 
 use crate::dem::backend::avx2::{neg4, transpose};
-use crate::dem::shear::Collisions;
 use crate::dem::shear::integrate::{Pos, Quad};
-use crate::dem::shear::near::{History, Slots};
+use crate::dem::shear::near::{DONE_MIN, Done, History, Slots, contact_events};
 use crate::dem::shear::pairs::PairParams;
+use crate::dem::shear::params::Collisions;
 use std::arch::x86_64::*;
-
-/// Called by the kernels as the force sums of grains `range` are complete (every slot
-/// with such a grain done), with those sums and the near list: each range once, in
-/// order, together covering every grain. The held sums may be read and changed (the
-/// packed integrator corrects those grains and zeroes their sums while the kernel goes
-/// on with the rest: its memory traffic then overlaps the kernel's arithmetic).
-pub(crate) type Done<'a> = &'a mut dyn FnMut(std::ops::Range<usize>, &mut [Quad], &Slots);
-
-/// The least grains per [`Done`] call but the last: fewer calls, each long enough for
-/// its loops (48–96 measured 2 % faster than a call per block of slots).
-pub(crate) const DONE_MIN: usize = 48;
 
 crate::avx2_entry_point! {
 /// As `shear_slots::evaluate` (α = 2 only), on a state packed grain by grain:
@@ -77,25 +66,6 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
         }
     }
 }
-}
-
-/// Contact events of the `count` slots from k on (`touch` bits, separations `dx`, `dy`
-/// by lane; see `History::update`). Out of line: rare, and inlined it would crowd the
-/// hot loop's registers.
-#[cold]
-#[inline(never)]
-pub(crate) fn contact_events(
-    k: usize,
-    count: usize,
-    touch: u32,
-    (dx, dy): (&[f64], &[f64]),
-    hist: &mut History,
-    now: f64,
-    coll: &mut Collisions,
-) {
-    for l in 0..count {
-        hist.update(k + l, touch >> l & 1 == 1, (dx[l], dy[l]), now, coll);
-    }
 }
 
 /// Nearest integer, ties to even, four lanes: the same value as `verlet::rint` (which

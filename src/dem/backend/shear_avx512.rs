@@ -11,10 +11,10 @@
 //! passes over a block), overlap more: the kernel alone 8.1 → 6.5 ns per grain and
 //! evaluation at N = 1024 on the project's Intel machine.
 
-use crate::dem::shear::Collisions;
 use crate::dem::shear::integrate::{Pos, Quad};
 use crate::dem::shear::near::{History, Slots};
 use crate::dem::shear::pairs::PairParams;
+use crate::dem::shear::params::Collisions;
 use std::arch::x86_64::*;
 
 /// `[f(0), …, f(7)]`, always inlined.
@@ -198,7 +198,7 @@ unsafe fn separations8<const TRACK: bool>(
                 _mm512_storeu_pd(dys.as_mut_ptr(), dy);
                 let count = (slots.len() - k).min(8);
                 let t = touch as u32;
-                crate::dem::backend::shear_avx2::contact_events(
+                crate::dem::shear::near::contact_events(
                     k,
                     count,
                     t,
@@ -292,7 +292,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
-    done: crate::dem::backend::shear_avx2::Done,
+    done: crate::dem::shear::near::Done,
 ) {
     let c = Consts {
         ll: _mm512_set1_pd(pp.ll),
@@ -337,7 +337,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         } else {
             n
         };
-        if limit >= complete + crate::dem::backend::shear_avx2::DONE_MIN {
+        if limit >= complete + crate::dem::shear::near::DONE_MIN {
             done(complete..limit, &mut sums[complete..limit], slots);
             complete = limit;
         }

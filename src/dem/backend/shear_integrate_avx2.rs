@@ -5,7 +5,7 @@
 //! kernel reads (transposed in registers) and makes the near list's stray test as it
 //! writes the positions; `correct` reads the predicted state's force sums from the
 //! kernel's packed records and zeroes them for the next evaluation, and runs range by
-//! range as the kernel completes each range of grains (`shear_avx2::Done`), as does the
+//! range as the kernel completes each range of grains (`near::Done`), as does the
 //! spreading of the final sums into arrays (`unpack_forces`): their memory traffic then
 //! overlaps the kernel's arithmetic. The arrays of the predicted velocities are never
 //! written.

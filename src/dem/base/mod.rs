@@ -2,6 +2,7 @@
 //! pair list with contact history and the boundaries ([`verlet`]), force-snapshot
 //! records ([`forces`]).
 
+pub mod codec;
 pub mod forces;
 pub mod grains;
 pub mod verlet;

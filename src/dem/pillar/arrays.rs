@@ -14,13 +14,14 @@
 use crate::dem::backend::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
 use crate::dem::backend::simd::{Level, Pos, Quad, level};
 use crate::dem::law::{ContactLaw, SubstrateFriction};
+use crate::dem::pillar::dispatch::{kick_drift, substrate_chunks};
 use crate::dem::pillar::gather::gather;
 use crate::dem::pillar::kernels::{
-    Drift, DriftInputs, GrainConsts, SubstrateInputs, SubstrateState, kick_drift, pack_grains,
+    Drift, DriftInputs, GrainConsts, SubstrateInputs, SubstrateState, pack_grains,
 };
 use crate::dem::pillar::phases::{
     BarGrains, Bars, CHUNK, GrainState, Reverse, SlotRecord, TermSink, bar_contacts, mark_frozen,
-    pair_slots, substrate_chunks,
+    pair_slots,
 };
 use crate::dem::pillar::{PillarSim, top_y_at};
 use std::cell::UnsafeCell;

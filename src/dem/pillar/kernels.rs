@@ -38,53 +38,7 @@ pub struct DriftInputs<'a> {
     pub y_ref: &'a [f64],
 }
 
-/// First half kick and drift of velocity Verlet (time step `dt`, s); marks the grains
-/// at rest before the move, packs the moved grains for the AVX2 pair kernel into
-/// `state`, `spin` (see `pack_grains`), and returns the largest squared displacement
-/// (m²) since the pair list's build positions (infinite when those do not match). Runs
-/// the AVX2 kernel (`pillar_avx2::kick_drift`, same numbers) where the processor has it.
-///
-/// # Panics
-/// If the slices' lengths differ (`x_ref`, `y_ref` may also be empty).
-pub fn kick_drift(
-    dt: f64,
-    d: Drift,
-    inp: &DriftInputs,
-    state: &mut [Quad],
-    spin: &mut [Pos],
-) -> f64 {
-    let n = d.x.len();
-    let lens = [
-        d.y.len(),
-        d.theta.len(),
-        d.vx.len(),
-        d.vy.len(),
-        d.resting.len(),
-        inp.ax.len(),
-        inp.ay.len(),
-        inp.omega.len(),
-        inp.radius.len(),
-        state.len(),
-        spin.len(),
-    ];
-    assert!(
-        lens.iter().all(|&l| l == n),
-        "kick_drift: slices of one length"
-    );
-    let refs_ok = inp.x_ref.len() == n && inp.y_ref.len() == n;
-    #[cfg(target_arch = "x86_64")]
-    if crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2 {
-        // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
-        let m = unsafe {
-            crate::dem::backend::pillar_avx2::kick_drift(dt, d, inp, refs_ok, state, spin)
-        };
-        return if refs_ok { m } else { f64::INFINITY };
-    }
-    let m = kick_drift_scalar(dt, d, inp, refs_ok, state, spin);
-    if refs_ok { m } else { f64::INFINITY }
-}
-
-/// [`kick_drift`] in portable scalar code (the reference the AVX2 kernel matches, and
+/// [`crate::dem::pillar::dispatch::kick_drift`] in portable scalar code (the reference the AVX2 kernel matches, and
 /// its tail); the largest move only when `refs_ok`, else 0.
 pub fn kick_drift_scalar(
     dt: f64,
@@ -233,50 +187,7 @@ impl SubstrateState<'_> {
     }
 }
 
-/// Substrate friction from the contact forces, new accelerations, and when `kick` the
-/// second half kick, the spin update and the ξ rule of Eq. 11. Frozen grains (when
-/// `kick`) are left as they are. Each grain's dissipated power goes into `pow_t` and
-/// `pow_r` (summed by the caller in a fixed order, so these loops carry no sum). Runs
-/// the AVX2 kernel (`pillar_avx2`, same numbers) where the processor has it.
-///
-/// # Panics
-/// If the slices' lengths differ (`frozen` may also be empty).
-pub fn substrate_kick(inp: &SubstrateInputs, out: SubstrateState) {
-    let n = out.vx.len();
-    let (c, o) = (&inp.c, &out);
-    let lens = [
-        c.inv_mass.len(),
-        c.inv_inertia.len(),
-        c.f_max.len(),
-        c.f_max2.len(),
-        c.t_max.len(),
-        c.xi_omega.len(),
-        inp.fx.len(),
-        inp.fy.len(),
-        inp.tq.len(),
-        o.vy.len(),
-        o.ax.len(),
-        o.ay.len(),
-        o.omega.len(),
-        o.sub_fx.len(),
-        o.sub_fy.len(),
-        o.pow_t.len(),
-        o.pow_r.len(),
-    ];
-    assert!(
-        lens.iter().all(|&l| l == n) && (inp.frozen.is_empty() || inp.frozen.len() == n),
-        "substrate_kick: slices of one length"
-    );
-    #[cfg(target_arch = "x86_64")]
-    if crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2 {
-        // SAFETY: the processor has AVX2 (checked at run time); lengths checked above.
-        unsafe { crate::dem::backend::pillar_avx2::substrate_kick(inp, out) };
-        return;
-    }
-    substrate_kick_scalar(inp, out);
-}
-
-/// [`substrate_kick`] in portable scalar code: the reference the AVX2 kernel matches
+/// [`crate::dem::pillar::dispatch::substrate_kick`] in portable scalar code: the reference the AVX2 kernel matches
 /// bit for bit, and its tail.
 pub fn substrate_kick_scalar(inp: &SubstrateInputs, out: SubstrateState) {
     let SubstrateInputs {

@@ -15,6 +15,7 @@
 
 pub mod arrays;
 pub mod checkpoint;
+pub mod dispatch;
 pub mod gather;
 pub mod kernels;
 pub mod pack;

@@ -14,7 +14,6 @@
 
 use crate::dem::backend::simd::Quad;
 use crate::dem::law::{ContactLaw, Motion};
-use crate::dem::pillar::kernels::{SubstrateInputs, SubstrateState, substrate_kick, sum4};
 use std::ops::Range;
 
 /// Grains per reduction chunk.
@@ -409,17 +408,4 @@ pub fn bar_contacts(
         i += 1;
     }
     [top_force, bottom_force, shear_force]
-}
-
-/// The substrate and the second half kick of a range (the range starting on a chunk
-/// boundary; see [`substrate_kick`]), then per chunk of `CHUNK` grains Σ|f·v| and
-/// Σ|T_μ ω| (W) into `power`.
-pub fn substrate_chunks(inp: &SubstrateInputs, mut out: SubstrateState, power: &mut [[f64; 2]]) {
-    let n = out.vx.len();
-    substrate_kick(inp, out.range(0..n));
-    let (pow_t, pow_r) = (&*out.pow_t, &*out.pow_r);
-    for (ch, p) in power.iter_mut().enumerate() {
-        let r = ch * CHUNK..((ch + 1) * CHUNK).min(n);
-        *p = [sum4(&pow_t[r.clone()]), sum4(&pow_r[r])];
-    }
 }

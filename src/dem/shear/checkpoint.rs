@@ -1,8 +1,6 @@
 //! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
 
-use crate::dem::pillar::checkpoint::{
-    Dec, Enc, check_state, dec_grains, dec_list, enc_grains, enc_list,
-};
+use crate::dem::base::codec::{Dec, Enc, check_state, dec_grains, dec_list, enc_grains, enc_list};
 use crate::dem::shear::{Collisions, Predicted, ShearParams, ShearSim};
 
 const MAGIC: &[u8; 8] = b"PPSHEAR1";

@@ -24,14 +24,14 @@ impl Packed {
     /// Whether the steps of `p` run packed: the vector force kernels (which implement
     /// the harmonic law only) and the packed integrator. Read once per step: the level
     /// is global, and tests switch it.
-    pub fn used_for(p: &crate::dem::shear::ShearParams) -> bool {
+    pub fn used_for(p: &crate::dem::shear::params::ShearParams) -> bool {
         cfg!(target_arch = "x86_64")
             && p.law().is_harmonic_vagberg().is_some()
             && crate::dem::backend::simd::level() >= crate::dem::backend::simd::Level::Avx2
     }
 
     /// Pack the state (x, y, v_x, v_y, ω, R).
-    pub fn fill(&mut self, (x, y, vx, vy, w, r): crate::dem::shear::pairs::StateSlices) {
+    pub fn fill(&mut self, (x, y, vx, vy, w, r): crate::dem::shear::params::StateSlices) {
         let n = x.len();
         self.pos.clear();
         self.pos.extend(x.iter().zip(y).map(|(&a, &b)| Pos([a, b])));

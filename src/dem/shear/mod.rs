@@ -13,11 +13,11 @@ pub mod integrate;
 pub mod near;
 pub mod order;
 pub mod pairs;
+pub mod params;
 pub mod slots;
 
 use crate::dem::base::grains::{Grains, LARGE, SMALL};
 use crate::dem::base::verlet::{Boundary, PairList};
-use crate::dem::law::{ContactLaw, ContactPoint, Damping, Normal, Tangential};
 use crate::dem::shear::integrate::{Packed, Quad, correct, predict};
 use crate::dem::shear::near::Slots;
 use crate::dem::shear::pairs::{PairParams, pair_loop};
@@ -25,119 +25,7 @@ use crate::dem::shear::slots::evaluate;
 #[cfg(target_arch = "x86_64")]
 use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
 use crate::rng::Rng;
-use serde::{Deserialize, Serialize};
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Dissipation {
-    /// f_dis = −k_d (v_i − v_j), Eq. 3.
-    Cd,
-    /// f_dis = −k_d (v_i^{Cj} − v_j^{Ci}) at the contact point, Eqs. 5–7.
-    Cdrot,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ShearParams {
-    pub n: usize,
-    /// Packing fraction φ (Eq. 11).
-    pub phi: f64,
-    /// Quality factor Q = τ_d/τ_e (Eq. 9); k_d = 1/Q.
-    pub q: f64,
-    /// Strain rate γ̇ τ_e.
-    pub rate: f64,
-    pub model: Dissipation,
-    /// Exponent α of Eq. 1 (2: harmonic).
-    pub alpha: f64,
-    /// Time step Δt/τ_e (paper: 0.05, 0.01 for Q < 0.5).
-    pub dt: f64,
-    pub seed: u64,
-}
-
-impl ShearParams {
-    pub fn validate(&self) -> Result<(), String> {
-        if self.n < 4 {
-            return Err(format!("n must be ≥ 4, got {}", self.n));
-        }
-        // Minimum images and the lists' displacement bounds need every pair within reach
-        // (2 R_max + skin = 1.7 d_s) to be its own nearest image: L > 2 × 1.7 d_s.
-        if self.phi.is_finite() && self.phi > 0.0 && self.box_side() <= 3.5 {
-            return Err(format!(
-                "n = {} at φ = {} gives a box of side {:.2} d_s; at least 3.5 is needed (more disks)",
-                self.n,
-                self.phi,
-                self.box_side()
-            ));
-        }
-        for (k, v, lo, hi) in [
-            ("phi", self.phi, 0.05, 1.5),
-            ("q", self.q, 1e-6, 1e6),
-            ("rate", self.rate, 1e-12, 1.0),
-            ("alpha", self.alpha, 1.5, 4.0),
-            ("dt", self.dt, 1e-6, 0.2),
-        ] {
-            if !(v.is_finite() && v >= lo && v <= hi) {
-                return Err(format!("{k} must be in [{lo}, {hi}], got {v}"));
-            }
-        }
-        Ok(())
-    }
-    /// The contact law: Eq. 2's repulsion (exponent α) with CD (Eq. 3) or CDrot
-    /// (Eqs. 5–7) dissipation, k_d = 1/Q, frictionless, in units where k_e = 1.
-    pub fn law(&self) -> ContactLaw {
-        let k_d = 1.0 / self.q;
-        ContactLaw {
-            normal: Normal::RelativePowerLaw { alpha: self.alpha },
-            damping: match self.model {
-                Dissipation::Cdrot => Damping::CdRot { k_d },
-                Dissipation::Cd => Damping::Cd { k_d },
-            },
-            tangential: Tangential::None,
-            point: ContactPoint::RadiusRatio,
-        }
-    }
-
-    /// Box side L from φ (Eq. 11), in d_s.
-    pub fn box_side(&self) -> f64 {
-        let area = std::f64::consts::PI * self.n as f64 / 2.0 * (0.25 + 0.25 * 1.4 * 1.4);
-        (area / self.phi).sqrt()
-    }
-    /// The paper's step: 0.05, or 0.01 for Q < 0.5.
-    pub fn default_dt(q: f64) -> f64 {
-        if q < 0.5 { 0.01 } else { 0.05 }
-    }
-}
-
-/// Per-evaluation sums for the pressure tensor (Eqs. 12–13), components xx, xy, yx, yy.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Virial {
-    pub el: [f64; 4],
-    pub dis: [f64; 4],
-    pub contacts: usize,
-}
-
-/// Contact bookkeeping for τ_dur and ν_coll (Eq. 25).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Collisions {
-    pub begun: u64,
-    pub ended: u64,
-    /// Σ durations of the contacts that ended (τ_e).
-    pub duration_sum: f64,
-    /// Histograms of the collision angle ϑ (direction of r_ij from the flow direction x̂,
-    /// folded into [0°, 180°)) at contact making and breaking, in bins of 3.6°.
-    pub angle_making: Vec<u64>,
-    pub angle_breaking: Vec<u64>,
-}
-
-/// Bins of the collision-angle histograms: 3.6° over [0°, 180°).
-pub const ANGLE_BINS: usize = 50;
-
-/// Histogram bin of the direction (dx, dy), folded to [0°, 180°).
-#[inline]
-pub fn angle_bin(dx: f64, dy: f64) -> usize {
-    let a = dy.atan2(dx).to_degrees().rem_euclid(180.0);
-    ((a / (180.0 / ANGLE_BINS as f64)) as usize).min(ANGLE_BINS - 1)
-}
+pub use params::{ANGLE_BINS, Collisions, Dissipation, ShearParams, Virial, angle_bin};
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShearSim {

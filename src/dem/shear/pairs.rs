@@ -7,7 +7,7 @@
 use crate::dem::base::verlet::rint;
 use crate::dem::law::{ContactLaw, Damping, Motion};
 use crate::dem::shear::near::contact_event;
-use crate::dem::shear::{Collisions, Virial};
+use crate::dem::shear::params::{Collisions, StateSlices, Virial};
 
 /// Everything the pair loop reads besides the state (units d_s = m = τ_e = 1).
 #[derive(Debug, Clone, Copy)]
@@ -32,7 +32,7 @@ pub struct PairParams {
 
 impl PairParams {
     /// For `p` in a box of side `l` with Lees–Edwards offset `offset` at time `now`.
-    pub fn new(p: &crate::dem::shear::ShearParams, l: f64, offset: f64, now: f64) -> Self {
+    pub fn new(p: &crate::dem::shear::params::ShearParams, l: f64, offset: f64, now: f64) -> Self {
         let law = p.law();
         let (k_d, cdrot) = match law.damping {
             Damping::CdRot { k_d } => (k_d, true),
@@ -52,16 +52,6 @@ impl PairParams {
         }
     }
 }
-
-/// Positions, velocities, spins and radii of one state: x, y, v_x, v_y, ω, R.
-pub type StateSlices<'a> = (
-    &'a [f64],
-    &'a [f64],
-    &'a [f64],
-    &'a [f64],
-    &'a [f64],
-    &'a [f64],
-);
 
 /// Forces and torques of the contacts in the half list (`start`, `js`) into `fx`, `fy`,
 /// `tq` (overwritten); with `HISTORY`, per-pair history `hist` (0, or 1 + start time) and

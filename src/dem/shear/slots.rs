@@ -16,9 +16,10 @@
 
 use crate::dem::base::verlet::rint;
 use crate::dem::law::{ContactLaw, ContactPoint, Damping, Motion, Normal, Tangential};
-use crate::dem::shear::Collisions;
 use crate::dem::shear::near::{History, Slots};
-use crate::dem::shear::pairs::{PairParams, StateSlices};
+use crate::dem::shear::pairs::PairParams;
+use crate::dem::shear::params::Collisions;
+use crate::dem::shear::params::StateSlices;
 
 /// Slots per block: pass A's results for one block stay in L1 for pass B.
 const BLOCK: usize = 128;
@@ -129,7 +130,7 @@ pub fn evaluate<const TRACK: bool>(
 
 /// As [`evaluate`] (α = 2, AVX2 only) on a state packed grain by grain: the force and
 /// torque sums (f_x, f_y, T, ·) per grain into `slots.acc`, handed to `done` range by
-/// range as they are complete (see `shear_avx2::Done`). The packed integrator
+/// range as they are complete (see `near::Done`). The packed integrator
 /// (`shear_integrate_avx2`) reads them there, sparing a pass that would spread them
 /// into arrays. Same numbers as [`evaluate`].
 #[cfg(target_arch = "x86_64")]
@@ -139,7 +140,7 @@ pub(crate) fn evaluate_packed<const TRACK: bool>(
     all_hist: &mut [f64],
     pp: &PairParams,
     coll: &mut Collisions,
-    done: crate::dem::backend::shear_avx2::Done,
+    done: crate::dem::shear::near::Done,
 ) {
     let n = slots.n;
     assert!(
