@@ -239,3 +239,171 @@ fn the_module_graph_has_no_cycle() {
         }
     }
 }
+
+/// The simulation core's files as modules (`src/dem/pillar/phases.rs` → `dem/pillar/phases`,
+/// a `mod.rs` → its folder).
+fn dem_modules() -> BTreeMap<String, PathBuf> {
+    let src = Path::new(ROOT).join("src");
+    let mut files = Vec::new();
+    rust_files(&src.join("dem"), &mut files);
+    files
+        .into_iter()
+        .map(|f| {
+            let rel = f.strip_prefix(&src).unwrap().with_extension("");
+            let mut parts: Vec<String> = rel
+                .components()
+                .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                .collect();
+            if parts.last().is_some_and(|p| p == "mod") {
+                parts.pop();
+            }
+            (parts.join("/"), f)
+        })
+        .collect()
+}
+
+/// Every `crate::dem::…` or `super::…` path on a line, as module segments from the crate
+/// root (`super` resolved against `me`).
+fn dem_paths(me: &[&str], line: &str) -> Vec<Vec<String>> {
+    let mut out = Vec::new();
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let bytes: Vec<char> = line.chars().collect();
+    let mut i = 0;
+    while i < bytes.len() {
+        let rest: String = bytes[i..].iter().collect();
+        let starts = rest.starts_with("crate::dem::") || rest.starts_with("super::");
+        let boundary = i == 0 || !ident(bytes[i - 1]);
+        if !(starts && boundary) {
+            i += 1;
+            continue;
+        }
+        let path: String = rest.chars().take_while(|&c| ident(c) || c == ':').collect();
+        let segs: Vec<&str> = path.split("::").filter(|s| !s.is_empty()).collect();
+        let mut base: Vec<String> = Vec::new();
+        let mut k = 0;
+        if segs[0] == "crate" {
+            k = 1;
+        } else {
+            base = me.iter().map(|s| s.to_string()).collect();
+            while k < segs.len() && segs[k] == "super" {
+                base.pop();
+                k += 1;
+            }
+        }
+        base.extend(segs[k..].iter().map(|s| s.to_string()));
+        out.push(base);
+        i += path.chars().count().max(1);
+    }
+    out
+}
+
+/// File → files of the simulation core it references (a parent's references to its own
+/// children are how Rust declares them, not arrows).
+fn dem_graph() -> BTreeMap<String, BTreeMap<String, String>> {
+    let mods = dem_modules();
+    let mut g: BTreeMap<String, BTreeMap<String, String>> = BTreeMap::new();
+    for (m, f) in &mods {
+        let me: Vec<&str> = m.split('/').collect();
+        // `super` in a file module `a/b/c.rs` is `a/b`; in `a/b/mod.rs`, `a`.
+        let is_mod = f.file_name().is_some_and(|n| n == "mod.rs");
+        let mut scope = me.clone();
+        if !is_mod {
+            scope.push("self");
+        }
+        let entry = g.entry(m.clone()).or_default();
+        for (n, line) in non_test_lines(f) {
+            for p in dem_paths(&scope, &line) {
+                let target = (1..=p.len())
+                    .rev()
+                    .map(|k| p[..k].join("/"))
+                    .find(|t| mods.contains_key(t));
+                if let Some(t) = target
+                    && t != *m
+                    && !t.starts_with(&format!("{m}/"))
+                {
+                    entry
+                        .entry(t)
+                        .or_insert_with(|| format!("{}:{n}", f.display()));
+                }
+            }
+        }
+    }
+    g
+}
+
+/// Inside the simulation core: the contact laws depend on nothing else of it, the shared
+/// base on no scenario, neither scenario on the other; and no two files import each
+/// other in a circle. Checked by planting `use crate::dem::pillar::PillarSim;` in
+/// `src/dem/law/substrate.rs` (fails the layering) and `use crate::dem::backend::
+/// pillar_avx2::PackedGrains;` in `src/dem/pillar/kernels.rs` (fails with the cycle
+/// kernels → pillar_avx2 → kernels).
+#[test]
+fn the_simulation_core_is_layered_and_acyclic() {
+    let g = dem_graph();
+    assert!(
+        g.contains_key("dem/law") && g.contains_key("dem/pillar/phases"),
+        "{:?}",
+        g.keys()
+    );
+    let rules: &[(&str, &[&str])] = &[
+        (
+            "dem/law",
+            &["dem/base", "dem/pillar", "dem/shear", "dem/backend"],
+        ),
+        ("dem/base", &["dem/pillar", "dem/shear"]),
+        ("dem/pillar", &["dem/shear"]),
+        ("dem/shear", &["dem/pillar"]),
+    ];
+    let within = |m: &str, folder: &str| m == folder || m.starts_with(&format!("{folder}/"));
+    let mut bad = Vec::new();
+    for (m, edges) in &g {
+        for (from, forbidden) in rules {
+            if !within(m, from) {
+                continue;
+            }
+            for (to, at) in edges {
+                if forbidden.iter().any(|f| within(to, f)) {
+                    bad.push(format!("{m} → {to} at {at}"));
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "forbidden arrows:\n{}", bad.join("\n"));
+    fn visit(
+        n: &str,
+        g: &BTreeMap<String, BTreeMap<String, String>>,
+        stack: &mut Vec<String>,
+        done: &mut BTreeSet<String>,
+    ) -> Option<Vec<String>> {
+        if let Some(i) = stack.iter().position(|s| s == n) {
+            let mut c = stack[i..].to_vec();
+            c.push(n.to_string());
+            return Some(c);
+        }
+        if done.contains(n) {
+            return None;
+        }
+        stack.push(n.to_string());
+        for to in g.get(n).into_iter().flat_map(|e| e.keys()) {
+            if let Some(c) = visit(to, g, stack, done) {
+                return Some(c);
+            }
+        }
+        stack.pop();
+        done.insert(n.to_string());
+        None
+    }
+    let mut done = BTreeSet::new();
+    for n in g.keys() {
+        if let Some(c) = visit(n, &g, &mut Vec::new(), &mut done) {
+            let places: Vec<String> = c
+                .windows(2)
+                .map(|w| format!("{} → {} at {}", w[0], w[1], g[&w[0]][&w[1]]))
+                .collect();
+            panic!(
+                "import cycle in the simulation core:\n{}",
+                places.join("\n")
+            );
+        }
+    }
+}

@@ -1,6 +1,6 @@
 //! The sheared disks' force kernel (vagberg-sheared-disks Eqs. 1–3, 5–7, harmonic
 //! α = 2) with 512-bit vectors: eight pair slots at a time, for processors with
-//! AVX-512 F/VL/DQ. Otherwise as [`crate::dem::backend::shear_avx2`]: grain records loaded whole and
+//! AVX-512 F/VL/DQ. Otherwise as `shear_avx2` (which calls this one): grain records loaded whole and
 //! transposed in registers, each lane doing the straight loop's operations in its order
 //! (no fused multiply-add), masked-off lanes adding +0.0 or −0.0, and each grain's
 //! force summed in slot order, so the same numbers bit for bit (tested).

@@ -38,7 +38,7 @@ pub struct DriftInputs<'a> {
     pub y_ref: &'a [f64],
 }
 
-/// [`crate::dem::pillar::dispatch::kick_drift`] in portable scalar code (the reference the AVX2 kernel matches, and
+/// `dispatch::kick_drift` in portable scalar code (the reference the AVX2 kernel matches, and
 /// its tail); the largest move only when `refs_ok`, else 0.
 pub fn kick_drift_scalar(
     dt: f64,
@@ -187,7 +187,7 @@ impl SubstrateState<'_> {
     }
 }
 
-/// [`crate::dem::pillar::dispatch::substrate_kick`] in portable scalar code: the reference the AVX2 kernel matches
+/// `dispatch::substrate_kick` in portable scalar code: the reference the AVX2 kernel matches
 /// bit for bit, and its tail.
 pub fn substrate_kick_scalar(inp: &SubstrateInputs, out: SubstrateState) {
     let SubstrateInputs {
