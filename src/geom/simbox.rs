@@ -31,19 +31,21 @@ impl SimBox {
         }
     }
 
-    /// Minimum-image form of a separation `d = r_j − r_i` (Lees–Edwards aware):
-    /// first the y image (which drags x by the offset), then x.
+    /// Minimum-image form of a separation `d = r_j − r_i` (Lees–Edwards aware), by
+    /// the project's one rule ([`super::MinImage`]).
     #[inline]
-    pub fn min_image(&self, mut d: Vec2) -> Vec2 {
-        if self.periodic_y {
-            let ny = (d.y / self.ly).round();
-            d.y -= ny * self.ly;
-            d.x -= ny * self.xy;
-        }
-        if self.periodic_x {
-            d.x -= (d.x / self.lx).round() * self.lx;
-        }
-        d
+    pub fn min_image(&self, d: Vec2) -> Vec2 {
+        let (dx, dy) = self.image().of(d.x, d.y);
+        Vec2::new(dx, dy)
+    }
+
+    /// The box's minimum-image map, for loops that apply it many times.
+    pub fn image(&self) -> super::MinImage {
+        super::MinImage::new(
+            if self.periodic_x { self.lx } else { 0.0 },
+            if self.periodic_y { self.ly } else { 0.0 },
+            self.xy,
+        )
     }
 
     /// Map a position into the primary cell (Lees–Edwards aware).

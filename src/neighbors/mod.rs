@@ -168,6 +168,8 @@ impl CellList {
         } else {
             (cy - 1, cy + 1)
         };
+        // The box's minimum image, made once (`geom::MinImage`).
+        let image = b.map(|b| b.image());
         for ry in ylo..=yhi {
             // Row index in the grid and the x shift of that row's images.
             let (row, shift) = if ry < 0 || ry >= self.ny as isize {
@@ -205,8 +207,9 @@ impl CellList {
                 let (s, e) = (self.cell_start[c] as usize, self.cell_start[c + 1] as usize);
                 for k in s..e {
                     let mut d = self.sorted[k] - p;
-                    if let Some(b) = b {
-                        d = b.min_image(d);
+                    if let Some(img) = image {
+                        let (dx, dy) = img.of(d.x, d.y);
+                        d = Vec2::new(dx, dy);
                     }
                     if self.accept(d.norm2()) {
                         f(self.order[k] as usize, d);

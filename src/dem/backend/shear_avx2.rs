@@ -68,7 +68,7 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
 }
 }
 
-/// Nearest integer, ties to even, four lanes: the same value as `verlet::rint` (which
+/// Nearest integer, ties to even, four lanes: the same value as `geom::rint` (which
 /// keeps a zero's sign as this does) for every |v| < 2^51, in one instruction.
 #[inline]
 #[target_feature(enable = "avx2")]

@@ -30,7 +30,7 @@ fn idx([a, b, c, d, e, f, g, h]: [i64; 8]) -> __m512i {
     _mm512_set_epi64(h, g, f, e, d, c, b, a)
 }
 
-/// Nearest integer, ties to even (as `verlet::rint` and `shear_avx2::rint4`).
+/// Nearest integer, ties to even (as `geom::rint` and `shear_avx2::rint4`).
 #[inline]
 #[target_feature(enable = "avx2,avx512f,avx512vl,avx512dq")]
 fn rint8(v: __m512d) -> __m512d {

@@ -45,59 +45,16 @@ pub enum Boundary {
     LeesEdwards { lx: f64, ly: f64, offset: f64 },
 }
 
-/// Nearest integer of `v` (ties to even) for |v| < 2^51 without a libm call (x86-64
-/// without SSE4.1 has no rounding instruction; min-image separations call this twice per
-/// pair). A zero result keeps the sign of `v`, as the AVX2 kernel's `vroundpd` does.
-#[inline(always)]
-pub fn rint(v: f64) -> f64 {
-    const M: f64 = 6_755_399_441_055_744.0; // 1.5 × 2^52
-    ((v + M) - M).copysign(v)
-}
+pub use crate::geom::{MinImage, rint};
 
-/// Minimum image by multiplications with 1/L (as [`Boundary::delta`], which divides): for
-/// building lists, where a pair at the reach's edge may round either way and either is
-/// right (a list need only hold every pair closer than its reach).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct MinImage {
-    /// Box sides L_x, L_y, their inverses, and the Lees–Edwards offset (all 0 when open).
-    lx: f64,
-    ly: f64,
-    inv_lx: f64,
-    inv_ly: f64,
-    offset: f64,
-}
-
-impl MinImage {
-    pub(crate) fn new(b: Boundary) -> Self {
-        let (lx, ly, offset) = match b {
-            Boundary::Open => {
-                return MinImage {
-                    lx: 0.0,
-                    ly: 0.0,
-                    inv_lx: 0.0,
-                    inv_ly: 0.0,
-                    offset: 0.0,
-                };
-            }
-            Boundary::Periodic { lx, ly } => (lx, ly, 0.0),
-            Boundary::LeesEdwards { lx, ly, offset } => (lx, ly, offset),
-        };
-        MinImage {
-            lx,
-            ly,
-            inv_lx: 1.0 / lx,
-            inv_ly: 1.0 / ly,
-            offset,
+impl Boundary {
+    /// The boundary's minimum-image map (`geom::MinImage`: the project's one rule).
+    pub fn image(&self) -> MinImage {
+        match *self {
+            Boundary::Open => MinImage::OPEN,
+            Boundary::Periodic { lx, ly } => MinImage::new(lx, ly, 0.0),
+            Boundary::LeesEdwards { lx, ly, offset } => MinImage::new(lx, ly, offset),
         }
-    }
-
-    /// The separation r_i − r_j given raw as (dx, dy), at its nearest image (open boxes:
-    /// unchanged, every factor being 0).
-    #[inline(always)]
-    pub(crate) fn of(&self, dx: f64, dy: f64) -> (f64, f64) {
-        let img = rint(dy * self.inv_ly);
-        let (dx, dy) = (dx - img * self.offset, dy - img * self.ly);
-        (dx - self.lx * rint(dx * self.inv_lx), dy)
     }
 }
 
@@ -122,32 +79,14 @@ impl Boundary {
     /// Separation r_i − r_j given as raw `(dx, dy)`, mapped to its minimum image.
     #[inline(always)]
     pub fn delta(&self, dx: f64, dy: f64) -> (f64, f64) {
-        match *self {
-            Boundary::Open => (dx, dy),
-            Boundary::Periodic { lx, ly } => (dx - lx * rint(dx / lx), dy - ly * rint(dy / ly)),
-            Boundary::LeesEdwards { .. } => {
-                let (dx, dy, _) = self.delta_image(dx, dy);
-                (dx, dy)
-            }
-        }
+        self.image().of(dx, dy)
     }
 
     /// As [`Boundary::delta`], also returning the y image index n used for j (the
     /// image of j sits at y_j + n L_y, x_j + n offset, moving n γ̇ L_y faster along x).
     #[inline(always)]
     pub fn delta_image(&self, dx: f64, dy: f64) -> (f64, f64, f64) {
-        match *self {
-            Boundary::LeesEdwards { lx, ly, offset } => {
-                let n = rint(dy / ly);
-                let dy = dy - n * ly;
-                let dx = dx - n * offset;
-                (dx - lx * rint(dx / lx), dy, n)
-            }
-            _ => {
-                let (a, b) = self.delta(dx, dy);
-                (a, b, 0.0)
-            }
-        }
+        self.image().with_index(dx, dy)
     }
 
     /// The Lees–Edwards offset (0 for other boundaries).
@@ -288,7 +227,7 @@ impl PairList {
         let cut = self.reach(r);
         self.cut = cut;
         let grid = Grid::new(x, y, cut, b, (head, items), &mut cell);
-        let delta = MinImage::new(b);
+        let delta = b.image();
         let mut seg: Vec<u32> = vec![0; 64];
         let mut cells = [(0, 0); 9];
         for i in 0..n {

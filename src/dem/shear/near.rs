@@ -11,7 +11,7 @@
 //! the thin skin) and every pair with contact history, so the forces, their order of
 //! summation and the contact bookkeeping are those of the whole list.
 
-use crate::dem::base::verlet::{Boundary, MinImage, PairList, strain_since, stray_limit, strays};
+use crate::dem::base::verlet::{Boundary, PairList, strain_since, stray_limit, strays};
 use crate::dem::shear::params::{Collisions, angle_bin};
 
 /// Extra distance beyond contact kept in the near list (d_s): the range its skin adapts
@@ -230,7 +230,7 @@ impl Slots {
         for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
             v.resize(padded, 0.0);
         }
-        let delta = MinImage::new(b);
+        let delta = b.image();
         // Every Verlet slot is written at m and kept by advancing m: whether it is near
         // is a coin flip a branch would mispredict.
         let mut m = 0;

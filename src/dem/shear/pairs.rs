@@ -4,10 +4,10 @@
 //! actual states keep the contact bookkeeping (the predictor of Eq. 22 needs forces
 //! only); `VIRIAL`: the virial, only at the states the outputs sample.
 
-use crate::dem::base::verlet::rint;
 use crate::dem::law::{ContactLaw, Damping, Motion};
 use crate::dem::shear::near::contact_event;
 use crate::dem::shear::params::{Collisions, StateSlices, Virial};
+use crate::geom::MinImage;
 
 /// Everything the pair loop reads besides the state (units d_s = m = τ_e = 1).
 #[derive(Debug, Clone, Copy)]
@@ -22,7 +22,9 @@ pub struct PairParams {
     pub shear_v: f64,
     /// The law is CDrot (contact-point velocities, Eq. 6) rather than CD.
     pub cdrot: bool,
-    /// Box side L, 1/L, Lees–Edwards offset γ L.
+    /// The box's minimum image (`geom::MinImage`), and for the vector kernels its
+    /// side L, 1/L and Lees–Edwards offset γ L.
+    pub image: MinImage,
     pub ll: f64,
     pub inv_l: f64,
     pub offset: f64,
@@ -45,6 +47,7 @@ impl PairParams {
             alpha: p.alpha,
             shear_v: p.rate * l,
             cdrot,
+            image: MinImage::new(l, l, offset),
             ll: l,
             inv_l: 1.0 / l,
             offset,
@@ -76,17 +79,11 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
     let mut vir = Virial::default();
     let track = HISTORY;
     let (law, shear_v) = (&pp.law, pp.shear_v);
-    let (ll, inv_l, offset, now) = (pp.ll, pp.inv_l, pp.offset, pp.now);
+    let (image, now) = (pp.image, pp.now);
     for i in 0..x.len() {
         for k in start[i] as usize..start[i + 1] as usize {
             let j = js[k] as usize;
-            // Minimum image, Lees–Edwards (as Boundary::delta_image, with the
-            // divisions by L hoisted out of the loop).
-            let (dx, dy) = (x[i] - x[j], y[i] - y[j]);
-            let img = rint(dy * inv_l);
-            let dy = dy - img * ll;
-            let dx = dx - img * offset;
-            let dx = dx - ll * rint(dx * inv_l);
+            let (dx, dy, img) = image.with_index(x[i] - x[j], y[i] - y[j]);
             // Relative velocity; j's image moves img·γ̇L faster along x.
             let m = Motion {
                 dvx: vx[i] - vx[j] - img * shear_v,

@@ -14,7 +14,6 @@
 //! loop ([`crate::dem::shear::pairs::pair_loop`]) does and the sums add in its order, so the
 //! results are the same bit for bit (a test holds them to it).
 
-use crate::dem::base::verlet::rint;
 use crate::dem::law::{ContactLaw, ContactPoint, Damping, Motion, Normal, Tangential};
 use crate::dem::shear::near::{History, Slots};
 use crate::dem::shear::pairs::PairParams;
@@ -204,7 +203,7 @@ unsafe fn at<T: Copy>(a: &[T], m: usize) -> T {
 }
 
 crate::multiversion! {
-/// Minimum-image separations (as Boundary::delta_image) and contact tests of one block,
+/// Minimum-image separations (`geom::MinImage`) and contact tests of one block,
 /// then the touching slots listed in order.
 fn separations(
     xy: (&[f64], &[f64]),
@@ -215,16 +214,13 @@ fn separations(
     b: &mut Seps,
 ) {
     let (x, y) = xy;
-    let (ll, inv_l, offset) = (pp.ll, pp.inv_l, pp.offset);
+    let image = pp.image;
     let len = si.len().min(sj.len()).min(dij2.len()).min(BLOCK);
     for k in 0..len {
         let (i, j) = (si[k] as usize, sj[k] as usize);
         // SAFETY: see `at`.
         let (dx, dy) = unsafe { (at(x, i) - at(x, j), at(y, i) - at(y, j)) };
-        let img = rint(dy * inv_l);
-        let dy = dy - img * ll;
-        let dx = dx - img * offset;
-        let dx = dx - ll * rint(dx * inv_l);
+        let (dx, dy, img) = image.with_index(dx, dy);
         b.dx[k] = dx;
         b.dy[k] = dy;
         b.img[k] = img;
