@@ -271,6 +271,10 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     loop {
         if fresh && sim.step.is_multiple_of(opt.sample_every) {
             if ramp.is_none() && sim.strain() >= opt.transient * opt.strain {
+                if sim.coll.window_start.is_infinite() {
+                    // The duration cohort: contacts begun from here on.
+                    sim.coll.window_start = sim.time;
+                }
                 steady.sample(&sim, per_sample, field_every, opt.seed);
             }
             let vir = sim.virial();
@@ -401,7 +405,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     if let Some(r) = &ramp {
         return finish_ramp(out, opt, &p, r, &cols, &sim, frame, series, tracks_path, t0);
     }
-    let summary = summarize(&cols, &p, sim.g.len(), opt)?;
+    let cohort = super::shear_stats::Cohort::of(&sim);
+    let summary = summarize(&cols, &p, sim.g.len(), opt, &cohort)?;
     steady.write(&sim, out)?;
     let summary_json = serde_json::json!({
         "params": p, "options": opt, "steps": sim.step, "strain": sim.strain(),
@@ -435,7 +440,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             "units d_s = m = tau_e = 1: k_e = 1, k_d = 1/Q",
             "positions unwrapped; minimum image with the Lees–Edwards offset gamma L, the image's velocity shifted by n gamma_dot L",
             "kinetic stress from fluctuations about v_x = gamma_dot y",
-            "Z counts every contact (rattlers included); tau_dur from contacts that ended in the window; nu_coll = contacts begun per particle per tau_e",
+            "Z counts every contact (rattlers included); nu_coll = contacts begun per particle per tau_e in the window; tau_dur = mean duration of the contacts begun in the window, those still open at its end censored (Kaplan-Meier on 20 log bins per decade, each bin's mass at its mean; error from two halves of the cohort); tau_dur_ended_only = the biased mean over contacts that ended in the window, for comparison",
             "initial state: random positions at phi with the affine flow v_x = gamma_dot y",
         ],
     });

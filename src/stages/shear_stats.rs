@@ -2,8 +2,9 @@
 //! after the transient (vagberg-sheared-disks Eqs. 16, 19, 20, 25).
 
 use super::shear::{SERIES, ShearOptions};
-use crate::dem::shear::ShearParams;
+use crate::dem::shear::{DurationHistogram, ShearParams, ShearSim, cohort_half};
 use crate::error::{Error, Result};
+use crate::stats::{SurvivalMean, survival_mean};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -24,12 +25,56 @@ pub(crate) fn block_stats(blocks: &[f64]) -> MeanErr {
     }
 }
 
+/// The contacts begun in the averaging window, by half (see `cohort_half`): the
+/// durations of those that ended, and how long those still open at the end had lasted.
+pub(crate) struct Cohort {
+    pub ended: [DurationHistogram; 2],
+    pub censored: [DurationHistogram; 2],
+}
+
+impl Cohort {
+    /// The run's cohort, its open contacts censored now.
+    pub(crate) fn of(sim: &ShearSim) -> Cohort {
+        let mut censored: [DurationHistogram; 2] = Default::default();
+        let from = sim.coll.window_start;
+        for start in sim.open_contact_starts() {
+            if start >= from {
+                censored[cohort_half(start)].add(sim.time - start);
+            }
+        }
+        Cohort {
+            ended: sim.coll.cohort_ended.clone(),
+            censored,
+        }
+    }
+
+    /// τ_dur by the survival estimator, over the halves `halves`.
+    fn tau(&self, halves: &[usize]) -> SurvivalMean {
+        let b = DurationHistogram::BINS;
+        let add = |f: &dyn Fn(&DurationHistogram, usize) -> f64, hs: &[DurationHistogram; 2]| {
+            (0..b)
+                .map(|k| halves.iter().map(|&h| f(&hs[h], k)).sum::<f64>())
+                .collect::<Vec<f64>>()
+        };
+        let count = |h: &DurationHistogram, k: usize| h.count[k] as f64;
+        let ended: Vec<u64> = add(&count, &self.ended).iter().map(|&v| v as u64).collect();
+        let ended_sum = add(&|h, k| h.sum[k], &self.ended);
+        let censored: Vec<u64> = add(&count, &self.censored)
+            .iter()
+            .map(|&v| v as u64)
+            .collect();
+        let edges: Vec<f64> = (0..=b).map(DurationHistogram::lower_edge).collect();
+        survival_mean(&ended, &ended_sum, &censored, &edges)
+    }
+}
+
 /// Steady-state means with block errors (Eqs. 16, 19, 20, 25).
 pub(crate) fn summarize(
     cols: &[Vec<f64>],
     p: &ShearParams,
     n: usize,
     opt: &ShearOptions,
+    cohort: &Cohort,
 ) -> Result<BTreeMap<String, MeanErr>> {
     let col = |name: &str| {
         &cols[SERIES
@@ -126,14 +171,44 @@ pub(crate) fn summarize(
         }
     };
     s.insert("nu_coll".into(), with_whole(&nu));
-    // τ_dur: mean duration of the contacts that ended in the block.
-    let tau = |r: &std::ops::Range<usize>| {
+    // The biased estimate, for comparison: the mean duration of the contacts that
+    // ended in the window (contacts still open at its end, the longer ones, are left
+    // out).
+    let tau_ended = |r: &std::ops::Range<usize>| {
         (tsum[r.end - 1] - tsum[r.start]) / (ended[r.end - 1] - ended[r.start]).max(1.0)
     };
-    s.insert("tau_dur".into(), with_whole(&tau));
+    s.insert("tau_dur_ended_only".into(), with_whole(&tau_ended));
+    // τ_dur: the contacts begun in the window followed to its end, those still open
+    // censored (Kaplan–Meier); the error from its two halves' difference.
+    let all = cohort.tau(&[0, 1]);
+    let (a, b) = (cohort.tau(&[0]), cohort.tau(&[1]));
+    let tau = MeanErr {
+        mean: all.mean,
+        err: 0.5 * (a.mean - b.mean).abs(),
+    };
+    s.insert("tau_dur".into(), tau);
+    let total = (all.events + all.censored).max(1) as f64;
+    s.insert(
+        "tau_dur_censored_fraction".into(),
+        MeanErr {
+            mean: all.censored as f64 / total,
+            err: 0.0,
+        },
+    );
+    s.insert(
+        "tau_dur_unobserved_tail".into(),
+        MeanErr {
+            mean: all.tail,
+            err: 0.0,
+        },
+    );
+    let nu = with_whole(&nu);
     s.insert(
         "two_tau_dur_nu_coll".into(),
-        with_whole(&|r| 2.0 * tau(r) * nu(r)),
+        MeanErr {
+            mean: 2.0 * tau.mean * nu.mean,
+            err: 2.0 * ((tau.err * nu.mean).powi(2) + (tau.mean * nu.err).powi(2)).sqrt(),
+        },
     );
     Ok(s)
 }

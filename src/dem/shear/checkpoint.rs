@@ -1,7 +1,7 @@
 //! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
 
 use crate::dem::base::codec::{Dec, Enc, check_state, dec_grains, dec_list, enc_grains, enc_list};
-use crate::dem::shear::{Collisions, Predicted, ShearParams, ShearSim};
+use crate::dem::shear::{Collisions, DurationHistogram, Predicted, ShearParams, ShearSim};
 
 const MAGIC: &[u8; 8] = b"PPSHEAR1";
 
@@ -51,6 +51,12 @@ impl ShearSim {
         e.u64(self.rotate as u64);
         e.f64(self.gamma);
         e.bytes(extra);
+        // Added after the format's first version, so at the end: the duration cohort.
+        e.f64(self.coll.window_start);
+        for h in &self.coll.cohort_ended {
+            e.i64s(&h.count.iter().map(|&v| v as i64).collect::<Vec<_>>());
+            e.f64s(&h.sum);
+        }
         e.0
     }
 
@@ -78,16 +84,32 @@ impl ShearSim {
         let (begun, ended, duration_sum) = (d.u64()?, d.u64()?, d.f64()?);
         let to_u = |v: Vec<i64>| v.into_iter().map(|x| x as u64).collect::<Vec<u64>>();
         let (angle_making, angle_breaking) = (to_u(d.i64s()?), to_u(d.i64s()?));
-        let coll = Collisions {
+        let mut coll = Collisions {
             begun,
             ended,
             duration_sum,
             angle_making,
             angle_breaking,
+            ..Default::default()
         };
         let rotate = d.u64()? != 0;
         let gamma = d.f64()?;
         let extra = d.bytes()?;
+        // A checkpoint of an earlier version ends here: its run had no cohort yet.
+        if !d.done() {
+            coll.window_start = d.f64()?;
+            for h in coll.cohort_ended.iter_mut() {
+                let at = d.pos();
+                let (count, sum) = (to_u(d.i64s()?), d.f64s()?);
+                if count.len() != DurationHistogram::BINS || sum.len() != DurationHistogram::BINS {
+                    return Err(format!(
+                        "duration histogram at byte {at}: needs {} bins",
+                        DurationHistogram::BINS
+                    ));
+                }
+                *h = DurationHistogram { count, sum };
+            }
+        }
         if !d.done() {
             return Err(d.trailing());
         }

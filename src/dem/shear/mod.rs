@@ -25,7 +25,10 @@ use crate::dem::shear::slots::evaluate;
 #[cfg(target_arch = "x86_64")]
 use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
 use crate::rng::Rng;
-pub use params::{ANGLE_BINS, Collisions, Dissipation, ShearParams, Virial, angle_bin};
+pub use params::{
+    ANGLE_BINS, Collisions, Dissipation, DurationHistogram, ShearParams, Virial, angle_bin,
+    cohort_half,
+};
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShearSim {
@@ -133,11 +136,7 @@ impl ShearSim {
             fx: vec![0.0; n],
             fy: vec![0.0; n],
             tq: vec![0.0; n],
-            coll: Collisions {
-                angle_making: vec![0; ANGLE_BINS],
-                angle_breaking: vec![0; ANGLE_BINS],
-                ..Default::default()
-            },
+            coll: Collisions::default(),
             rotate: true,
             resort_every: crate::dem::shear::order::RESORT_EVERY,
             pred: Predicted::default(),
@@ -244,6 +243,18 @@ impl ShearSim {
         } else {
             "portable"
         }
+    }
+
+    /// Start times (τ_e) of the contacts open now, from the pair histories (each
+    /// holds 1 + its contact's start time, 0 when apart): the censored part of the
+    /// duration cohort (`Collisions::window_start`).
+    pub fn open_contact_starts(&self) -> Vec<f64> {
+        self.list
+            .shear
+            .iter()
+            .filter(|&&h| h != 0.0)
+            .map(|&h| h - 1.0)
+            .collect()
     }
 
     /// The virial sums Σ f ⊗ r_ij (Eqs. 12–13) and the contact count of the current

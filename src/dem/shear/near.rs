@@ -367,9 +367,8 @@ pub fn contact_event(
         coll.angle_making[bin] += 1;
         1.0 + now
     } else {
-        coll.ended += 1;
         coll.angle_breaking[bin] += 1;
-        coll.duration_sum += now - (h - 1.0);
+        coll.ended_at(h - 1.0, now);
         0.0
     }
 }

@@ -95,7 +95,7 @@ pub struct Virial {
 }
 
 /// Contact bookkeeping for τ_dur and ν_coll (Eq. 25).
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Collisions {
     pub begun: u64,
     pub ended: u64,
@@ -105,6 +105,98 @@ pub struct Collisions {
     /// folded into [0°, 180°)) at contact making and breaking, in bins of 3.6°.
     pub angle_making: Vec<u64>,
     pub angle_breaking: Vec<u64>,
+    /// The cohort whose durations give τ_dur without censoring bias: contacts begun at
+    /// or after `window_start` (τ_e; +∞ until the caller opens the window). Those that
+    /// ended are recorded here, by duration and by half of the cohort (see
+    /// [`cohort_half`]); those still open when the run ends are read from the pair
+    /// histories then (`ShearSim::open_contact_starts`).
+    pub window_start: f64,
+    pub cohort_ended: [DurationHistogram; 2],
+}
+
+impl Default for Collisions {
+    fn default() -> Self {
+        Collisions {
+            begun: 0,
+            ended: 0,
+            duration_sum: 0.0,
+            angle_making: vec![0; ANGLE_BINS],
+            angle_breaking: vec![0; ANGLE_BINS],
+            window_start: f64::INFINITY,
+            cohort_ended: Default::default(),
+        }
+    }
+}
+
+impl Collisions {
+    /// Record a contact that began at `start` and ended at `now` (τ_e).
+    #[inline]
+    pub fn ended_at(&mut self, start: f64, now: f64) {
+        self.ended += 1;
+        self.duration_sum += now - start;
+        if start >= self.window_start {
+            self.cohort_ended[cohort_half(start)].add(now - start);
+        }
+    }
+}
+
+/// Which of two halves of the cohort a contact begun at `start` belongs to: a bit of
+/// its start time, so the split is the same when it ends as when it is still open,
+/// and the two halves give two independent estimates (their spread is the error).
+pub fn cohort_half(start: f64) -> usize {
+    (start.to_bits() >> 20 & 1) as usize
+}
+
+/// Durations (τ_e) in logarithmic bins, [`DurationHistogram::PER_DECADE`] per decade
+/// from 1e-3 τ_e (below: the first bin; beyond 1e9 τ_e: the last), with the sum of the
+/// durations in each bin, so a bin's mean is exact.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DurationHistogram {
+    pub count: Vec<u64>,
+    pub sum: Vec<f64>,
+}
+
+impl Default for DurationHistogram {
+    fn default() -> Self {
+        DurationHistogram {
+            count: vec![0; Self::BINS],
+            sum: vec![0.0; Self::BINS],
+        }
+    }
+}
+
+impl DurationHistogram {
+    pub const PER_DECADE: usize = 20;
+    pub const BINS: usize = 12 * Self::PER_DECADE + 2;
+    const LOWEST: f64 = 1e-3;
+
+    /// The bin of duration `d` (τ_e).
+    pub fn bin(d: f64) -> usize {
+        if !(d >= Self::LOWEST) {
+            return 0;
+        }
+        let k = ((d / Self::LOWEST).log10() * Self::PER_DECADE as f64) as usize + 1;
+        k.min(Self::BINS - 1)
+    }
+
+    /// Lower edge of bin `k` (τ_e).
+    pub fn lower_edge(k: usize) -> f64 {
+        if k == 0 {
+            0.0
+        } else {
+            Self::LOWEST * 10f64.powf((k - 1) as f64 / Self::PER_DECADE as f64)
+        }
+    }
+
+    pub fn add(&mut self, d: f64) {
+        let k = Self::bin(d);
+        self.count[k] += 1;
+        self.sum[k] += d;
+    }
+
+    pub fn total(&self) -> u64 {
+        self.count.iter().sum()
+    }
 }
 
 /// Bins of the collision-angle histograms: 3.6° over [0°, 180°).
