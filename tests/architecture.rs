@@ -407,3 +407,62 @@ fn the_simulation_core_is_layered_and_acyclic() {
         }
     }
 }
+
+/// Every `unsafe fn` says what its caller must guarantee (a `# Safety` section in its
+/// doc comment) and every `unsafe impl` why it holds (a `SAFETY` comment above it).
+/// Checked by deleting one `# Safety` line in `src/dem/backend/pillar_threads/arrays.rs`.
+#[test]
+fn every_unsafe_fn_and_impl_states_its_contract() {
+    let src = Path::new(ROOT).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let mut bad = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, l) in lines.iter().enumerate() {
+            let code = l.trim_start();
+            if code.starts_with("//") || code.contains('$') {
+                continue; // comments, and the macros that generate kernels
+            }
+            let above = || {
+                lines[..i]
+                    .iter()
+                    .rev()
+                    .take_while(|p| {
+                        let p = p.trim_start();
+                        p.starts_with("//") || p.starts_with("#[")
+                    })
+                    .map(|p| p.to_string())
+                    .collect::<Vec<String>>()
+            };
+            if code.contains("unsafe fn ") && !above().iter().any(|p| p.contains("# Safety")) {
+                bad.push(format!(
+                    "{}:{}: unsafe fn without # Safety",
+                    f.display(),
+                    i + 1
+                ));
+            }
+            if code.starts_with("unsafe impl") {
+                // A group of impls shares the comment above the first.
+                let mut k = i;
+                while k > 0 && lines[k - 1].trim_start().starts_with("unsafe impl") {
+                    k -= 1;
+                }
+                let has = lines[..k]
+                    .iter()
+                    .rev()
+                    .take_while(|p| p.trim_start().starts_with("//"))
+                    .any(|p| p.contains("SAFETY"));
+                if !has {
+                    bad.push(format!(
+                        "{}:{}: unsafe impl without SAFETY",
+                        f.display(),
+                        i + 1
+                    ));
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}

@@ -12,6 +12,9 @@ pub mod barrier;
 #[cfg(target_arch = "x86_64")]
 pub mod pillar_avx2;
 #[cfg(target_arch = "x86_64")]
+pub(crate) mod pillar_gather_avx2;
+pub mod pillar_threads;
+#[cfg(target_arch = "x86_64")]
 pub mod shear_avx2;
 #[cfg(target_arch = "x86_64")]
 mod shear_avx512;

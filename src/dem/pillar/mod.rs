@@ -13,13 +13,11 @@
 //!
 //! The substrate's static test uses grain–grain and grain–bar forces only.
 
-pub mod arrays;
 pub mod checkpoint;
 pub mod dispatch;
 pub mod gather;
 pub mod kernels;
 pub mod pack;
-pub mod par;
 pub mod params;
 pub mod phases;
 
@@ -27,8 +25,8 @@ use crate::dem::base::forces::ContactRecord;
 use crate::dem::base::grains::{Grains, LARGE};
 use crate::dem::base::verlet::{Boundary, PairList};
 use crate::dem::law::{ContactLaw, SubstrateFriction};
-use crate::dem::pillar::par::StepBuffers;
 use crate::dem::pillar::params::PillarParams;
+use crate::dem::pillar::phases::StepBuffers;
 
 /// Sums over an output interval (for averages the paper's σ and κ use).
 #[derive(Debug, Clone, Default, PartialEq)]

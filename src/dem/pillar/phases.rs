@@ -12,7 +12,7 @@
 //! and the chunks added in order; threads get whole chunks. So every thread count gives
 //! the same numbers, bit for bit.
 
-use crate::dem::backend::simd::Quad;
+use crate::dem::backend::simd::{Pos, Quad};
 use crate::dem::law::{ContactLaw, Motion};
 use std::ops::Range;
 
@@ -408,4 +408,49 @@ pub fn bar_contacts(
         i += 1;
     }
     [top_force, bottom_force, shear_force]
+}
+
+/// Per-step work the serial sections share with the phases (not state).
+#[derive(Debug, Clone, Default)]
+pub struct StepBuffers {
+    /// Each grain's contact terms, contiguous (`Reverse::terms_of`), padded to its
+    /// chunk's width with zeros: per slot it takes part in, the contact force (x, y, N)
+    /// on it and the torque (N m), and a zero.
+    pub terms: Vec<Quad>,
+    /// Whether `terms` holds this list's forces (a slot between resting grains is
+    /// then left as it is).
+    pub slots_valid: bool,
+    pub reverse: Reverse,
+    /// The grain that owns each pair slot (for kernels that run over slots).
+    pub(crate) owner: Vec<u32>,
+    /// The grains packed for the AVX2 pair kernel after each drift: (x, y, v_x, v_y)
+    /// (m, m/s) and (ω, R) (rad/s, m).
+    pub(crate) packed_state: Vec<Quad>,
+    pub(crate) packed_spin: Vec<Pos>,
+    /// F_n, |F_t| (N) and touching per slot, filled on force-snapshot steps.
+    pub rec_fn: Vec<f64>,
+    pub rec_ft: Vec<f64>,
+    pub rec_touch: Vec<bool>,
+    /// Per chunk: Σ F_n top, Σ F_n bottom, Σ bar shear (N); substrate power (W).
+    pub bar_sums: Vec<[f64; 3]>,
+    pub power: Vec<[f64; 2]>,
+    /// Per grain: |f·v| and |T_μ ω| (W), summed per chunk into `power`.
+    pub pow_t: Vec<f64>,
+    pub pow_r: Vec<f64>,
+    /// Per thread: largest squared move since the list build (m²); per step parity
+    /// and thread (`parity_half` of the thread plumbing): slots skipped, frozen grains.
+    pub moved2: Vec<f64>,
+    pub skipped: Vec<u64>,
+    pub frozen_count: Vec<usize>,
+    /// Thread t works on grains bounds[t]..bounds[t + 1] (chunk multiples) in the
+    /// grain phases, and on the pair slots of grains pair_bounds[t]..pair_bounds[t + 1]:
+    /// two splits, since pair work gathers where grains move while grain work is
+    /// nearly even.
+    pub bounds: Vec<usize>,
+    pub pair_bounds: Vec<usize>,
+    /// Seconds each thread spent working (not waiting) in the kick and grain phases
+    /// since the last rebalance.
+    pub busy: Vec<f64>,
+    /// The same for the pair phase.
+    pub busy_pairs: Vec<f64>,
 }

@@ -14,8 +14,8 @@
 use crate::dem::backend::pillar_avx2::{PackedGrains, pair_slots as pair_slots_avx2};
 use crate::dem::backend::simd::{Level, Pos, Quad, level};
 use crate::dem::law::{ContactLaw, SubstrateFriction};
+use crate::dem::pillar::dispatch::gather;
 use crate::dem::pillar::dispatch::{kick_drift, substrate_chunks};
-use crate::dem::pillar::gather::gather;
 use crate::dem::pillar::kernels::{
     Drift, DriftInputs, GrainConsts, SubstrateInputs, SubstrateState, pack_grains,
 };
@@ -29,8 +29,11 @@ use std::ops::Range;
 
 #[derive(Clone, Copy)]
 pub(crate) struct P<T>(*mut T, usize);
-unsafe impl<T> Send for P<T> {}
-unsafe impl<T> Sync for P<T> {}
+// SAFETY: a `P` hands out parts of one slice to the threads of one `advance`; the
+// phases give each thread disjoint parts to write (see `Arrays`), so it is as safe to
+// send and share as the elements are.
+unsafe impl<T: Send> Send for P<T> {}
+unsafe impl<T: Send + Sync> Sync for P<T> {}
 
 impl<T> P<T> {
     fn of(v: &mut [T]) -> Self {
@@ -125,6 +128,8 @@ pub(crate) struct Arrays {
     /// was built with, which a rebuild may change (`adapt_skin`).
     pub(crate) skin: f64,
 }
+// SAFETY: every field is a `P` of `Send + Sync` numbers or a pointer to state the
+// serial sections alone write; the phase functions' contracts keep writes disjoint.
 unsafe impl Send for Arrays {}
 unsafe impl Sync for Arrays {}
 
@@ -182,6 +187,8 @@ impl StepLaws {
 
 /// The serial sections' view of the arrays, republished after each.
 pub(crate) struct Shared(pub(crate) UnsafeCell<Arrays>);
+// SAFETY: only the first thread writes the cell, in the serial sections, while the
+// others wait at the barrier; they read it after the barrier publishes it.
 unsafe impl Sync for Shared {}
 impl Shared {
     pub(crate) fn get(&self) -> *mut Arrays {
@@ -190,6 +197,8 @@ impl Shared {
 }
 
 pub(crate) struct SendPtr(pub(crate) *mut PillarSim);
+// SAFETY: the simulation outlives the scoped threads of one `advance`, and only the
+// first thread dereferences the pointer, in the serial sections.
 unsafe impl Send for SendPtr {}
 unsafe impl Sync for SendPtr {}
 impl SendPtr {
@@ -317,18 +326,36 @@ fn half(a: &Arrays, parity: usize, t: usize) -> Range<usize> {
 
 /// This step's rest flags (the other half of the array is the next step's, which a
 /// thread ahead in its kick may be writing).
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 unsafe fn resting<'a>(a: &Arrays, parity: usize) -> &'a [bool] {
     let n = a.x.1;
     unsafe { a.resting.view(parity * n..parity * n + n) }
 }
 
 /// Thread t's grains.
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 unsafe fn range(a: &Arrays, t: usize) -> Range<usize> {
     let b = unsafe { &*a.bounds };
     b[t]..b[t + 1]
 }
 
 /// The grains whose pair slots thread t computes.
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 unsafe fn pair_range(a: &Arrays, t: usize) -> Range<usize> {
     let b = unsafe { &*a.pair_bounds };
     b[t]..b[t + 1]
@@ -336,6 +363,12 @@ unsafe fn pair_range(a: &Arrays, t: usize) -> Range<usize> {
 
 /// Phase 1: kick and drift of thread t's grains, packed for the pair kernel; their
 /// largest move since the build.
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) -> f64 {
     unsafe {
         let r = range(a, t);
@@ -371,6 +404,12 @@ pub(crate) unsafe fn phase_kick(a: &Arrays, t: usize, dt: f64, parity: usize) ->
 }
 
 /// All grains packed for the AVX2 pair kernel (where no drift did it).
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 pub(crate) unsafe fn phase_pack(a: &Arrays) {
     unsafe {
         let r = 0..a.x.1;
@@ -390,6 +429,12 @@ pub(crate) unsafe fn phase_pack(a: &Arrays) {
 }
 
 /// Frozen flags of thread t's grains (each reads every grain's rest flag).
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 unsafe fn phase_frozen(a: &Arrays, t: usize, laws: &StepLaws, bars: &Bars, parity: usize) {
     unsafe {
         let r = range(a, t);
@@ -412,6 +457,12 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, laws: &StepLaws, bars: &Bars, parit
 }
 
 /// Phase 2: the pair slots of the grains `pair_bounds[t]..pair_bounds[t + 1]`.
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: usize) {
     unsafe {
         let r = pair_range(a, t);
@@ -486,6 +537,12 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
 ///
 /// No barrier separates this from the next step's kick, so it reads other threads'
 /// grains only in arrays no kick writes (the terms, radii, the list).
+///
+/// # Safety
+/// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
+/// step's serial section, and the caller is thread `t` of the team running the phases
+/// in order with a barrier between them, so that no other thread writes what this
+/// one reads or writes (each writes only its own grains or pair slots).
 pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u64, parity: usize) {
     unsafe {
         let bars = laws.bars_at(step);
