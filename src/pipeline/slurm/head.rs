@@ -280,10 +280,21 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
         let _lock = StageLock::take(&state.dir.join(".submit-lock"), &mut |_| {})?;
         let queue = batch::squeue()?;
         let mut fresh = BTreeSet::new();
+        let mut stale = Vec::new();
         for s in h.p.stages.iter().filter(|s| !done.contains_key(&s.name)) {
-            let earlier = state
+            let mut earlier = state
                 .stage_job(&h.dir_name(s))
                 .filter(|j| queue.get(&j.job.to_string()).is_some_and(|q| q.alive()));
+            // A job queued after jobs that are not the ones its stages now wait for (an
+            // upstream stage is submitted anew) would wait for the wrong ones: replace it.
+            if let Some(j) = &earlier
+                && s.upstream
+                    .values()
+                    .any(|u| !done.contains_key(u) && !pending.contains_key(u))
+            {
+                stale.push(j.job.clone());
+                earlier = None;
+            }
             match earlier {
                 Some(j) => {
                     h.emit(
@@ -312,6 +323,7 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
                 }
             }
         }
+        batch::scancel(&stale)?;
         h.submit(&state, &fresh, &mut pending, &BTreeMap::new(), on_event)?;
     }
     let slurm_info = |h: &HeadRun, p: &Pending, st: &str, wall: Option<f64>| SlurmStage {
@@ -363,6 +375,7 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
             let s = h.stage(&name)?;
             let k = &h.keyed[&name];
             let dir = h.cache.path(s.kind.name(), &k.key);
+            let upstream_pending = s.upstream.values().any(|u| pending.contains_key(u));
             let Some(p) = pending.get_mut(&name) else {
                 continue;
             };
@@ -431,17 +444,22 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
                     }
                     // Cancelled by Slurm because a stage it reads failed: that stage's
                     // failure is the one to report (or to retry, resubmitting this one).
-                    if q.is_some_and(|q| q.reason == "DependencyNeverSatisfied") {
+                    let dependency = q.is_some_and(|q| q.reason == "DependencyNeverSatisfied");
+                    if dependency && upstream_pending {
                         continue;
                     }
                     let how = q.map_or_else(
                         || "no longer listed by squeue".to_string(),
                         |q| format!("{}, reason {}", q.state, q.reason),
                     );
-                    let what = format!(
-                        "the job ended ({how}) without writing its exit status: cancelled, \
-                         killed at its time limit or for memory, or its node failed"
-                    );
+                    let what = if dependency {
+                        format!("Slurm cancelled the job ({how}): a job it waited for failed")
+                    } else {
+                        format!(
+                            "the job ended ({how}) without writing its exit status: cancelled, \
+                             killed at its time limit or for memory, or its node failed"
+                        )
+                    };
                     failed.push((name.clone(), h.failure(s, &state, &p.job, &what)));
                 }
             }

@@ -199,6 +199,17 @@ fn stage_task(
         s.kind.name(),
         &k.key[..16]
     );
+    // A simulation stopped earlier (time limit, scancel, requeue) left its checkpoint here.
+    let work = runs_dir.join("cache").join(format!(
+        ".work-{}",
+        crate::pipeline::cache::dir_name(s.kind.name(), &k.key)
+    ));
+    if work.join("checkpoint.bin").is_file() {
+        println!(
+            "a checkpoint of this stage exists ({}): the simulation continues from it",
+            work.display()
+        );
+    }
     let how = if verify { Check::Sha256 } else { Check::Sizes };
     let o = claim_and_compute(
         &p,
