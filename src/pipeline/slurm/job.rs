@@ -224,8 +224,9 @@ fn stage_task(
             run_id,
             slurm_job: Some(format!("{job} on {host}")),
         },
-        &mut |status, note| {
-            println!("{status:?} {}", note.unwrap_or_default());
+        &mut |status, note| match note {
+            Some(n) => println!("{status:?}: {n}"),
+            None => println!("{status:?}"),
         },
     )?;
     println!(
