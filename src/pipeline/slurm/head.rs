@@ -354,6 +354,7 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
         return Ok(());
     }
     let retry = h.slurm.retry.unwrap_or(0);
+    let mut squeue_ok = Instant::now();
     while !pending.is_empty() {
         if let Some(signal) = crate::interrupt::requested() {
             m.stages = h.ordered(&by_name);
@@ -368,7 +369,18 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
             write_manifest(h.run_dir, m)?;
             return Err(Error::Interrupted { signal, what });
         }
-        let queue = batch::squeue()?;
+        // A busy controller may not answer every poll; give up after a minute of silence.
+        let queue = match batch::squeue() {
+            Ok(q) => {
+                squeue_ok = Instant::now();
+                q
+            }
+            Err(_) if squeue_ok.elapsed() < Duration::from_secs(60) => {
+                std::thread::sleep(POLL);
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
         let mut failed: Vec<(String, String)> = Vec::new();
         let names: Vec<String> = pending.keys().cloned().collect();
         for name in names {
@@ -381,6 +393,14 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
             };
             if let Verdict::Ok(r) = check_dir(&dir, Some(&k.key), Check::Sizes) {
                 let st = state.status(&p.job);
+                let q = queue.get(&p.job.to_string());
+                // The job writes its status (node, wall time) just after the entry.
+                if st.is_none() && q.is_some_and(|q| q.alive()) {
+                    continue;
+                }
+                if let Some(q) = q.filter(|q| !q.node.is_empty()) {
+                    p.node = q.node.clone();
+                }
                 if let Some(host) = st
                     .as_ref()
                     .map(|x| x.host.clone())
@@ -410,18 +430,6 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
                 write_manifest(h.run_dir, m)?;
                 continue;
             }
-            if let Some(st) = state.status(&p.job) {
-                if !st.host.is_empty() {
-                    p.node = st.host.clone();
-                }
-                let what = match (st.exit_code, &st.error) {
-                    (0, _) => "the job ended without error but left no complete cache entry".into(),
-                    (c, Some(e)) => format!("exit status {c} on {}: {e}", st.host),
-                    (c, None) => format!("exit status {c} on {}", st.host),
-                };
-                failed.push((name.clone(), h.failure(s, &state, &p.job, &what)));
-                continue;
-            }
             match queue.get(&p.job.to_string()) {
                 Some(q) if q.alive() => {
                     p.gone_since = None;
@@ -438,6 +446,23 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
                     }
                 }
                 q => {
+                    // Read only once Slurm no longer runs the job: a job requeued after
+                    // its first run wrote a status runs again under the same id.
+                    if let Some(st) = state.status(&p.job) {
+                        if !st.host.is_empty() {
+                            p.node = st.host.clone();
+                        }
+                        let what = match (st.exit_code, &st.error) {
+                            (0, _) => {
+                                "the job ended without error but left no complete cache entry"
+                                    .into()
+                            }
+                            (c, Some(e)) => format!("exit status {c} on {}: {e}", st.host),
+                            (c, None) => format!("exit status {c} on {}", st.host),
+                        };
+                        failed.push((name.clone(), h.failure(s, &state, &p.job, &what)));
+                        continue;
+                    }
                     let since = *p.gone_since.get_or_insert_with(Instant::now);
                     if since.elapsed() < GRACE {
                         continue;

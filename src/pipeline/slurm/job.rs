@@ -71,6 +71,8 @@ pub fn main(spec_file: &Path) -> i32 {
     let state = State {
         dir: spec.state_dir(),
     };
+    // Left by this job's previous run if Slurm requeued it: this run's outcome counts.
+    let _ = std::fs::remove_file(state.status_path(&job));
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_task(&spec, &job)));
     let (code, stage, error) = match result {
         Ok((stage, Ok(()))) => (0, stage, None),

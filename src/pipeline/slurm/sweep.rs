@@ -181,24 +181,26 @@ pub fn run_sweep(
                 ));
                 continue;
             }
-            let failure = if let Some(st) = state.status(&job) {
-                Some(format!(
-                    "exit status {} on {}: {}",
-                    st.exit_code,
-                    st.host,
-                    st.error.unwrap_or_default()
-                ))
-            } else {
-                match queue.get(&job.to_string()) {
-                    Some(qe) if qe.alive() => {
-                        gone = None;
-                        if qe.running() && !running {
-                            running = true;
-                            say(&format!("{name}  running  job {job} on {}", qe.node));
-                        }
-                        None
+            // The status is read only once Slurm no longer runs the job: a requeued job
+            // runs again under the same id.
+            let failure = match queue.get(&job.to_string()) {
+                Some(qe) if qe.alive() => {
+                    gone = None;
+                    if qe.running() && !running {
+                        running = true;
+                        say(&format!("{name}  running  job {job} on {}", qe.node));
                     }
-                    qe => {
+                    None
+                }
+                qe => {
+                    if let Some(st) = state.status(&job) {
+                        Some(format!(
+                            "exit status {} on {}: {}",
+                            st.exit_code,
+                            st.host,
+                            st.error.unwrap_or_default()
+                        ))
+                    } else {
                         let since = *gone.get_or_insert_with(Instant::now);
                         (since.elapsed() >= GRACE).then(|| {
                             format!(
