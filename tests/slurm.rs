@@ -347,6 +347,19 @@ fn cancelled_job_is_resubmitted_alone_and_resumes() {
     let out = run_ok(&["run", file, "--executor", "slurm", "--detach"], &slurm);
     assert!(out.contains("submitted to Slurm"), "{out}");
     let sim = queued_job(&out, "simulation.simulate").unwrap();
+    // A second head while the jobs are queued or running attaches to them.
+    let twice = run_ok(&["run", file, "--executor", "slurm", "--detach"], &slurm);
+    assert_eq!(
+        queued_job(&twice, "simulation.simulate").as_deref(),
+        Some(sim.as_str()),
+        "not submitted twice: {twice}"
+    );
+    assert_eq!(
+        queued_job(&twice, "simulation.fit"),
+        queued_job(&out, "simulation.fit"),
+        "{twice}"
+    );
+    assert!(twice.contains("attached"), "{twice}");
     let cache = slurm.join("cache");
     let ingested = || {
         final_dirs(&slurm).iter().any(|p| {
