@@ -458,8 +458,7 @@ fn failed_job_fails_its_stage_with_job_log_and_tail() {
     let first = queued_job(&out, "experiment.ingest").unwrap();
     let last = out
         .lines()
-        .filter(|l| l.contains(" experiment.ingest ") && l.contains(" queued "))
-        .last()
+        .rfind(|l| l.contains(" experiment.ingest ") && l.contains(" queued "))
         .and_then(|l| l.split("job ").nth(1)?.split_whitespace().next())
         .unwrap()
         .to_string();

@@ -48,6 +48,9 @@ pub fn run_point(spec: &SweepSpec, i: usize) -> Result<()> {
     run_local(&spec.out, &spec.base, p).map(|_| ())
 }
 
+/// A point still to finish: (point, job, attempt, gone from squeue since, seen running).
+type Pending = ((f64, f64, f64), JobRef, u32, Option<Instant>, bool);
+
 /// The sweep's jobs: how many points were submitted, and the summary table.
 pub struct SlurmSweep {
     pub submitted: usize,
@@ -83,8 +86,7 @@ pub fn run_sweep(
     } else {
         batch::squeue()?
     };
-    // (point, job, attempt) of every point still to finish.
-    let mut pending: Vec<((f64, f64, f64), JobRef, u32, Option<Instant>, bool)> = Vec::new();
+    let mut pending: Vec<Pending> = Vec::new();
     let mut fresh = Vec::new();
     for p in &unfinished {
         match state
