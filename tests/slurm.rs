@@ -263,6 +263,33 @@ fn quickstart_under_slurm_is_the_local_run() {
     );
     assert_eq!(again.matches(" cached ").count(), 8, "{again}");
     assert_eq!(file_names(&slurm.join("slurm/jobs")).len(), scripts);
+
+    // --force: the report is submitted again, and the run waits for its new entry.
+    let forced = run_ok(
+        &["run", &qs, "--executor", "slurm", "--force", "report"],
+        &slurm,
+    );
+    assert_eq!(forced.matches(" queued ").count(), 1, "{forced}");
+    let m = latest(&slurm);
+    let report = m["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["name"] == "report")
+        .unwrap();
+    let rec: Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            slurm
+                .join(report["dir"].as_str().unwrap())
+                .join("stage.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        rec["computed_in_run"], m["run_id"],
+        "recomputed by this run"
+    );
 }
 
 const SWEEP: &[&str] = &[

@@ -42,6 +42,8 @@ pub struct HeadRun<'a> {
 
 struct Pending {
     job: JobRef,
+    /// The run that submitted the job.
+    run_id: String,
     attempt: u32,
     running: bool,
     node: String,
@@ -220,6 +222,7 @@ impl HeadRun<'_> {
                     s.name.clone(),
                     Pending {
                         job,
+                        run_id: self.run_id.to_string(),
                         attempt,
                         running: false,
                         node: String::new(),
@@ -311,6 +314,7 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
                         s.name.clone(),
                         Pending {
                             job: j.job,
+                            run_id: j.run_id,
                             attempt: j.attempt,
                             running: false,
                             node: String::new(),
@@ -339,7 +343,7 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
         state: st.into(),
         attempts: p.attempt,
     };
-    if h.slurm.detach {
+    if h.slurm.detach && !pending.is_empty() {
         for (name, p) in &pending {
             let s = h.stage(name)?;
             by_name.insert(
@@ -391,7 +395,15 @@ pub fn run(h: &HeadRun, m: &mut RunManifest, on_event: &mut dyn FnMut(&StageEven
             let Some(p) = pending.get_mut(&name) else {
                 continue;
             };
-            if let Verdict::Ok(r) = check_dir(&dir, Some(&k.key), Check::Sizes) {
+            let verdict = check_dir(&dir, Some(&k.key), Check::Sizes);
+            // A forced stage's old entry stays in place until its job replaces it.
+            let verdict = match verdict {
+                Verdict::Ok(r) if h.force.contains(&name) && r.computed_in_run != p.run_id => {
+                    Verdict::Missing
+                }
+                v => v,
+            };
+            if let Verdict::Ok(r) = verdict {
                 let st = state.status(&p.job);
                 let q = queue.get(&p.job.to_string());
                 // The job writes its status (node, wall time) just after the entry.

@@ -81,6 +81,9 @@ pub fn run_sweep(
         .copied()
         .filter(|&(phi, q, rate)| !run_dir(&out, phi, q, rate).join("manifest.json").exists())
         .collect();
+    // Two sweep commands starting at once on one output must not both submit a point.
+    let submit_lock =
+        crate::pipeline::lock::StageLock::take(&state.dir.join(".submit-lock"), &mut |_| {})?;
     let queue = if unfinished.is_empty() {
         BTreeMap::new()
     } else {
@@ -156,6 +159,7 @@ pub fn run_sweep(
         Ok(())
     };
     submit(fresh, 1, &mut pending, say)?;
+    drop(submit_lock);
     let retry = slurm.retry.unwrap_or(0);
     while !pending.is_empty() {
         if let Some(signal) = crate::interrupt::requested() {
