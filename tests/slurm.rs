@@ -350,8 +350,9 @@ fn sweep_under_slurm_is_the_local_sweep() {
 }
 
 /// A simulation cancelled mid-run (`scancel`): the next `run` submits only what is not
-/// in the cache, the simulation continues from its checkpoint, and the outputs are
-/// those of an uninterrupted local run.
+/// in the cache, the simulation continues from its checkpoint, and, requeued by Slurm
+/// while it runs again (`scontrol requeue`), continues from its checkpoint once more;
+/// the outputs are those of an uninterrupted local run.
 #[test]
 fn cancelled_job_is_resubmitted_alone_and_resumes() {
     let Some(_g) = need_cluster("scancel under Slurm") else {
@@ -420,7 +421,70 @@ fn cancelled_job_is_resubmitted_alone_and_resumes() {
     let show = run_ok(&["runs", "show", "latest"], &slurm);
     assert!(show.contains("submitted"), "{show}");
 
-    let again = run_ok(&["run", file, "--executor", "slurm"], &slurm);
+    let head = Command::new(BIN)
+        .args(["run", file, "--executor", "slurm", "--runs-dir"])
+        .arg(&slurm)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Slurm's own path for a node failure or a preemption: the running job is requeued
+    // (SIGTERM, then it runs again under the same id). The head goes on waiting.
+    let running_sim = || {
+        let o = Command::new("squeue")
+            .args([
+                "-h",
+                "-r",
+                "-n",
+                "pp-simulate",
+                "-t",
+                "RUNNING",
+                "-o",
+                "%F_%K",
+            ])
+            .output()
+            .unwrap();
+        let t = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        (!t.is_empty()).then_some(t)
+    };
+    wait_for("the resubmitted simulation to run", 60, || {
+        running_sim().is_some()
+    });
+    let sim2 = running_sim().unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let rq = Command::new("scontrol")
+        .args(["requeue", &sim2])
+        .status()
+        .unwrap();
+    assert!(rq.success(), "scontrol requeue {sim2}");
+    // Slurm holds a requeued job back for about two minutes; release it now.
+    wait_for("the requeued job to be pending", 30, || {
+        let o = Command::new("squeue")
+            .args(["-h", "-r", "-j", &sim2, "-o", "%T"])
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&o.stdout).contains("PENDING")
+    });
+    let up = Command::new("scontrol")
+        .args(["update", &format!("jobid={sim2}"), "StartTime=now"])
+        .status()
+        .unwrap();
+    assert!(up.success());
+    let o = head.wait_with_output().unwrap();
+    let again = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success(),
+        "{again}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let restarted: Value = serde_json::from_str(
+        &std::fs::read_to_string(slurm.join(format!("slurm/status/{sim2}.json"))).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        restarted["exit_code"], 0,
+        "the requeued run's own status: {restarted}"
+    );
     let queued: Vec<&str> = ["experiment.ingest", "simulation.simulate", "simulation.fit"]
         .into_iter()
         .filter(|s| queued_job(&again, s).is_some())
