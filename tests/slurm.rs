@@ -510,8 +510,8 @@ fn cancelled_job_is_resubmitted_alone_and_resumes() {
 }
 
 /// A stage whose job fails: the run fails naming the stage, the job, its log and the
-/// log's last lines (which hold the error), after `--retry 1` submitted it once more;
-/// nothing of it enters the cache.
+/// log's last lines (which hold the error), after `retry = 1` (the file's `[executor]`)
+/// submitted it once more; nothing of it enters the cache.
 #[test]
 fn failed_job_fails_its_stage_with_job_log_and_tail() {
     let Some(_g) = need_cluster("a failing job under Slurm") else {
@@ -527,20 +527,12 @@ fn failed_job_fails_its_stage_with_job_log_and_tail() {
     let file = d.join("p.toml");
     std::fs::write(
         &file,
-        "[experiment.ingest]\ninput = \"bad.csv\"\n\n[experiment.fit]\ninput = \"ingest\"\nbootstrap = 20\n",
+        "[executor]\nname = \"slurm\"\nretry = 1\n\n\
+         [experiment.ingest]\ninput = \"bad.csv\"\n\n[experiment.fit]\ninput = \"ingest\"\nbootstrap = 20\n",
     )
     .unwrap();
-    let (ok, out, err) = pp(
-        &[
-            "run",
-            file.to_str().unwrap(),
-            "--executor",
-            "slurm",
-            "--retry",
-            "1",
-        ],
-        &runs,
-    );
+    // The executor and --retry 1 come from the file's [executor] table.
+    let (ok, out, err) = pp(&["run", file.to_str().unwrap()], &runs);
     assert!(!ok, "{out}");
     assert!(
         out.contains("retrying"),
@@ -618,4 +610,40 @@ fn job_refuses_a_key_its_build_does_not_give() {
     );
     assert!(final_dirs(&runs).is_empty());
     let _: PathBuf = runs;
+}
+
+/// The `[executor]` table is checked like the rest of the file, and Slurm's options
+/// are refused for a local run. No cluster needed.
+#[test]
+fn executor_settings_are_checked() {
+    let d = tmpdir("slurm-exec");
+    let runs = d.join("runs");
+    let file = d.join("p.toml");
+    std::fs::write(
+        &file,
+        with_ingest("").replace("[pipeline]", "[executor]\nname = \"pbs\"\n\n[pipeline]"),
+    )
+    .unwrap();
+    let (ok, _, err) = pp(&["run", file.to_str().unwrap()], &runs);
+    assert!(!ok);
+    assert!(
+        err.contains("line 2: executor.name: 'pbs' is not one of: local, slurm"),
+        "{err}"
+    );
+    std::fs::write(
+        &file,
+        with_ingest("").replace("[pipeline]", "[executor]\nqueue = \"x\"\n\n[pipeline]"),
+    )
+    .unwrap();
+    let (ok, _, err) = pp(&["run", file.to_str().unwrap()], &runs);
+    assert!(
+        !ok && err.contains("unknown key; allowed in [executor]"),
+        "{err}"
+    );
+    let (ok, _, err) = pp(
+        &["run", &bundled("quickstart"), "--partition", "debug"],
+        &runs,
+    );
+    assert!(!ok && err.contains("apply to --executor slurm"), "{err}");
+    assert!(!runs.join("cache").exists(), "nothing ran");
 }
