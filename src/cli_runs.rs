@@ -2,7 +2,58 @@
 //! work is in `pillar_pipe::pipeline`.
 
 use anyhow::Result;
-use clap::Subcommand;
+use clap::{Args, Subcommand};
+use pillar_pipe::pipeline::slurm::SlurmOptions;
+
+/// Where the work runs: `--executor slurm` and Slurm's options (shared by `run` and
+/// `sweep`; a pipeline file's `[executor]` table gives defaults for `run`).
+#[derive(Args, Debug, Clone, Default)]
+pub struct ExecutorArgs {
+    /// `local` (default) or `slurm`: each stage (each sweep point) not yet computed
+    /// becomes a Slurm job; see README "Running on a cluster".
+    #[arg(long, value_parser = ["local", "slurm"])]
+    pub executor: Option<String>,
+    /// sbatch --partition.
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// sbatch --account.
+    #[arg(long)]
+    pub account: Option<String>,
+    /// sbatch --time: each job's time limit, e.g. 02:00:00.
+    #[arg(long)]
+    pub time: Option<String>,
+    /// sbatch --mem, e.g. 4G.
+    #[arg(long)]
+    pub mem: Option<String>,
+    /// sbatch --cpus-per-task.
+    #[arg(long)]
+    pub cpus_per_task: Option<u32>,
+    /// A further sbatch argument, passed as it is (repeat for several): --sbatch-arg=--qos=short.
+    #[arg(long = "sbatch-arg", value_name = "ARG", allow_hyphen_values = true)]
+    pub sbatch_args: Vec<String>,
+    /// Submit a failed job's stage again, up to N times.
+    #[arg(long, value_name = "N")]
+    pub retry: Option<u32>,
+    /// Submit the jobs and return; `runs show ID` tells their state, and the same
+    /// command attaches to them again.
+    #[arg(long)]
+    pub detach: bool,
+}
+
+impl ExecutorArgs {
+    pub fn slurm(&self) -> SlurmOptions {
+        SlurmOptions {
+            partition: self.partition.clone(),
+            account: self.account.clone(),
+            time: self.time.clone(),
+            mem: self.mem.clone(),
+            cpus_per_task: self.cpus_per_task,
+            sbatch_args: self.sbatch_args.clone(),
+            retry: self.retry,
+            detach: self.detach,
+        }
+    }
+}
 
 #[derive(Subcommand)]
 pub enum RunsCmd {
@@ -67,7 +118,15 @@ pub fn run_pipeline(opt: pillar_pipe::pipeline::RunOptions) -> Result<()> {
             _ => {}
         }
         let what = match e.status {
-            Status::Running => "running".to_string(),
+            Status::Running if note.is_empty() => "running".to_string(),
+            Status::Running => format!("running    {note}"),
+            Status::Queued => format!("queued     {note}"),
+            Status::Retrying => format!("retrying   {note}"),
+            Status::Computed if !note.is_empty() => format!(
+                "computed   {:.2} s, {note} -> {}",
+                e.elapsed_s,
+                shown(e.dir)
+            ),
             Status::Cached => format!("cached     {}", shown(e.dir)),
             Status::Computed => format!("computed   {:.2} s -> {}", e.elapsed_s, shown(e.dir)),
             Status::WouldRun => format!("would run  {}", shown(e.dir)),
@@ -83,6 +142,15 @@ pub fn run_pipeline(opt: pillar_pipe::pipeline::RunOptions) -> Result<()> {
     };
     // Errors name the file (validation) or the stage (a failed stage) themselves.
     let m = pillar_pipe::pipeline::run(&opt, &mut print)?;
+    if m.status == "submitted" {
+        let jobs = m.stages.iter().filter(|s| s.slurm.is_some()).count();
+        println!(
+            "run {}: {jobs} stage(s) submitted to Slurm; `pillar-pipe runs show {}` tells their state, \
+             and running the pipeline again attaches to them",
+            m.run_id, m.run_id
+        );
+        return Ok(());
+    }
     if opt.dry_run {
         println!(
             "pipeline {} is valid ({} stages); nothing run",
@@ -109,7 +177,10 @@ pub fn runs(what: RunsCmd, dir: &std::path::Path) -> Result<()> {
     match what {
         RunsCmd::List => print!("{}", views::list_text(&runs::list(dir)?)),
         RunsCmd::Show { id, json } => {
-            let m = runs::find(dir, &id)?;
+            let mut m = runs::find(dir, &id)?;
+            if m.status == "submitted" {
+                pillar_pipe::pipeline::slurm::head::refresh(&mut m, dir);
+            }
             if json {
                 println!("{}", serde_json::to_string_pretty(&m)?);
             } else {

@@ -292,6 +292,8 @@ pub struct SweepArgs {
     output: PathBuf,
     #[arg(long)]
     quiet: bool,
+    #[command(flatten)]
+    exec: crate::cli_runs::ExecutorArgs,
 }
 
 pub fn sweep(a: SweepArgs) -> Result<()> {
@@ -318,6 +320,38 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
         jobs,
         quiet: a.quiet,
     };
+    match a.exec.executor.as_deref() {
+        Some("slurm") => {
+            if a.exec.detach {
+                bail!("sweep --executor slurm waits for its jobs (--detach is for `run`)");
+            }
+            let mut say = |line: &str| {
+                if !a.quiet {
+                    println!("{line}");
+                }
+            };
+            let r = pillar_pipe::pipeline::slurm::sweep::run_sweep(
+                &a.output,
+                &opt,
+                &a.exec.slurm(),
+                &mut say,
+            )
+            .with_context(|| format!("sweep into {}", a.output.display()))?;
+            println!(
+                "sweep       {} runs ({} submitted to Slurm, {} attached, {} already finished)\nwrote       {}",
+                r.report.runs,
+                r.submitted,
+                r.attached,
+                r.report.runs - r.submitted - r.attached,
+                r.report.table.display()
+            );
+            return Ok(());
+        }
+        _ if a.exec.slurm() != Default::default() => {
+            bail!("--partition, --time, ... apply to --executor slurm")
+        }
+        _ => {}
+    }
     let rep =
         run_sweep(&a.output, &opt).with_context(|| format!("sweep into {}", a.output.display()))?;
     println!(

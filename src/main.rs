@@ -195,7 +195,12 @@ enum Cmd {
         /// Check cached outputs' SHA-256 before using them (by default only their sizes).
         #[arg(long)]
         verify: bool,
+        #[command(flatten)]
+        exec: cli_runs::ExecutorArgs,
     },
+    /// One task of a Slurm job array submitted by `run`/`sweep --executor slurm`.
+    #[command(hide = true)]
+    SlurmJob { spec: PathBuf },
     /// Tracked pipeline runs: list, show, compare.
     Runs {
         #[command(subcommand)]
@@ -502,6 +507,7 @@ fn run(cli: Cli) -> Result<()> {
             runs_dir,
             dry_run,
             verify,
+            exec,
         } => run_pipeline(pillar_pipe::pipeline::RunOptions {
             pipeline,
             sets: set,
@@ -510,7 +516,12 @@ fn run(cli: Cli) -> Result<()> {
             runs_dir,
             dry_run,
             verify,
+            executor: exec.executor.clone(),
+            slurm: exec.slurm(),
         })?,
+        Cmd::SlurmJob { spec } => {
+            std::process::exit(pillar_pipe::pipeline::slurm::job::main(&spec));
+        }
         Cmd::Runs { what, runs_dir } => runs(what, &runs_dir)?,
         Cmd::Bench { what } => cli_bench::bench(what)?,
         Cmd::Simulate { what } => cli_sim::simulate(what)?,

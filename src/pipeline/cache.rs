@@ -25,10 +25,20 @@ pub const RECORD: &str = "stage.json";
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct StageRecord {
     pub kind: String,
-    /// SHA-256 of the canonical JSON of (tool, version, kind, params, upstream, files).
+    /// SHA-256 of the canonical JSON of (tool, version, source hash, kind, params,
+    /// upstream, files).
     pub key: String,
     pub tool: String,
     pub tool_version: String,
+    /// The build's source hash for this kind (`source_key`), which the key covers.
+    #[serde(default)]
+    pub source_sha256: Option<String>,
+    /// SHA-256 of the executable that computed the stage (provenance; not in the key).
+    #[serde(default)]
+    pub executable_sha256: Option<String>,
+    /// The Slurm job that computed the stage, with its node, if one did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slurm_job: Option<String>,
     /// Parameters that entered the key (references and paths enter as hashes instead).
     pub params: Json,
     /// Upstream stage keys, by the key that refers to them.
@@ -231,7 +241,24 @@ pub fn canonical(v: &Json) -> String {
 }
 
 pub fn stage_key(
-    kind: &str,
+    kind: super::Kind,
+    params: &Json,
+    upstream: &BTreeMap<String, String>,
+    files: &BTreeMap<String, String>,
+) -> String {
+    stage_key_with(
+        kind,
+        super::source_key::source_hash(kind),
+        params,
+        upstream,
+        files,
+    )
+}
+
+/// The key with a given source hash (another build's, in tests).
+pub fn stage_key_with(
+    kind: super::Kind,
+    source: &str,
     params: &Json,
     upstream: &BTreeMap<String, String>,
     files: &BTreeMap<String, String>,
@@ -239,8 +266,8 @@ pub fn stage_key(
     let v = serde_json::json!({
         "tool": crate::stages::TOOL,
         "tool_version": crate::stages::VERSION,
-        "build": build_id(),
-        "kind": kind,
+        "source": source,
+        "kind": kind.name(),
         "params": params,
         "upstream": upstream,
         "files": files,
@@ -248,9 +275,10 @@ pub fn stage_key(
     sha256_bytes(canonical(&v).as_bytes())
 }
 
-/// SHA-256 of the running executable: a rebuilt tool (new code, same version number)
-/// must not reuse outputs the old code computed. Hashed once per process.
-pub fn build_id() -> &'static str {
+/// SHA-256 of the running executable, recorded with each stage it computes (which
+/// binary made this), but no longer part of the key: any relink would change it.
+/// Hashed once per process.
+pub fn executable_sha256() -> &'static str {
     static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     ID.get_or_init(|| {
         std::env::current_exe()

@@ -5,8 +5,9 @@
 //! The lock is a small JSON file (host, PID, Slurm job, start and heartbeat times) created
 //! with `create_new`, which is atomic on local file systems and NFS v3+. While the stage
 //! computes, a thread rewrites its heartbeat every few seconds. A lock is stale, and is
-//! broken, when its host is this host and its PID is not alive, or when a waiter has seen
-//! its contents unchanged for the stale limit (60 s; `PILLAR_PIPE_LOCK_STALE_S`). The age
+//! broken, when its host is this host and its PID is not alive, when its holder was an
+//! earlier run of the waiter's own Slurm job (requeued, perhaps onto another node), or
+//! when a waiter has seen its contents unchanged for the stale limit (60 s; `PILLAR_PIPE_LOCK_STALE_S`). The age
 //! is measured on the waiter's own monotonic clock from the moment it first read that
 //! heartbeat, not by comparing the holder's time stamp with the waiter's clock: the clocks
 //! of two machines may differ by more than the limit, and a lock must not be broken
@@ -31,6 +32,9 @@ pub struct LockInfo {
     pub host: String,
     pub pid: u32,
     pub slurm_job_id: Option<String>,
+    /// `SLURM_RESTART_COUNT` of the holder: how often Slurm had requeued its job.
+    #[serde(default)]
+    pub slurm_restart: Option<u32>,
     /// ISO 8601 UTC.
     pub started: String,
     /// ISO 8601 UTC, rewritten every few seconds while the holder computes.
@@ -152,6 +156,7 @@ impl StageLock {
             host: hostname().to_string(),
             pid: std::process::id(),
             slurm_job_id: std::env::var("SLURM_JOB_ID").ok().filter(|s| !s.is_empty()),
+            slurm_restart: restart_count(),
             started: now.clone(),
             heartbeat: now,
             token: unique_suffix(),
@@ -242,10 +247,13 @@ impl StageLock {
             let dead_here = info
                 .as_ref()
                 .is_some_and(|i| i.host == hostname() && !pid_alive(i.pid));
+            let requeued = info.as_ref().is_some_and(superseded);
             let silent = first_seen.elapsed() >= limit;
-            if dead_here || silent {
+            if dead_here || requeued || silent {
                 let why = if dead_here {
                     "its process is no longer running on this host".to_string()
+                } else if requeued {
+                    "its Slurm job was requeued: this process is that job's next run".to_string()
                 } else {
                     format!(
                         "no heartbeat for {:.0} s",
@@ -270,6 +278,35 @@ impl StageLock {
             }
             std::thread::sleep(POLL);
         }
+    }
+}
+
+fn restart_count() -> Option<u32> {
+    std::env::var("SLURM_JOB_ID")
+        .ok()
+        .filter(|s| !s.is_empty())?;
+    Some(
+        std::env::var("SLURM_RESTART_COUNT")
+            .ok()
+            .and_then(|r| r.trim().parse().ok())
+            .unwrap_or(0),
+    )
+}
+
+/// Whether the lock's holder is an earlier run of this very Slurm job (requeued after a
+/// node failure or preemption, perhaps onto another node): Slurm runs one incarnation
+/// of a job at a time, so that holder is gone, and waiting out its heartbeat would only
+/// cost time. Several processes of one job (srun) share its id but not an older
+/// restart count, so none of them breaks a live sibling's lock.
+fn superseded(holder: &LockInfo) -> bool {
+    let mine = std::env::var("SLURM_JOB_ID").ok().filter(|s| !s.is_empty());
+    superseded_by(holder, mine.as_deref(), restart_count())
+}
+
+fn superseded_by(holder: &LockInfo, job: Option<&str>, restart: Option<u32>) -> bool {
+    match (&holder.slurm_job_id, job, holder.slurm_restart, restart) {
+        (Some(h), Some(j), Some(hr), Some(r)) => h == j && hr < r,
+        _ => false,
     }
 }
 
@@ -346,6 +383,24 @@ mod tests {
         let pid = c.id();
         c.wait().unwrap();
         assert!(!pid_alive(pid));
+    }
+
+    #[test]
+    fn a_requeued_job_supersedes_its_earlier_run_only() {
+        let holder = LockInfo {
+            host: "node1".into(),
+            pid: 4711,
+            slurm_job_id: Some("12".into()),
+            slurm_restart: Some(0),
+            started: String::new(),
+            heartbeat: String::new(),
+            token: String::new(),
+        };
+        assert!(superseded_by(&holder, Some("12"), Some(1)));
+        // The same run of the job (another srun task), another job, no Slurm.
+        assert!(!superseded_by(&holder, Some("12"), Some(0)));
+        assert!(!superseded_by(&holder, Some("13"), Some(1)));
+        assert!(!superseded_by(&holder, None, None));
     }
 
     #[test]

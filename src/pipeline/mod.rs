@@ -18,6 +18,8 @@ pub mod record;
 pub mod runner;
 pub mod runs;
 pub mod schema;
+pub mod slurm;
+pub mod source_key;
 pub mod validate;
 pub mod views;
 
@@ -39,6 +41,8 @@ pub struct Pipeline {
     pub root: PathBuf,
     pub overrides: Vec<String>,
     pub stages: Vec<Stage>,
+    /// The `[executor]` table (where the stages run).
+    pub executor: slurm::ExecutorSpec,
 }
 
 impl Pipeline {
@@ -54,6 +58,7 @@ pub fn load(file: &Path, sets: &[String]) -> Result<Pipeline> {
     let mut raw = parse::structure(&src, doc)?;
     parse::apply_overrides(&mut src, &mut raw.stages, &schema, sets)?;
     let header = validate::header(&src, &schema, &raw.header)?;
+    let executor = validate::executor(&src, &schema, &raw.executor)?;
     let mut params = Vec::new();
     for s in &raw.stages {
         let mut p = validate::stage_params(&src, &schema, s)?;
@@ -86,5 +91,6 @@ pub fn load(file: &Path, sets: &[String]) -> Result<Pipeline> {
         root: header.root,
         overrides: sets.to_vec(),
         stages,
+        executor,
     })
 }

@@ -98,6 +98,8 @@ pub struct RawStage {
 
 pub struct RawPipeline {
     pub header: toml::Table,
+    /// The `[executor]` table (empty when absent).
+    pub executor: toml::Table,
     pub stages: Vec<RawStage>,
     pub branches: Vec<String>,
 }
@@ -111,11 +113,12 @@ fn valid_name(s: &str) -> bool {
 /// Split the document into the header, branches and stages.
 pub fn structure(src: &Source, doc: toml::Table) -> Result<RawPipeline> {
     let mut header = toml::Table::new();
+    let mut executor = toml::Table::new();
     let mut stages = Vec::new();
     let mut branches = Vec::new();
     for (key, value) in doc {
-        if key == "pipeline" {
-            header = match value {
+        if key == "pipeline" || key == "executor" {
+            let t = match value {
                 toml::Value::Table(t) => t,
                 other => {
                     return Err(src.err(
@@ -124,6 +127,11 @@ pub fn structure(src: &Source, doc: toml::Table) -> Result<RawPipeline> {
                     ));
                 }
             };
+            if key == "pipeline" {
+                header = t;
+            } else {
+                executor = t;
+            }
             continue;
         }
         let toml::Value::Table(table) = value else {
@@ -157,6 +165,7 @@ pub fn structure(src: &Source, doc: toml::Table) -> Result<RawPipeline> {
     stages.sort_by_key(|s| s.line);
     Ok(RawPipeline {
         header,
+        executor,
         stages,
         branches,
     })

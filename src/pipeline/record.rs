@@ -30,6 +30,7 @@ pub fn manifest(p: &Pipeline, opt: &RunOptions, keyed: &BTreeMap<String, Keyed>)
     RunManifest {
         run_id: String::new(),
         status: "ok".into(),
+        executor: None,
         failed_stage: None,
         error: None,
         started: runs::now_iso(),

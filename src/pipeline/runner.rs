@@ -27,6 +27,10 @@ pub struct RunOptions {
     pub dry_run: bool,
     /// Check cached outputs' SHA-256, not only their sizes, before serving them.
     pub verify: bool,
+    /// `local` or `slurm`; `None`: the pipeline file's `[executor]`, else local.
+    pub executor: Option<String>,
+    /// Slurm settings given on the command line (they override the file's).
+    pub slurm: super::slurm::SlurmOptions,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,6 +47,10 @@ pub enum Status {
     Damaged,
     /// The cached entry's record has no sizes or hashes; it is recomputed.
     Unverifiable,
+    /// Submitted to Slurm (or found submitted by an earlier run); `note` names the job.
+    Queued,
+    /// A Slurm job's attempt failed and the stage was submitted again; `note` says why.
+    Retrying,
 }
 
 /// One line of progress for the caller to print.
@@ -53,12 +61,13 @@ pub struct StageEvent<'a> {
     pub status: Status,
     pub elapsed_s: f64,
     pub dir: &'a Path,
-    /// Details for `Waiting`, `BrokeLock`, `Damaged`, `Unverifiable`.
+    /// Details for `Waiting`, `BrokeLock`, `Damaged`, `Unverifiable`, `Queued`,
+    /// `Retrying`; the job (and node) for `Running` and `Computed` under Slurm.
     pub note: Option<String>,
 }
 
 /// Stages matching `--force` and everything downstream of them.
-fn forced(p: &Pipeline, force: &[String]) -> Result<BTreeSet<String>> {
+pub(crate) fn forced(p: &Pipeline, force: &[String]) -> Result<BTreeSet<String>> {
     let mut set = BTreeSet::new();
     for f in force {
         let hits: Vec<&Stage> = p
@@ -94,7 +103,7 @@ pub struct Keyed {
     pub files: BTreeMap<String, String>,
 }
 
-fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
+pub fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
     let mut out: BTreeMap<String, Keyed> = BTreeMap::new();
     for s in &p.stages {
         let mut params = s.params.clone();
@@ -119,7 +128,7 @@ fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
         for (k, f) in &s.files {
             files.insert(k.clone(), sha256_file(f)?);
         }
-        let key = stage_key(s.kind.name(), &params, &upstream, &files);
+        let key = stage_key(s.kind, &params, &upstream, &files);
         out.insert(
             s.name.clone(),
             Keyed {
@@ -171,12 +180,29 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
         }
         return Ok(m);
     }
+    let slurm = executor(&p, opt)?;
     let (id, run_dir) = runs::new_run_dir(&runs_dir, &config)?;
     m.run_id = id.clone();
     // Rewritten after every stage: a run that is killed stays listed as "incomplete",
     // with the stages it finished.
     m.status = "incomplete".into();
     write_manifest(&run_dir, &m)?;
+    if let Some(slurm) = slurm {
+        let h = super::slurm::head::HeadRun {
+            p: &p,
+            keyed: &keyed,
+            force: &force,
+            cache: &cache,
+            runs_dir: &runs_dir,
+            run_dir: &run_dir,
+            run_id: &id,
+            opt,
+            slurm,
+            t0,
+        };
+        super::slurm::head::run(&h, &mut m, on_event)?;
+        return Ok(m);
+    }
     let mut done: BTreeMap<String, Done> = BTreeMap::new();
     for (i, s) in p.stages.iter().enumerate() {
         let k = &keyed[&s.name];
@@ -188,78 +214,33 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
         } else {
             Check::Sizes
         };
-        let mut say = |status, note: String| {
-            on_event(&StageEvent {
-                index: i + 1,
-                total,
-                stage: s,
-                status,
-                elapsed_s: 0.0,
-                dir: &dir,
-                note: Some(note),
-            });
-        };
-        let claim = cache.claim(
-            kind,
-            &k.key,
+        let outcome = claim_and_compute(
+            &p,
+            s,
+            k,
+            &cache,
+            &done,
             force.contains(&s.name),
             how,
-            &mut |e| match e {
-                CacheEvent::Lock(LockEvent::Waiting(h)) => say(Status::Waiting, h.holder()),
-                CacheEvent::Lock(LockEvent::BrokeStale(h, why)) => say(
-                    Status::BrokeLock,
-                    format!(
-                        "{} ({why})",
-                        h.map_or_else(|| "unreadable lock".into(), |h| h.holder())
-                    ),
-                ),
-                CacheEvent::Damaged(what, to) => say(
-                    Status::Damaged,
-                    format!("{what}; moved to {}", to.display()),
-                ),
-                CacheEvent::Unverifiable(why) => say(Status::Unverifiable, why.to_string()),
+            &Job {
+                quiet: opt.quiet,
+                run_id: &id,
+                slurm_job: None,
             },
-        );
-        let (record, cached, because) = match claim {
-            Ok(Claim::Cached(r)) => (Ok(*r), true, None),
-            Ok(Claim::Compute { lock, because }) => {
+            &mut |status, note| {
                 on_event(&StageEvent {
                     index: i + 1,
                     total,
                     stage: s,
-                    status: Status::Running,
+                    status,
                     elapsed_s: 0.0,
                     dir: &dir,
-                    note: None,
-                });
-                let ctx = Ctx {
-                    pipeline: &p,
-                    done: &done,
-                    quiet: opt.quiet,
-                    run_id: &id,
-                    dir: &dir,
-                };
-                let computed = cache.compute(kind, &k.key, &lock, |tmp, _| {
-                    let pr = execute(s, &ctx, tmp)?;
-                    Ok(StageRecord {
-                        kind: kind.into(),
-                        key: k.key.clone(),
-                        tool: crate::stages::TOOL.into(),
-                        tool_version: crate::stages::VERSION.into(),
-                        params: k.params.clone(),
-                        upstream: k.upstream.clone(),
-                        files: k.files.clone(),
-                        outputs: pr.outputs,
-                        output_files: None,
-                        metrics: pr.metrics,
-                        summary: pr.summary,
-                        elapsed_s: t.elapsed().as_secs_f64(),
-                        created: runs::now_iso(),
-                        computed_in_run: id.clone(),
-                    })
-                });
-                (computed, false, because)
-            }
+                    note,
+                })
+            },
+        );
+        let (record, cached, because) = match outcome {
+            Ok(o) => (Ok(o.record), o.cached, o.because),
             Err(e) => (Err(e), false, None),
         };
         let record = match record {
@@ -314,6 +295,7 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
             elapsed_s,
             compute_s: record.elapsed_s,
             outputs: record.outputs.clone(),
+            slurm: None,
         });
         done.insert(s.name.clone(), Done { record, dir });
         m.elapsed_s = t0.elapsed().as_secs_f64();
@@ -334,6 +316,127 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
     m.elapsed_s = t0.elapsed().as_secs_f64();
     write_manifest(&run_dir, &m)?;
     Ok(m)
+}
+
+/// The Slurm settings when the stages run as Slurm jobs (`--executor slurm` or the
+/// file's `[executor]`), `None` for a local run.
+fn executor(p: &Pipeline, opt: &RunOptions) -> Result<Option<super::slurm::SlurmOptions>> {
+    let name = opt
+        .executor
+        .clone()
+        .or_else(|| p.executor.name.clone())
+        .unwrap_or_else(|| "local".into());
+    match name.as_str() {
+        "slurm" => Ok(Some(opt.slurm.over(&p.executor.slurm))),
+        "local" if opt.slurm != super::slurm::SlurmOptions::default() => Err(Error::param(
+            "--executor",
+            "--partition, --account, --time, --mem, --cpus-per-task, --sbatch-arg, --retry \
+             and --detach apply to --executor slurm",
+        )),
+        "local" => Ok(None),
+        other => Err(Error::param(
+            "--executor",
+            format!("'{other}' is not an executor: local or slurm"),
+        )),
+    }
+}
+
+/// Who computes a stage: the run's id, and the Slurm job when a job does.
+pub struct Job<'a> {
+    pub quiet: bool,
+    pub run_id: &'a str,
+    /// `JOB_TASK on HOST`, recorded in the stage's record.
+    pub slurm_job: Option<String>,
+}
+
+/// A stage served or computed.
+pub struct Outcome {
+    pub record: StageRecord,
+    pub cached: bool,
+    /// Why an existing entry was recomputed (damaged, unverifiable).
+    pub because: Option<String>,
+}
+
+/// Serve a stage from the cache, or take its lock and compute it into the cache (a
+/// temporary directory, the record and the completion marker last, renamed into
+/// place). The local runner and Slurm jobs both go through here, so a stage computed
+/// on a cluster is the same entry, with the same guarantees, as one computed locally.
+/// `say` hears lock waits, broken locks, damaged entries, and `Running`.
+#[allow(clippy::too_many_arguments)]
+pub fn claim_and_compute(
+    p: &Pipeline,
+    s: &Stage,
+    k: &Keyed,
+    cache: &Cache,
+    done: &BTreeMap<String, Done>,
+    force: bool,
+    how: Check,
+    job: &Job,
+    say: &mut dyn FnMut(Status, Option<String>),
+) -> Result<Outcome> {
+    let kind = s.kind.name();
+    let dir = cache.path(kind, &k.key);
+    let t = Instant::now();
+    let claim = cache.claim(kind, &k.key, force, how, &mut |e| match e {
+        CacheEvent::Lock(LockEvent::Waiting(h)) => say(Status::Waiting, Some(h.holder())),
+        CacheEvent::Lock(LockEvent::BrokeStale(h, why)) => say(
+            Status::BrokeLock,
+            Some(format!(
+                "{} ({why})",
+                h.map_or_else(|| "unreadable lock".into(), |h| h.holder())
+            )),
+        ),
+        CacheEvent::Damaged(what, to) => say(
+            Status::Damaged,
+            Some(format!("{what}; moved to {}", to.display())),
+        ),
+        CacheEvent::Unverifiable(why) => say(Status::Unverifiable, Some(why.to_string())),
+    })?;
+    let (lock, because) = match claim {
+        Claim::Cached(r) => {
+            return Ok(Outcome {
+                record: *r,
+                cached: true,
+                because: None,
+            });
+        }
+        Claim::Compute { lock, because } => (lock, because),
+    };
+    say(Status::Running, None);
+    let ctx = Ctx {
+        pipeline: p,
+        done,
+        quiet: job.quiet,
+        run_id: job.run_id,
+        dir: &dir,
+    };
+    let record = cache.compute(kind, &k.key, &lock, |tmp, _| {
+        let pr = execute(s, &ctx, tmp)?;
+        Ok(StageRecord {
+            kind: kind.into(),
+            key: k.key.clone(),
+            tool: crate::stages::TOOL.into(),
+            tool_version: crate::stages::VERSION.into(),
+            source_sha256: Some(super::source_key::source_hash(s.kind).to_string()),
+            executable_sha256: Some(super::cache::executable_sha256().to_string()),
+            slurm_job: job.slurm_job.clone(),
+            params: k.params.clone(),
+            upstream: k.upstream.clone(),
+            files: k.files.clone(),
+            outputs: pr.outputs,
+            output_files: None,
+            metrics: pr.metrics,
+            summary: pr.summary,
+            elapsed_s: t.elapsed().as_secs_f64(),
+            created: runs::now_iso(),
+            computed_in_run: job.run_id.to_string(),
+        })
+    })?;
+    Ok(Outcome {
+        record,
+        cached: false,
+        because,
+    })
 }
 
 fn interrupted_note(finished: usize, total: usize) -> String {

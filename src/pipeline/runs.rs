@@ -45,14 +45,37 @@ pub struct StageRun {
     /// Time the computation took when it ran.
     pub compute_s: f64,
     pub outputs: BTreeMap<String, String>,
+    /// The Slurm job that computed the stage in this run (`--executor slurm`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slurm: Option<SlurmStage>,
+}
+
+/// A stage's Slurm job as the run saw it.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SlurmStage {
+    /// `ARRAY_TASK`.
+    pub job: String,
+    /// Where it ran (empty while queued).
+    pub node: String,
+    /// Wall time of the job's stage process, seconds.
+    pub wall_s: Option<f64>,
+    pub log: String,
+    /// queued, running, done, failed, cancelled (an upstream stage failed).
+    pub state: String,
+    /// How many times the stage was submitted in this run.
+    pub attempts: u32,
 }
 
 /// `runs/<id>/manifest.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunManifest {
     pub run_id: String,
-    /// "ok", "failed", or "incomplete" (running, or killed).
+    /// "ok", "failed", "incomplete" (running, or killed), or "submitted" (Slurm,
+    /// `--detach`: `runs show` looks the stages up).
     pub status: String,
+    /// "slurm" when the stages ran as Slurm jobs; absent for local runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub executor: Option<String>,
     pub failed_stage: Option<String>,
     pub error: Option<String>,
     pub started: String,

@@ -91,6 +91,7 @@ pub struct PipelineSchema {
     pub version: u32,
     pub description: String,
     pub pipeline: Section,
+    pub executor: Section,
     pub common_keys: Vec<KeySpec>,
     pub stages: Vec<StageSpec>,
 }
@@ -195,6 +196,7 @@ pub fn check(spec: &KeySpec, v: &toml::Value) -> std::result::Result<toml::Value
             Ok(v.clone())
         }
         ("float[]", T::Array(a)) if !a.is_empty() => floats(a).map(T::Array),
+        ("string[]", T::Array(a)) if a.iter().all(|x| x.is_str()) => Ok(v.clone()),
         ("float[2]", T::Array(a)) if a.len() == 2 => floats(a).map(T::Array),
         ("float{}", T::Table(t)) => {
             let mut out = toml::Table::new();
@@ -225,6 +227,7 @@ fn describe(ty: &str) -> &'static str {
         "float[]" => "a non-empty array of numbers",
         "float[2]" => "an array of two numbers",
         "float{}" => "a table of numbers, { name = value, ... }",
+        "string[]" => "an array of strings",
         _ => "a value of an unknown schema type",
     }
 }

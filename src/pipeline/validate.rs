@@ -70,6 +70,59 @@ pub fn header(src: &Source, schema: &PipelineSchema, t: &toml::Table) -> Result<
     })
 }
 
+/// The `[executor]` table, checked against the schema.
+pub fn executor(
+    src: &Source,
+    schema: &PipelineSchema,
+    t: &toml::Table,
+) -> Result<super::slurm::ExecutorSpec> {
+    let mut out = super::slurm::ExecutorSpec::default();
+    for (k, v) in t {
+        let path = format!("executor.{k}");
+        let spec = schema
+            .executor
+            .keys
+            .iter()
+            .find(|s| &s.name == k)
+            .ok_or_else(|| {
+                let allowed: Vec<&str> = schema
+                    .executor
+                    .keys
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .collect();
+                src.err(
+                    &path,
+                    format!("unknown key; allowed in [executor]: {}", allowed.join(", ")),
+                )
+            })?;
+        let v = schema::check(spec, v).map_err(|m| src.err(&path, m))?;
+        let text = || v.as_str().map(str::to_string);
+        let count = || v.as_integer().and_then(|i| u32::try_from(i).ok());
+        let o = &mut out.slurm;
+        match k.as_str() {
+            "name" => out.name = text(),
+            "partition" => o.partition = text(),
+            "account" => o.account = text(),
+            "time" => o.time = text(),
+            "mem" => o.mem = text(),
+            "cpus_per_task" => o.cpus_per_task = count(),
+            "retry" => o.retry = count(),
+            "detach" => o.detach = v.as_bool().unwrap_or(false),
+            "sbatch_args" => {
+                o.sbatch_args = v
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|x| x.as_str().map(str::to_string))
+                    .collect()
+            }
+            _ => return Err(src.err(&path, "not handled (schema and code disagree)")),
+        }
+    }
+    Ok(out)
+}
+
 /// Validate one stage table and fill its defaults: the resolved parameters.
 pub fn stage_params(src: &Source, schema: &PipelineSchema, s: &RawStage) -> Result<Json> {
     let spec = schema.stage(s.kind);

@@ -182,11 +182,19 @@ pub fn show_text(m: &RunManifest, runs_dir: &Path) -> String {
             vec![
                 st.name.clone(),
                 st.kind.clone(),
-                match (st.cached, st.verified.as_str()) {
-                    (false, _) => "computed".into(),
+                match (st.cached, st.verified.as_str(), &st.slurm) {
+                    (_, _, Some(j)) => {
+                        let on = if j.node.is_empty() {
+                            String::new()
+                        } else {
+                            format!(" on {}", j.node)
+                        };
+                        format!("{}, Slurm job {}{on}", j.state, j.job)
+                    }
+                    (false, _, _) => "computed".into(),
                     // Manifests from before outputs were verified record nothing.
-                    (true, "") => "cached".into(),
-                    (true, how) => format!("cached ({how} checked)"),
+                    (true, "", _) => "cached".into(),
+                    (true, how, _) => format!("cached ({how} checked)"),
                 },
                 format!(
                     "{:.2} s",
@@ -204,6 +212,19 @@ pub fn show_text(m: &RunManifest, runs_dir: &Path) -> String {
         &["stage", "kind", "", "compute time", "output"].map(String::from),
         &rows,
     );
+    let logs: Vec<String> = m
+        .stages
+        .iter()
+        .filter_map(|st| {
+            let j = st.slurm.as_ref()?;
+            Some(format!(
+                "log        {} {}\n",
+                st.name,
+                runs_dir.join(&j.log).display()
+            ))
+        })
+        .collect();
+    s += &logs.concat();
     s += "\n";
     let metrics: Vec<Vec<String>> = metric_rows(m)
         .into_iter()

@@ -28,8 +28,54 @@ pub struct SweepReport {
     pub reused: usize,
 }
 
-fn run_dir(out: &Path, phi: f64, q: f64, rate: f64) -> PathBuf {
+/// The directory of one grid point's run.
+pub fn run_dir(out: &Path, phi: f64, q: f64, rate: f64) -> PathBuf {
     out.join(format!("phi{phi}_q{q}_rate{rate:e}"))
+}
+
+/// The grid points (φ, Q, γ̇), in table order.
+pub fn grid(opt: &SweepOptions) -> Vec<(f64, f64, f64)> {
+    let mut grid = Vec::new();
+    for &phi in &opt.phi {
+        for &q in &opt.q {
+            for &rate in &opt.rate {
+                grid.push((phi, q, rate));
+            }
+        }
+    }
+    grid
+}
+
+/// Run one grid point (resuming its checkpoint, if any) unless it has finished; then
+/// read its summary back: (whether it had finished, the summary).
+pub fn run_point(
+    out: &Path,
+    base: &ShearOptions,
+    (phi, q, rate): (f64, f64, f64),
+) -> Result<(bool, serde_json::Value)> {
+    let dir = run_dir(out, phi, q, rate);
+    let reused = dir.join("manifest.json").exists();
+    if !reused && let Some(e) = Error::interrupted("not started") {
+        return Err(e);
+    }
+    if !reused {
+        let o = ShearOptions {
+            phi,
+            q,
+            rate,
+            quiet: true,
+            resume: dir.join("checkpoint.bin").exists(),
+            ..base.clone()
+        };
+        run(&dir, &o).map_err(|e| match e {
+            Error::Interrupted { .. } => e,
+            e => Error::Other(format!("run φ = {phi}, Q = {q}, γ̇ = {rate:e}: {e}")),
+        })?;
+    }
+    let p = dir.join("summary.json");
+    let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
+    let v = serde_json::from_str(&text).map_err(|e| Error::input(p.display(), e.to_string()))?;
+    Ok((reused, v))
 }
 
 pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
@@ -40,14 +86,7 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
         ));
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let mut grid = Vec::new();
-    for &phi in &opt.phi {
-        for &q in &opt.q {
-            for &rate in &opt.rate {
-                grid.push((phi, q, rate));
-            }
-        }
-    }
+    let grid = grid(opt);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opt.jobs.max(1))
         .build()
@@ -56,32 +95,7 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
     let results: Vec<Result<(bool, serde_json::Value)>> = pool.install(|| {
         use rayon::prelude::*;
         grid.par_iter()
-            .map(|&(phi, q, rate)| {
-                let dir = run_dir(out, phi, q, rate);
-                let reused = dir.join("manifest.json").exists();
-                if !reused && let Some(e) = Error::interrupted("not started") {
-                    return Err(e);
-                }
-                if !reused {
-                    let o = ShearOptions {
-                        phi,
-                        q,
-                        rate,
-                        quiet: true,
-                        resume: dir.join("checkpoint.bin").exists(),
-                        ..opt.base.clone()
-                    };
-                    run(&dir, &o).map_err(|e| match e {
-                        Error::Interrupted { .. } => e,
-                        e => Error::Other(format!("run φ = {phi}, Q = {q}, γ̇ = {rate:e}: {e}")),
-                    })?;
-                }
-                let p = dir.join("summary.json");
-                let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-                let v = serde_json::from_str(&text)
-                    .map_err(|e| Error::input(p.display(), e.to_string()))?;
-                Ok((reused, v))
-            })
+            .map(|&point| run_point(out, &opt.base, point))
             .collect()
     });
     bar.finish_and_clear();
