@@ -20,6 +20,7 @@ use pillar_pipe::dem::pillar::params::PillarParams;
 use pillar_pipe::dem::shear::{Dissipation, ShearKernel, ShearParams, ShearSim};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use std::path::Path;
 
 // ---------------------------------------------------------------------------------
 // Grain–bar impacts
@@ -683,4 +684,233 @@ fn sheared_disks_balance_boundary_work_against_dissipation_and_energy() {
             );
         }
     }
+}
+
+// ---------------------------------------------------------------------------------
+// Golden short runs
+// ---------------------------------------------------------------------------------
+
+/// The golden runs: a name (its file under tests/data/golden/) and the arguments,
+/// each well under 2 s. `scripts/golden.sh` regenerates the files.
+const GOLDEN: [(&str, &[&str]); 2] = [
+    (
+        "pillar",
+        &[
+            "simulate", "pillar", "--n", "200", "--preset", "fast", "--strain", "0.02", "--seed",
+            "3",
+        ],
+    ),
+    (
+        "shear",
+        &[
+            "simulate", "shear", "--n", "256", "--phi", "0.84", "--q", "1", "--rate", "1e-3",
+            "--model", "cdrot", "--strain", "0.1",
+        ],
+    ),
+];
+
+/// Set to 1 (by `scripts/golden.sh`) to write the golden files instead of comparing.
+const WRITE_VAR: &str = "PP_GOLDEN_WRITE";
+
+/// One column's fingerprint: its type, row count and the SHA-256 of its decoded values
+/// (f64 and i64 as their bits, little-endian; booleans as a byte; strings
+/// NUL-terminated; a null f64 as NaN), so that the file bytes (which carry the writer's
+/// version) do not matter, but every value does, bit for bit.
+type Fingerprints = BTreeMap<(String, String), (String, usize, String)>;
+
+fn fingerprint_tables(dir: &Path) -> Fingerprints {
+    use pillar_pipe::io::hash::sha256_bytes;
+    use pillar_pipe::io::table::read_table;
+    use polars::prelude::DataType;
+    let mut out = Fingerprints::new();
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "parquet"))
+        .collect();
+    files.sort();
+    for path in files {
+        let file = path.file_name().unwrap().to_string_lossy().into_owned();
+        let t = read_table(&path, &[]).unwrap_or_else(|e| panic!("{file}: {e}"));
+        for name in t.columns() {
+            let col = t.df.column(name.as_str()).unwrap();
+            let mut bytes = Vec::new();
+            let kind = match col.dtype() {
+                d if d.is_float() => {
+                    for v in t.f64_or_nan(&name).unwrap() {
+                        bytes.extend_from_slice(&v.to_bits().to_le_bytes());
+                    }
+                    "f64"
+                }
+                d if d.is_integer() => {
+                    for v in t.i64(&name).unwrap_or_else(|e| panic!("{file}: {e}")) {
+                        bytes.extend_from_slice(&v.to_le_bytes());
+                    }
+                    "i64"
+                }
+                DataType::Boolean => {
+                    bytes.extend(t.bool(&name).unwrap().into_iter().map(u8::from));
+                    "bool"
+                }
+                DataType::String => {
+                    for v in col.str().unwrap().iter() {
+                        bytes.extend_from_slice(v.unwrap_or("\u{1}null").as_bytes());
+                        bytes.push(0);
+                    }
+                    "str"
+                }
+                d => panic!(
+                    "{file}: column {name} has type {d}, which the golden test does not read"
+                ),
+            };
+            out.insert(
+                (file.clone(), name),
+                (kind.to_string(), col.len(), sha256_bytes(&bytes)),
+            );
+        }
+    }
+    // The sheared disks' summary: every result in summary.json (not the options,
+    // which are the inputs), as one-row f64 "columns" named by their JSON path.
+    let summary = dir.join("summary.json");
+    if summary.is_file() {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
+        fn leaves(v: &serde_json::Value, path: String, out: &mut Vec<(String, f64)>) {
+            match v {
+                serde_json::Value::Object(m) => {
+                    for (k, x) in m {
+                        if path.is_empty() && k == "options" {
+                            continue;
+                        }
+                        let p = if path.is_empty() {
+                            k.clone()
+                        } else {
+                            format!("{path}.{k}")
+                        };
+                        leaves(x, p, out);
+                    }
+                }
+                serde_json::Value::Number(n) => out.push((path, n.as_f64().unwrap_or(f64::NAN))),
+                serde_json::Value::Null => out.push((path, f64::NAN)),
+                _ => {}
+            }
+        }
+        let mut found = Vec::new();
+        leaves(&v, String::new(), &mut found);
+        for (path, x) in found {
+            out.insert(
+                ("summary.json".into(), path),
+                ("f64".into(), 1, sha256_bytes(&x.to_bits().to_le_bytes())),
+            );
+        }
+    }
+    out
+}
+
+fn golden_path(name: &str) -> std::path::PathBuf {
+    Path::new(common::ROOT)
+        .join("tests/data/golden")
+        .join(format!("{name}.tsv"))
+}
+
+fn write_golden(name: &str, args: &[&str], fp: &Fingerprints) {
+    let mut text = format!(
+        "# Golden values of `pillar-pipe {}` (tests/physics.rs, golden_runs_reproduce_bit_for_bit).\n\
+         # Regenerate with scripts/golden.sh when a change of results is intended.\n\
+         # file\tcolumn\ttype\trows\tsha256 of the decoded values (f64/i64 bits, little-endian)\n",
+        args.join(" ")
+    );
+    for ((file, col), (kind, rows, sha)) in fp {
+        text.push_str(&format!("{file}\t{col}\t{kind}\t{rows}\t{sha}\n"));
+    }
+    let path = golden_path(name);
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(&path, text).unwrap();
+    eprintln!("wrote {} ({} columns)", path.display(), fp.len());
+}
+
+fn read_golden(name: &str) -> Option<(String, Fingerprints)> {
+    let text = std::fs::read_to_string(golden_path(name)).ok()?;
+    let mut fp = Fingerprints::new();
+    let command = text.lines().next().unwrap_or("").to_string();
+    for line in text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.is_empty())
+    {
+        let f: Vec<&str> = line.split('\t').collect();
+        assert_eq!(
+            f.len(),
+            5,
+            "{}: malformed line {line:?}",
+            golden_path(name).display()
+        );
+        fp.insert(
+            (f[0].into(), f[1].into()),
+            (f[2].into(), f[3].parse().unwrap(), f[4].into()),
+        );
+    }
+    Some((command, fp))
+}
+
+/// Golden short runs of both scenarios, compared column by column, bit for bit, with
+/// the values committed in tests/data/golden/. A failure names each table and column
+/// that changed; where the change is intended, `scripts/golden.sh` regenerates them.
+#[test]
+fn golden_runs_reproduce_bit_for_bit() {
+    let write = std::env::var(WRITE_VAR).is_ok_and(|v| v == "1");
+    let mut report = Vec::new();
+    for (name, args) in GOLDEN {
+        let dir = common::tmpdir(&format!("golden-{name}"));
+        let out = dir.join("run");
+        let mut full: Vec<&str> = args.to_vec();
+        let out_s = out.display().to_string();
+        full.extend(["-o", out_s.as_str()]);
+        let (ok, text) = common::cli(&full);
+        assert!(ok, "pillar-pipe {}: {text}", full.join(" "));
+        let now = fingerprint_tables(&out);
+        assert!(now.len() > 10, "{name}: only {} columns found", now.len());
+        let _ = std::fs::remove_dir_all(&dir);
+        if write {
+            write_golden(name, args, &now);
+            continue;
+        }
+        let Some((command, then)) = read_golden(name) else {
+            panic!(
+                "no golden values at {}: run scripts/golden.sh and commit tests/data/golden/",
+                golden_path(name).display()
+            );
+        };
+        let wanted = format!("`pillar-pipe {}`", args.join(" "));
+        assert!(
+            command.contains(&wanted),
+            "{} was made by another command ({command}); run scripts/golden.sh",
+            golden_path(name).display()
+        );
+        let keys: std::collections::BTreeSet<_> = then.keys().chain(now.keys()).collect();
+        for key in keys {
+            let (file, col) = key;
+            match (then.get(key), now.get(key)) {
+                (Some(a), Some(b)) if a == b => {}
+                (Some(a), Some(b)) => report.push(format!(
+                    "{name}: {file} column `{col}` changed ({} {} rows, sha256 {} → {} {} rows, {})",
+                    a.0,
+                    a.1,
+                    &a.2[..12],
+                    b.0,
+                    b.1,
+                    &b.2[..12]
+                )),
+                (Some(_), None) => report.push(format!("{name}: {file} column `{col}` is gone")),
+                (None, Some(_)) => report.push(format!("{name}: {file} column `{col}` is new")),
+                (None, None) => unreachable!(),
+            }
+        }
+    }
+    assert!(
+        report.is_empty(),
+        "golden runs differ from tests/data/golden/:\n  {}\nIf the change is intended (say why in the commit), \
+         regenerate with scripts/golden.sh and commit tests/data/golden/.",
+        report.join("\n  ")
+    );
 }
