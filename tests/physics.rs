@@ -598,34 +598,6 @@ fn sheared_disks_balance_boundary_work_against_dissipation_and_energy() {
         for _ in 0..4000 {
             steady.step();
         }
-        // The pressure tensor's sign and area convention, on this state.
-        let b = budget(
-            &steady,
-            &View {
-                x: &steady.g.x,
-                y: &steady.g.y,
-                vx: &steady.g.vx,
-                vy: &steady.g.vy,
-                w: &steady.g.omega,
-                gamma: steady.gamma,
-            },
-        );
-        let (el, dis, _) = steady.pressure_tensor();
-        let sigma = -(el[1] + dis[1]);
-        let l2 = steady.l * steady.l;
-        let rate = steady.p.rate;
-        let (mut y_f, mut scale) = (0.0, 0.0);
-        for i in 0..steady.g.len() {
-            y_f += steady.g.y[i] * steady.fx[i];
-            scale += (steady.g.y[i] * steady.fx[i]).abs();
-        }
-        let from_sigma = rate * y_f + rate * l2 * sigma;
-        assert!(
-            (from_sigma - b.power_in).abs() <= 1e-10 * rate * scale && b.power_in > 0.0,
-            "{model:?}: boundary power {} from the pair forces, {from_sigma} from σ_xy",
-            b.power_in
-        );
-
         let window = 10.0;
         let mut smooth = Vec::new();
         for (k, kernel) in [
@@ -683,6 +655,33 @@ fn sheared_disks_balance_boundary_work_against_dissipation_and_energy() {
                 w[1]
             );
         }
+        // The pressure tensor's sign and area convention, on the steady state.
+        let b = budget(
+            &steady,
+            &View {
+                x: &steady.g.x,
+                y: &steady.g.y,
+                vx: &steady.g.vx,
+                vy: &steady.g.vy,
+                w: &steady.g.omega,
+                gamma: steady.gamma,
+            },
+        );
+        let (el, dis, _) = steady.pressure_tensor();
+        let sigma = -(el[1] + dis[1]);
+        let l2 = steady.l * steady.l;
+        let rate = steady.p.rate;
+        let (mut y_f, mut scale) = (0.0, 0.0);
+        for i in 0..steady.g.len() {
+            y_f += steady.g.y[i] * steady.fx[i];
+            scale += (steady.g.y[i] * steady.fx[i]).abs();
+        }
+        let from_sigma = rate * y_f + rate * l2 * sigma;
+        assert!(
+            (from_sigma - b.power_in).abs() <= 1e-10 * rate * scale && b.power_in > 0.0,
+            "{model:?}: boundary power {} from the pair forces, {from_sigma} from σ_xy",
+            b.power_in
+        );
     }
 }
 
@@ -893,7 +892,7 @@ fn golden_runs_reproduce_bit_for_bit() {
             match (then.get(key), now.get(key)) {
                 (Some(a), Some(b)) if a == b => {}
                 (Some(a), Some(b)) => report.push(format!(
-                    "{name}: {file} column `{col}` changed ({} {} rows, sha256 {} → {} {} rows, {})",
+                    "{name}: {file} column `{col}` changed: was {} × {} (sha256 {}…), now {} × {} ({}…)",
                     a.0,
                     a.1,
                     &a.2[..12],
