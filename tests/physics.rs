@@ -157,7 +157,8 @@ impl Oscillator {
 /// mid-step velocity v(t) + ½δt a(t) (li Sec. II.B's update), half a step late, so
 /// e is within ζωδt/2 (measured 1.5e-3 against 3.2e-3 at ζ = 0.1) and the overlap
 /// time within ζωδt (3.3e-3 against 6.3e-3), both halving with δt. The force time is
-/// a count of steps: within one δt.
+/// a count of steps: within one δt plus the overlap time's allowance (the damped
+/// force ends up to 0.97 δt early at ζ = 0.3).
 #[test]
 fn a_grain_thrown_at_a_bar_rebounds_with_the_restitution_and_contact_time_of_2_k_n() {
     let v0 = 0.01;
@@ -198,12 +199,13 @@ fn a_grain_thrown_at_a_bar_rebounds_with_the_restitution_and_contact_time_of_2_k
                     o.geo_time,
                     osc.t_overlap()
                 );
+                // A count of steps (±δt) of a duration with the overlap time's error.
+                let tol_f = p.dt + tol_t * osc.t_force();
                 assert!(
-                    (o.force_time - osc.t_force()).abs() <= p.dt,
-                    "{what}: force time {} s against {} s (one step {} s)",
+                    (o.force_time - osc.t_force()).abs() <= tol_f,
+                    "{what}: force time {} s against {} s (allowed ±{tol_f} s)",
                     o.force_time,
                     osc.t_force(),
-                    p.dt
                 );
                 if zeta == 0.0 {
                     assert!(
@@ -216,10 +218,18 @@ fn a_grain_thrown_at_a_bar_rebounds_with_the_restitution_and_contact_time_of_2_k
                     assert!(e / osc.e_textbook() - 1.0 > zeta * zeta, "{what}: e = {e}");
                     let early = osc.t_textbook() - o.force_time;
                     assert!(
-                        (early - 2.0 * zeta.asin() / osc.omega_d).abs() <= p.dt,
+                        (early - 2.0 * zeta.asin() / osc.omega_d).abs() <= tol_f,
                         "{what}: the force ended {early} s before π/ω_d"
                     );
                 }
+                eprintln!(
+                    "{what}: e = {e:.6} (clipped {:.6}, textbook {:.6}; error {de:.2e} of {tol_e:.2e}); overlap time error {dt_geo:.2e} of {tol_t:.2e}; force time {:.4e} s (t_f {:.4e} s, π/ω_d {:.4e} s)",
+                    osc.e_clipped(),
+                    osc.e_textbook(),
+                    o.force_time,
+                    osc.t_force(),
+                    osc.t_textbook()
+                );
                 if !top {
                     rel_e[h] = de;
                     rel_t[h] = dt_geo;
@@ -304,6 +314,13 @@ fn a_grazing_impact_that_slides_takes_mu_times_the_normal_impulse_and_spins_up()
                 p.mu_bar * j_n
             );
             check_arm_and_normal(&p, &o, &what);
+            eprintln!(
+                "{what}: J_t/(μ J_n) = {:.12}, I ω/(n_y J_t) = {:.6e} m (R = {:.6e} m, R − δ_max = {:.6e} m)",
+                j_t / (p.mu_bar * j_n),
+                disk_inertia(&p) * o.w_out / (o.n_y * j_t),
+                0.5 * p.d_large,
+                0.5 * p.d_large - o.max_overlap
+            );
             let slip = slip_after(&p, &o);
             assert!(
                 slip > 0.0 && slip < o.v_in.0,
@@ -323,9 +340,12 @@ fn a_grazing_impact_that_slides_takes_mu_times_the_normal_impulse_and_spins_up()
 /// separation falls inside a step while the spring still holds k_t s with
 /// s = u sin(π ω_t/ω_n)/ω_t, which moves the final slip by up to
 /// u sin(π ω_t/ω_n) ω_t δt (0.014 u here), plus the lever arm's 2 δ_max/R; measured
-/// within 0.003 u. Energy is not created: the tangential and rotational kinetic
+/// within 0.0007 u. Energy is not created: the tangential and rotational kinetic
 /// energy after is at most the tangential energy before, within the integrator's
-/// second-order error (ω_t δt)²/4.
+/// second-order error (ω_t δt)²/4; more sharply, the rolling mode keeps its energy
+/// (2/3 of ½ m u²) and the slip mode loses the spring's share at separation, so the
+/// ratio is 1 − sin²(π ω_t/ω_n)/3 = 0.982, within the slip's tolerance (measured
+/// 0.9806).
 #[test]
 fn a_grazing_impact_that_sticks_reverses_the_slip_and_creates_no_energy() {
     let v0 = 0.01;
@@ -358,10 +378,23 @@ fn a_grazing_impact_that_sticks_reverses_the_slip_and_creates_no_energy() {
             );
             let e_in = 0.5 * m * u * u;
             let e_out = 0.5 * m * o.v_out.0.powi(2) + 0.5 * disk_inertia(&p) * o.w_out.powi(2);
+            eprintln!(
+                "{what}: slip after {slip:.5} u (expected {:.5} ± {tol:.4}), J_t/(μ J_n) = {:.4}, tangential energy after/before {:.5}",
+                phase.cos(),
+                j_t / (p.mu_bar * j_n),
+                e_out / e_in
+            );
             let wdt = w_t * p.dt;
             assert!(
                 e_out <= e_in * (1.0 + 0.25 * wdt * wdt),
                 "{what}: tangential + rotational energy {e_out} J after, {e_in} J before"
+            );
+            let kept = 1.0 - phase.sin().powi(2) / 3.0;
+            assert!(
+                (e_out / e_in - kept).abs() <= 2.0 / 3.0 * tol,
+                "{what}: tangential energy after/before {}, expected {kept} ± {}",
+                e_out / e_in,
+                2.0 / 3.0 * tol
             );
         }
     }
