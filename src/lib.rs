@@ -17,7 +17,6 @@ pub mod io;
 pub mod kinematics;
 pub mod neighbors;
 pub mod pipeline;
-pub mod report;
 pub mod rng;
 pub mod schema;
 pub mod stages;

@@ -35,23 +35,17 @@ fn never(path: &str) -> bool {
 
 fn simulator(p: &str) -> bool {
     p.starts_with("src/dem/")
-        || p.starts_with("src/stages/shear")
-        || matches!(
-            p,
-            "src/stages/simulate.rs"
-                | "src/stages/sim_setup.rs"
-                | "src/stages/sim_tables.rs"
-                | "src/stages/pack.rs"
-                | "src/stages/sweep.rs"
-        )
+        || p.starts_with("src/stages/shear/")
+        || p.starts_with("src/stages/simulate/")
+        || matches!(p, "src/stages/pack.rs" | "src/stages/sweep.rs")
 }
 
 fn report(p: &str) -> bool {
-    p.starts_with("src/report/") || p.starts_with("src/stages/report")
+    p.starts_with("src/stages/report/")
 }
 
 fn fit(p: &str) -> bool {
-    p.starts_with("src/fit/") || p.starts_with("src/stages/fit")
+    p.starts_with("src/fit/") || p.starts_with("src/stages/fit/")
 }
 
 fn kinematics(p: &str) -> bool {
@@ -117,14 +111,14 @@ mod tests {
         vec![
             ("Cargo.lock", "lock".into()),
             ("src/cli_runs.rs", cli.into()),
-            ("src/dem/shear.rs", dem.into()),
+            ("src/dem/shear/mod.rs", dem.into()),
             ("src/fit/model.rs", fit.into()),
             ("src/io/table.rs", "io".into()),
             ("src/kinematics/mod.rs", "kin".into()),
-            ("src/report/figures.rs", report.into()),
-            ("src/stages/report_fit.rs", report.into()),
-            ("src/stages/shear_steady.rs", dem.into()),
-            ("src/stages/simulate.rs", dem.into()),
+            ("src/stages/report/render/figures.rs", report.into()),
+            ("src/stages/report/fit.rs", report.into()),
+            ("src/stages/shear/steady.rs", dem.into()),
+            ("src/stages/simulate/setup.rs", dem.into()),
         ]
     }
 

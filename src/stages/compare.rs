@@ -2,8 +2,8 @@
 //! were made differently (estimator, R_c, lags, η^s range rule), since Θ and η_c then differ for
 //! reasons that have nothing to do with the physics.
 
-use super::fit::{FitReport, read_fit};
 use crate::error::{Error, Result};
+use crate::stages::fit::{FitReport, read_fit};
 use serde::Serialize;
 use std::path::Path;
 

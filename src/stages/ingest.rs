@@ -228,8 +228,8 @@ pub fn run(input: &Path, output: &Path, opt: &IngestOptions) -> Result<IngestRep
     }
     let summary = summarize(&tracks);
     tracks.meta.provenance = Provenance {
-        tool: super::TOOL.into(),
-        tool_version: super::VERSION.into(),
+        tool: crate::stages::TOOL.into(),
+        tool_version: crate::stages::VERSION.into(),
         source: input.display().to_string(),
         source_format: format!("{format:?}").to_lowercase(),
         source_sha256: hasher

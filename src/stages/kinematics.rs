@@ -226,7 +226,7 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         "convention": opt.convention,
         "lags": lags,
         "provenance": {
-            "tool": super::TOOL, "tool_version": super::VERSION,
+            "tool": crate::stages::TOOL, "tool_version": crate::stages::VERSION,
             "source": file, "source_sha256": sha256_file(input)?,
             "parameters": {"lags": lags, "rc": rc, "start": opt.start, "every": opt.every, "convention": opt.convention},
         },

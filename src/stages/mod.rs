@@ -9,6 +9,7 @@ pub const TOOL: &str = "pillar-pipe";
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
 pub mod kinematics;
+pub mod manifest;
 
 /// A progress bar on stderr with ETA, hidden with `quiet` or when stderr is not a
 /// terminal (indicatif's default), so scripts and CI logs stay clean.
@@ -27,21 +28,10 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
 }
 pub mod compare;
 pub mod fit;
-pub mod fit_sampling;
 pub mod pack;
 pub mod quickstart;
 pub mod report;
-mod report_data;
-mod report_fit;
-mod report_sections;
-pub mod report_stages;
 pub mod shear;
-mod shear_ramp;
-mod shear_stats;
-mod shear_steady;
-mod shear_tracks;
-pub mod sim_setup;
-pub mod sim_tables;
 pub mod simulate;
 pub mod sweep;
 

@@ -47,7 +47,7 @@ pub fn run(out: &Path, n: usize, seed: u64, quiet: bool) -> Result<PackReport> {
         ));
     }
     let t0 = std::time::Instant::now();
-    let bar = super::progress(0, "packing", quiet);
+    let bar = crate::stages::progress(0, "packing", quiet);
     let pk = pack(
         &PackOptions {
             n,
@@ -72,8 +72,8 @@ pub fn run(out: &Path, n: usize, seed: u64, quiet: bool) -> Result<PackReport> {
         length_unit: "cm".into(),
         coordinate_frame: "packing box: origin at its lower-left corner, y up; periodic while packing, open for the pillar".into(),
         provenance: Provenance {
-            tool: super::TOOL.into(),
-            tool_version: super::VERSION.into(),
+            tool: crate::stages::TOOL.into(),
+            tool_version: crate::stages::VERSION.into(),
             source: "pillar-pipe pack".into(),
             source_format: "generated".into(),
             source_sha256: String::new(),

@@ -1,12 +1,11 @@
 //! The main job on the bundled sample: ingest → kinematics → fit, into one directory,
 //! with a manifest of what ran. Needs nothing outside the repository.
 
-use super::fit::{FitOptions, FitReport};
-use super::ingest::{IngestOptions, IngestReport};
-use super::kinematics::{KinematicsOptions, KinematicsReport, LagSpec};
 use crate::error::Result;
-use crate::io::atomic_write_str;
 use crate::kinematics::Convention;
+use crate::stages::fit::{FitOptions, FitReport};
+use crate::stages::ingest::{IngestOptions, IngestReport};
+use crate::stages::kinematics::{KinematicsOptions, KinematicsReport, LagSpec};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -34,7 +33,7 @@ pub struct QuickstartReport {
     pub ingest: IngestReport,
     pub kinematics: KinematicsReport,
     pub fit: FitReport,
-    pub report: super::report::ReportOutput,
+    pub report: crate::stages::report::ReportOutput,
     pub elapsed_s: f64,
 }
 
@@ -48,9 +47,9 @@ pub fn run(
     let t0 = std::time::Instant::now();
     std::fs::create_dir_all(out).map_err(|e| crate::Error::io(out, e))?;
     let tracks = out.join("tracks.parquet");
-    let ingest = super::ingest::run(input, &tracks, &IngestOptions::default())?;
+    let ingest = crate::stages::ingest::run(input, &tracks, &IngestOptions::default())?;
     let kin = out.join("kinematics.parquet");
-    let kinematics = super::kinematics::run(
+    let kinematics = crate::stages::kinematics::run(
         &tracks,
         &kin,
         &KinematicsOptions {
@@ -62,7 +61,7 @@ pub fn run(
             quiet,
         },
     )?;
-    let fit = super::fit::run(
+    let fit = crate::stages::fit::run(
         &tracks,
         &out.join("fit.json"),
         &FitOptions {
@@ -72,11 +71,11 @@ pub fn run(
             ..Default::default()
         },
     )?;
-    let report = super::report::run(
+    let report = crate::stages::report::run(
         out,
-        &super::report::ReportOptions {
+        &crate::stages::report::ReportOptions {
             title: "pillar-pipe quickstart: bundled experiment sample".into(),
-            datasets: vec![super::report::DatasetInputs {
+            datasets: vec![crate::stages::report::DatasetInputs {
                 label: "experiment".into(),
                 tracks: Some(tracks.clone()),
                 kinematics: Some(kin.clone()),
@@ -96,9 +95,11 @@ pub fn run(
         report,
         elapsed_s: t0.elapsed().as_secs_f64(),
     };
-    atomic_write_str(
-        &out.join("manifest.json"),
-        &serde_json::to_string_pretty(&rep).expect("json"),
+    crate::stages::manifest::write(
+        out,
+        "quickstart",
+        &serde_json::json!({"input": input.display().to_string(), "seed": seed, "bootstrap": bootstrap}),
+        serde_json::to_value(&rep).expect("json"),
     )?;
     Ok(rep)
 }

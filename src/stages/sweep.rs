@@ -3,9 +3,9 @@
 //! the raw material of vagberg-sheared-disks' phase diagrams (Figs. 3, 17, 25). Runs
 //! already finished are read back, not rerun, so an interrupted sweep resumes.
 
-use super::shear::{ShearOptions, run};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
+use crate::stages::shear::{ShearOptions, run};
 use polars::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -91,7 +91,7 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
         .num_threads(opt.jobs.max(1))
         .build()
         .map_err(|e| Error::Other(format!("thread pool: {e}")))?;
-    let bar = super::progress(grid.len() as u64, "sweep", opt.quiet);
+    let bar = crate::stages::progress(grid.len() as u64, "sweep", opt.quiet);
     let results: Vec<Result<(bool, serde_json::Value)>> = pool.install(|| {
         use rayon::prelude::*;
         grid.par_iter()

@@ -5,12 +5,14 @@
 mod dense;
 mod detached;
 mod meta;
+mod species;
 mod summary;
 mod validate;
 
 pub use dense::{ByParticle, dense_ids};
 pub use detached::{detached_trajectories, drop_trajectories};
 pub use meta::{FrameBox, Provenance, TracksMeta};
+pub use species::{estimate_radii, otsu, split_by_size};
 pub use summary::{TracksSummary, summarize};
 pub use validate::{MAX_ABS_COORD, RowLocator, beyond_bound, finalize};
 

@@ -1,10 +1,10 @@
 //! Trajectories of a sheared-disk run: frames in the primary cell with one
 //! Lees–Edwards box each, flushed as part files at checkpoints.
 
-use super::sim_tables::part_path;
 use crate::dem::shear::ShearSim;
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
+use crate::stages::simulate::tables::part_path;
 use crate::tracks::{FrameBox, Tracks, TracksMeta};
 use std::path::Path;
 

@@ -1,7 +1,6 @@
 //! The initial pillar of a run: a generated packing (Sec. II.A protocol) or a given one
 //! (an experiment's first frame, overlaps relaxed), placed between the bars.
 
-use super::simulate::SimulateOptions;
 use crate::dem::base::grains::{LARGE, SMALL};
 use crate::dem::pillar::PillarSim;
 use crate::dem::pillar::pack::{PackOptions, pack, relax};
@@ -9,6 +8,7 @@ use crate::dem::pillar::params::PillarParams;
 use crate::error::{Error, Result};
 use crate::io::csvdiag::Expect;
 use crate::io::table::read_table;
+use crate::stages::simulate::SimulateOptions;
 use std::path::Path;
 
 /// Choices the paper leaves open, recorded in every manifest.

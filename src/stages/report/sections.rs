@@ -1,12 +1,14 @@
 //! Blocks of the report's sections: map figures (Li et al. Figs. 5 and 6) and curves
 //! against strain (Figs. 4 and 10d).
 
-use super::report::DatasetInputs;
-use super::report_data::{Panel, strain_curve};
 use crate::error::Result;
-use crate::report::figures::{MapFigure, MapPanel, StrainCurveFigure, StrainSeries};
-use crate::report::html::Block;
-use crate::report::{SavedFigure, save};
+use crate::stages::report::DatasetInputs;
+use crate::stages::report::data::{Panel, strain_curve};
+use crate::stages::report::render::figures::{
+    MapFigure, MapPanel, StrainCurveFigure, StrainSeries,
+};
+use crate::stages::report::render::html::Block;
+use crate::stages::report::render::{SavedFigure, save};
 use std::path::Path;
 
 /// A figure's PNG relative to the report.

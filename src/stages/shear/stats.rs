@@ -1,9 +1,9 @@
 //! Steady-state statistics of a sheared-disk run: block means and errors of the series
 //! after the transient (vagberg-sheared-disks Eqs. 16, 19, 20, 25).
 
-use super::shear::{SERIES, ShearOptions};
 use crate::dem::shear::{DurationHistogram, ShearParams, ShearSim, cohort_half};
 use crate::error::{Error, Result};
+use crate::stages::shear::{SERIES, ShearOptions};
 use crate::stats::{SurvivalMean, survival_mean};
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -1,12 +1,12 @@
 //! The report's inputs read into plain data: per-particle map panels (Li et al. Fig. 5),
 //! simulation force panels (Fig. 6) and curves against strain (Figs. 4 and 10d).
 
-use super::report::DatasetInputs;
-use super::report_stages::StrainIndex;
 use crate::error::Result;
 use crate::io::csvdiag::Expect;
 use crate::io::read_tracks;
 use crate::io::table::{Table, read_table};
+use crate::stages::report::DatasetInputs;
+use crate::stages::report::frames::StrainIndex;
 use crate::tracks::Tracks;
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;

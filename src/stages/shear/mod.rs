@@ -3,17 +3,22 @@
 //! canonical tracks schema with the Lees–Edwards box per frame, and `summary.json` of
 //! steady-state means with block-average errors. `manifest.json` is written last.
 
-use super::shear_ramp::{finish_ramp, ramp_plan};
-pub use super::shear_stats::MeanErr;
-use super::shear_stats::summarize;
-use super::shear_steady::Steady;
-use super::shear_tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
-use super::sim_tables::{drop_parts_from, merge_parts};
+mod ramp;
+mod stats;
+mod steady;
+mod tracks;
+
 use crate::dem::base::codec::{Dec, Enc};
 use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
 use crate::io::{atomic_write_str, sidecar_path};
+use crate::stages::shear::ramp::{finish_ramp, ramp_plan};
+pub use crate::stages::shear::stats::MeanErr;
+use crate::stages::shear::stats::summarize;
+use crate::stages::shear::steady::Steady;
+use crate::stages::shear::tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
+use crate::stages::simulate::tables::{drop_parts_from, merge_parts};
 use crate::tracks::{Provenance, TracksMeta};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -139,7 +144,7 @@ pub struct Resumed {
 /// Read a sheared-disk checkpoint: the state and the output bookkeeping. Errors name the
 /// file (and the byte, for a truncated or corrupt one).
 pub fn read_checkpoint(ckpt: &Path) -> Result<Resumed> {
-    let bytes = super::read_checkpoint_bytes(ckpt)?;
+    let bytes = crate::stages::read_checkpoint_bytes(ckpt)?;
     let bad = |e: String| Error::input(ckpt.display(), e);
     let (sim, extra) = ShearSim::load(&bytes).map_err(bad)?;
     let mut d = Dec::new(&extra);
@@ -203,7 +208,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let (ckpt, parts_dir) = (out.join("checkpoint.bin"), out.join(".parts"));
     let physics = {
         let mut v = serde_json::to_value(opt).expect("json");
-        for k in super::simulate::RUN_ONLY {
+        for k in crate::stages::simulate::RUN_ONLY {
             v.as_object_mut().expect("object").remove(k);
         }
         v.to_string()
@@ -231,7 +236,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         drop_parts_from(&parts_dir, parts)?;
         sim
     } else {
-        if out.join("manifest.json").exists() {
+        if out.join(crate::stages::manifest::MANIFEST).exists() {
             return Err(Error::param(
                 "output",
                 format!("{} already holds a finished run", out.display()),
@@ -260,10 +265,12 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     });
     // Contact-velocity draws per steady sample, so that CONTACT_SAMPLES spread over the window.
     let steady_samples = ((1.0 - opt.transient) * total as f64 / opt.sample_every as f64).max(1.0);
-    let per_sample = (super::shear_steady::CONTACT_SAMPLES as f64 / steady_samples).ceil() as usize;
-    let field_every =
-        ((steady_samples / super::shear_steady::FIELD_SNAPSHOTS as f64).floor() as u64).max(1);
-    let bar = super::progress(total, "shear", opt.quiet);
+    let per_sample =
+        (crate::stages::shear::steady::CONTACT_SAMPLES as f64 / steady_samples).ceil() as usize;
+    let field_every = ((steady_samples / crate::stages::shear::steady::FIELD_SNAPSHOTS as f64)
+        .floor() as u64)
+        .max(1);
+    let bar = crate::stages::progress(total, "shear", opt.quiet);
     let mut clock =
         crate::interrupt::CheckpointClock::new(opt.checkpoint_every, opt.checkpoint_interval);
     // A resumed run's current step was recorded and checkpointed before the stop.
@@ -342,7 +349,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             );
             e.f64s(&tracks.meta.boxes.iter().map(|b| b.xy).collect::<Vec<_>>());
             let bytes = sim.save(&e.0);
-            super::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
+            crate::stages::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
             clock.saved();
             if let Some(e) = Error::interrupted(format!(
                 "checkpoint saved at step {} of {total} in {}",
@@ -385,8 +392,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         coordinate_frame: "Lees–Edwards box [0, L)²: positions in the primary cell; the image above is shifted by boxes[].xy = γ L along x (unwrapped γ)".into(),
         boxes: tracks.meta.boxes.clone(),
         provenance: Provenance {
-            tool: super::TOOL.into(),
-            tool_version: super::VERSION.into(),
+            tool: crate::stages::TOOL.into(),
+            tool_version: crate::stages::VERSION.into(),
             source: "pillar-pipe simulate shear".into(),
             source_format: "simulation".into(),
             source_sha256: String::new(),
@@ -405,7 +412,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     if let Some(r) = &ramp {
         return finish_ramp(out, opt, &p, r, &cols, &sim, frame, series, tracks_path, t0);
     }
-    let cohort = super::shear_stats::Cohort::of(&sim);
+    let cohort = crate::stages::shear::stats::Cohort::of(&sim);
     let summary = summarize(&cols, &p, sim.g.len(), opt, &cohort)?;
     steady.write(&sim, out)?;
     let summary_json = serde_json::json!({
@@ -430,9 +437,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         summary,
         elapsed_s: t0.elapsed().as_secs_f64(),
     };
-    let manifest = serde_json::json!({
-        "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear",
-        "options": opt, "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet"), "contact_velocities": out.join("contact_velocities.parquet"), "fields": out.join("fields.parquet")},
+    let body = serde_json::json!({
+        "params": p, "tables": {"series": series, "tracks": tracks_path, "tracks_meta": sidecar_path(&tracks_path), "collision_angles": out.join("collision_angles.parquet"), "profile": out.join("profile.parquet"), "contact_velocities": out.join("contact_velocities.parquet"), "fields": out.join("fields.parquet")},
         "elapsed_s": rep.elapsed_s,
         "ns_per_particle_step": rep.elapsed_s * 1e9 / (sim.g.len() as f64 * sim.step.max(1) as f64),
         "force_kernel": sim.kernel_name(),
@@ -446,9 +452,6 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     });
     let _ = std::fs::remove_file(&ckpt);
     let _ = std::fs::remove_dir_all(&parts_dir);
-    atomic_write_str(
-        &out.join("manifest.json"),
-        &serde_json::to_string_pretty(&manifest).expect("json"),
-    )?;
+    crate::stages::manifest::write(out, "simulate shear", opt, body)?;
     Ok(rep)
 }

@@ -4,13 +4,19 @@
 //! exists (Figs. 4 and 10d), the fit table and provenance — as `report.html` (figures
 //! inlined) plus every figure as PNG and SVG under `figures/`.
 
-use super::report_data::{Loaded, Panel};
-use super::report_sections::{map_blocks, strain_blocks};
-use super::report_stages::{nearest_frames, pick_frames, strain_range, strain_targets};
+mod data;
+mod fit;
+pub mod frames;
+pub mod render;
+mod sections;
+
 use crate::error::{Error, Result};
 use crate::io::atomic_write_str;
-use crate::report::SavedFigure;
-use crate::report::html::{Block, Report, Section, render};
+use crate::stages::report::data::{Loaded, Panel};
+use crate::stages::report::frames::{nearest_frames, pick_frames, strain_range, strain_targets};
+use crate::stages::report::render::SavedFigure;
+use crate::stages::report::render::html::{Block, Report, Section, render};
+use crate::stages::report::sections::{map_blocks, strain_blocks};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -92,7 +98,9 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
     std::fs::create_dir_all(&figdir).map_err(|e| Error::io(&figdir, e))?;
     let mut figures = Vec::new();
     let mut sections = Vec::new();
-    if let Some(s) = super::report_fit::crossover_section(&opt.datasets, &figdir, &mut figures)? {
+    if let Some(s) =
+        crate::stages::report::fit::crossover_section(&opt.datasets, &figdir, &mut figures)?
+    {
         sections.push(s);
     }
 
@@ -212,8 +220,8 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
         title: opt.title.clone(),
         subtitle: format!(
             "{} {} — {}",
-            super::TOOL,
-            super::VERSION,
+            crate::stages::TOOL,
+            crate::stages::VERSION,
             opt.datasets
                 .iter()
                 .map(|d| d.label.as_str())

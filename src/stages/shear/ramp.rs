@@ -1,11 +1,11 @@
 //! Strain-rate ramps of the sheared disks (vagberg-sheared-disks Eqs. 38–41): the
 //! schedule and the windowed ramp table.
 
-use super::shear::{SERIES, ShearOptions, ShearReport};
 use crate::dem::shear::{ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::atomic_write_str;
 use crate::io::table::write_table;
+use crate::stages::shear::{SERIES, ShearOptions, ShearReport};
 use polars::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -122,15 +122,11 @@ pub(crate) fn finish_ramp(
         &out.join("summary.json"),
         &serde_json::to_string_pretty(&summary).expect("json"),
     )?;
-    let manifest = serde_json::json!({
-        "tool": super::TOOL, "tool_version": super::VERSION, "command": "simulate shear --ramp",
-        "options": opt, "params": p, "tables": {"series": series, "ramp": table, "tracks": tracks},
+    let body = serde_json::json!({
+        "params": p, "tables": {"series": series, "ramp": table, "tracks": tracks},
         "elapsed_s": elapsed,
     });
-    atomic_write_str(
-        &out.join("manifest.json"),
-        &serde_json::to_string_pretty(&manifest).expect("json"),
-    )?;
+    crate::stages::manifest::write(out, "simulate shear --ramp", opt, body)?;
     let _ = std::fs::remove_file(out.join("checkpoint.bin"));
     let _ = std::fs::remove_dir_all(out.join(".parts"));
     Ok(ShearReport {

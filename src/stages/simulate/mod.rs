@@ -3,7 +3,9 @@
 //! manifest. Long runs checkpoint and resume bit-exactly; the manifest is written last,
 //! so a directory without one holds an unfinished run.
 
-use super::sim_tables::{Buffers, FrameStats, TABLES, drop_parts_from, merge_parts};
+pub mod setup;
+pub mod tables;
+
 use crate::dem::base::codec::{Dec, Enc};
 use crate::dem::base::forces::ContactRecord;
 use crate::dem::pillar::params::{NormalLawName, PillarParams};
@@ -11,6 +13,7 @@ use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};
 use crate::interrupt::CheckpointClock;
 use crate::io::{atomic_write_str, sidecar_path};
+use crate::stages::simulate::tables::{Buffers, FrameStats, TABLES, drop_parts_from, merge_parts};
 use crate::tracks::TracksMeta;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -244,7 +247,7 @@ impl Progress {
 /// checked against each other. Errors name the file (and the byte, for a truncated or
 /// corrupt one).
 pub fn read_checkpoint(ckpt: &Path) -> Result<(PillarSim, Progress)> {
-    let bytes = super::read_checkpoint_bytes(ckpt)?;
+    let bytes = crate::stages::read_checkpoint_bytes(ckpt)?;
     let bad = |e: String| Error::input(ckpt.display(), e);
     let (sim, extra) = PillarSim::load(&bytes).map_err(bad)?;
     let prog = Progress::decode(&extra).map_err(|e| bad(format!("output bookkeeping: {e}")))?;
@@ -262,7 +265,7 @@ pub fn read_checkpoint(ckpt: &Path) -> Result<(PillarSim, Progress)> {
 
 const CHECKPOINT: &str = "checkpoint.bin";
 const PARTS: &str = ".parts";
-pub const MANIFEST: &str = "manifest.json";
+pub use crate::stages::manifest::MANIFEST;
 
 /// Run a pillar simulation into `out`.
 pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
@@ -314,7 +317,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
             ));
         }
         let _ = std::fs::remove_dir_all(&parts_dir);
-        let (sim, setup) = super::sim_setup::initial_pillar(opt, params.clone())?;
+        let (sim, setup) = crate::stages::simulate::setup::initial_pillar(opt, params.clone())?;
         let prog = Progress {
             frames: 0,
             parts: 0,
@@ -340,7 +343,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         opt.checkpoint_every.div_ceil(out_every) * out_every
     };
     let mut buf = Buffers::new();
-    let bar = super::progress(total, "simulate", opt.quiet);
+    let bar = crate::stages::progress(total, "simulate", opt.quiet);
     bar.set_position(sim.step);
     let record_frame = |sim: &PillarSim, buf: &mut Buffers, prog: &mut Progress| {
         // Eq. 21 with Eq. 13's mean velocity over the output interval.
@@ -388,7 +391,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
             prog.elapsed_before += t0.elapsed().as_secs_f64();
             let bytes = sim.save(&prog.encode());
             prog.elapsed_before = saved;
-            super::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
+            crate::stages::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
             clock.saved();
             match Error::interrupted(format!(
                 "checkpoint saved at step {} of {total} in {}",
@@ -446,7 +449,8 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         &sidecar_path(&tables["tracks"]),
         &serde_json::to_string_pretty(&meta).expect("json"),
     )?;
-    let mean_flow_stress = super::sim_setup::mean_flow_stress(&tables["stress_strain"])?;
+    let mean_flow_stress =
+        crate::stages::simulate::setup::mean_flow_stress(&tables["stress_strain"])?;
     let elapsed = t0.elapsed().as_secs_f64();
     let report = SimulateReport {
         out: out.to_path_buf(),
@@ -458,11 +462,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         elapsed_s: elapsed,
         elapsed_total_s: prog.elapsed_before + elapsed,
     };
-    let manifest = serde_json::json!({
-        "tool": super::TOOL,
-        "tool_version": super::VERSION,
-        "command": "simulate pillar",
-        "options": opt,
+    let body = serde_json::json!({
         "params": p,
         "checks": {
             "eq12_ratio_2kn_vc_dt_over_m_g_mu": p.quasistatic_ratio(),
@@ -484,12 +484,9 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         "frozen_grain_step_fraction_this_session": sim.scratch.frozen_grain_steps as f64
             / (sim.grains.len() as f64 * (sim.step - step0).max(1) as f64),
         "particle_steps_per_s_this_session": (sim.grains.len() as f64 * (sim.step - step0) as f64) / elapsed,
-        "decisions": super::sim_setup::DECISIONS,
+        "decisions": crate::stages::simulate::setup::DECISIONS,
     });
-    atomic_write_str(
-        &out.join(MANIFEST),
-        &serde_json::to_string_pretty(&manifest).expect("json"),
-    )?;
+    crate::stages::manifest::write(out, "simulate pillar", opt, body)?;
     let _ = std::fs::remove_file(&ckpt);
     let _ = std::fs::remove_dir_all(&parts_dir);
     Ok(report)
@@ -509,8 +506,8 @@ fn tracks_meta(
         bar_speed: Some(p.bar_speed * 100.0),
         coordinate_frame: "simulation: y up along the compression axis (top bar on top), bottom bar face at y = 0, x = 0 at the initial pillar centre".into(),
         provenance: crate::tracks::Provenance {
-            tool: super::TOOL.into(),
-            tool_version: super::VERSION.into(),
+            tool: crate::stages::TOOL.into(),
+            tool_version: crate::stages::VERSION.into(),
             source: "pillar-pipe simulate pillar".into(),
             source_format: "simulation".into(),
             source_sha256: setup["packing_sha256"].as_str().unwrap_or("").into(),

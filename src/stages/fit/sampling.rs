@@ -2,14 +2,14 @@
 //! tracks (start times every (2/3) R/v_c, lags {2, 4, …, 128}/15 R/v_c mapped to the
 //! nearest frames, R_c = 1.25 D) or from a `kinematics` table as it is.
 
-use super::fit::{
-    FitOptions, MIN_NEIGHBORS_FOR_D2MIN, MIN_STARTS, Protocol, START_SPACING, default_lags,
-};
 use crate::error::{Error, Result};
 use crate::fit::Samples;
 use crate::io::csvdiag::Expect;
 use crate::io::table::read_table;
 use crate::kinematics::{Convention, KinematicsParams, frame_pair};
+use crate::stages::fit::{
+    FitOptions, MIN_NEIGHBORS_FOR_D2MIN, MIN_STARTS, Protocol, START_SPACING, default_lags,
+};
 use crate::tracks::Tracks;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -135,7 +135,7 @@ pub(crate) fn from_tracks(
     };
     let mut s = Samples::default();
     let mut rows = ScatterRows::default();
-    let bar = super::progress(
+    let bar = crate::stages::progress(
         (start_frames.len() * lags_frames.len()) as u64,
         "fit sampling",
         opt.quiet,

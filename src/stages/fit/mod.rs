@@ -3,8 +3,9 @@
 //! from a `kinematics` table it takes the rows as they are. Then Eq. 19 is fitted with
 //! every estimator and the chosen one is reported with bootstrap intervals.
 
-pub use super::fit_sampling::ETA_S_AT_REST;
-use super::fit_sampling::{ScatterRows, from_kinematics, from_tracks, is_kinematics};
+pub use crate::stages::fit::sampling::ETA_S_AT_REST;
+pub mod sampling;
+
 use crate::error::{Error, Result};
 use crate::fit::{
     Binning, EstimatorResult, FitRange, FitSettings, Method, RangeRule, SensitivityRow, ThirdFit,
@@ -12,6 +13,7 @@ use crate::fit::{
 };
 use crate::io::sink::stream_table;
 use crate::io::{atomic_write_str, read_tracks, sha256_file};
+use crate::stages::fit::sampling::{ScatterRows, from_kinematics, from_tracks, is_kinematics};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -381,8 +383,8 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         input: input.display().to_string(),
         input_sha256: sha256_file(input)?,
         scatter: scatter.display().to_string(),
-        tool: super::TOOL.into(),
-        tool_version: super::VERSION.into(),
+        tool: crate::stages::TOOL.into(),
+        tool_version: crate::stages::VERSION.into(),
         elapsed_s: t0.elapsed().as_secs_f64(),
         warnings,
     };

@@ -1,15 +1,15 @@
 //! The report's crossover section: D²min/R² against η^s with both fits (Li et al.
 //! Fig. 8), the table of Θ and η_c with intervals, and whether the two fits agree.
 
-use super::fit::{FitReport, num, read_fit, with_interval};
-use super::report::DatasetInputs;
-use super::report_sections::rel;
 use crate::error::Result;
 use crate::io::csvdiag::Expect;
 use crate::io::table::read_table;
-use crate::report::figures::{CrossoverFigure, CrossoverSeries};
-use crate::report::html::{Block, Section};
-use crate::report::{SavedFigure, save};
+use crate::stages::fit::{FitReport, num, read_fit, with_interval};
+use crate::stages::report::DatasetInputs;
+use crate::stages::report::render::figures::{CrossoverFigure, CrossoverSeries};
+use crate::stages::report::render::html::{Block, Section};
+use crate::stages::report::render::{SavedFigure, save};
+use crate::stages::report::sections::rel;
 use std::path::Path;
 
 /// Most points drawn per data set in the scatter (every k-th, deterministic).
@@ -153,7 +153,7 @@ pub fn crossover_section(
         ];
         if fits.len() == 2 {
             let (a, b) = (&fits[0].1, &fits[1].1);
-            let text = match super::compare::incompatibility(a, b) {
+            let text = match crate::stages::compare::incompatibility(a, b) {
                 Some(why) => format!("Not compared: the fits were made differently ({why})."),
                 None => {
                     let ov = |x: [f64; 2], y: [f64; 2]| x[0] <= y[1] && y[0] <= x[1];

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Once;
 
 /// The bundled font (DejaVu Sans; licence in assets/fonts/DejaVuSans.LICENSE).
-static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../../../assets/fonts/DejaVuSans.ttf");
 pub const FONT_FAMILY: &str = "sans-serif";
 
 fn register_font() {
