@@ -80,6 +80,34 @@ fn parse_kv(s: &str) -> std::result::Result<(String, f64), String> {
     Ok((k.trim().to_string(), v))
 }
 
+/// The options a `simulate pillar` command line means (the same struct a pipeline's
+/// `simulate` stage deserialises; `tests` below checks the defaults agree).
+fn pillar_options(a: PillarArgs) -> Result<(PathBuf, SimulateOptions)> {
+    let (out, resume) = match (a.output, a.resume) {
+        (Some(o), None) => (o, false),
+        (None, Some(r)) => (r, true),
+        _ => bail!("give the output directory: -o DIR (new run) or --resume DIR"),
+    };
+    let opt = SimulateOptions {
+        n: a.n,
+        seed: a.seed,
+        packing: a.packing,
+        preset: a.preset,
+        set: a.params.into_iter().collect::<BTreeMap<_, _>>(),
+        normal_law: a.normal_law,
+        strain: a.strain,
+        output_every: a.output_every,
+        forces_every: a.forces_every,
+        checkpoint_every: a.checkpoint_every,
+        checkpoint_interval: a.checkpoint_interval,
+        resume,
+        quiet: a.quiet,
+        halt_after: a.halt_after,
+        threads: a.threads,
+    };
+    Ok((out, opt))
+}
+
 #[derive(Args)]
 pub struct ShearArgs {
     #[arg(long, default_value_t = 1024)]
@@ -161,30 +189,10 @@ pub fn simulate(cmd: SimulateCmd) -> Result<()> {
         SimulateCmd::Pillar(a) => a,
         SimulateCmd::Shear(s) => return shear(s),
     };
-    let (out, resume) = match (a.output, a.resume) {
-        (Some(o), None) => (o, false),
-        (None, Some(r)) => (r, true),
-        _ => bail!("give the output directory: -o DIR (new run) or --resume DIR"),
-    };
-    let opt = SimulateOptions {
-        n: a.n,
-        seed: a.seed,
-        packing: a.packing,
-        preset: a.preset,
-        set: a.params.into_iter().collect::<BTreeMap<_, _>>(),
-        normal_law: a.normal_law,
-        strain: a.strain,
-        output_every: a.output_every,
-        forces_every: a.forces_every,
-        checkpoint_every: a.checkpoint_every,
-        checkpoint_interval: a.checkpoint_interval,
-        resume,
-        quiet: a.quiet,
-        halt_after: a.halt_after,
-        threads: a.threads,
-    };
+    let json = a.json;
+    let (out, opt) = pillar_options(a)?;
     let rep = run(&out, &opt).with_context(|| format!("simulate pillar into {}", out.display()))?;
-    if a.json {
+    if json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
         return Ok(());
     }
@@ -218,7 +226,28 @@ pub fn pack(a: PackArgs) -> Result<()> {
 }
 
 fn shear(a: ShearArgs) -> Result<()> {
-    use pillar_pipe::stages::shear::{ShearOptions, run};
+    use pillar_pipe::stages::shear::run;
+    let (n, phi, q, rate, model) = (a.n, a.phi, a.q, a.rate, a.model);
+    let (out, opt) = shear_options(a)?;
+    let rep = run(&out, &opt).with_context(|| format!("simulate shear into {}", out.display()))?;
+    println!(
+        "shear       {} disks, φ = {}, Q = {}, γ̇ = {:e}, {:?}: {} steps, {} frames, {:.1} s",
+        n, phi, q, rate, model, rep.steps, rep.frames, rep.elapsed_s
+    );
+    for (k, v) in &rep.summary {
+        println!("  {k:30} {:>12.5e} ± {:.2e}", v.mean, v.err);
+    }
+    println!(
+        "wrote       {}/{{series, tracks, profile, fields, collision_angles, contact_velocities}}.parquet, summary.json, manifest.json",
+        out.display()
+    );
+    Ok(())
+}
+
+/// The options a `simulate shear` command line means (checked against
+/// `ShearOptions::default` in `tests` below).
+fn shear_options(a: ShearArgs) -> Result<(PathBuf, pillar_pipe::stages::shear::ShearOptions)> {
+    use pillar_pipe::stages::shear::ShearOptions;
     let (out, resume) = match (a.output, a.resume) {
         (Some(o), None) => (o, false),
         (None, Some(r)) => (r, true),
@@ -247,19 +276,7 @@ fn shear(a: ShearArgs) -> Result<()> {
         quiet: a.quiet,
         halt_after: a.halt_after,
     };
-    let rep = run(&out, &opt).with_context(|| format!("simulate shear into {}", out.display()))?;
-    println!(
-        "shear       {} disks, φ = {}, Q = {}, γ̇ = {:e}, {:?}: {} steps, {} frames, {:.1} s",
-        a.n, a.phi, a.q, a.rate, a.model, rep.steps, rep.frames, rep.elapsed_s
-    );
-    for (k, v) in &rep.summary {
-        println!("  {k:30} {:>12.5e} ± {:.2e}", v.mean, v.err);
-    }
-    println!(
-        "wrote       {}/{{series, tracks, profile, fields, collision_angles, contact_velocities}}.parquet, summary.json, manifest.json",
-        out.display()
-    );
-    Ok(())
+    Ok((out, opt))
 }
 
 #[derive(Args)]
@@ -362,4 +379,60 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
         rep.table.display()
     );
     Ok(())
+}
+
+/// A stage's options are defined once, as a struct with its defaults
+/// (`SimulateOptions`, `ShearOptions`), which pipeline files deserialise; the command
+/// line states its defaults again for `--help`. These tests fail when the two drift.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cmd {
+        #[command(subcommand)]
+        cmd: SimulateCmd,
+    }
+
+    /// The options as JSON, without what says how a run proceeds rather than what it
+    /// computes (and which a command line sets by its form, `-o` or `--resume`).
+    fn physics(v: impl serde::Serialize, run_only: &[&str]) -> serde_json::Value {
+        let mut v = serde_json::to_value(v).unwrap();
+        for k in run_only {
+            v.as_object_mut().unwrap().remove(*k);
+        }
+        v
+    }
+
+    #[test]
+    fn simulate_pillar_command_line_defaults_are_the_options_defaults() {
+        let Cmd { cmd } = Cmd::parse_from(["t", "pillar", "-o", "x"]);
+        let SimulateCmd::Pillar(a) = cmd else {
+            panic!("pillar")
+        };
+        let (_, opt) = pillar_options(a).unwrap();
+        let skip = ["resume", "quiet", "threads", "halt_after"];
+        assert_eq!(
+            physics(&opt, &skip),
+            physics(SimulateOptions::default(), &skip),
+            "simulate pillar: the command line's defaults differ from SimulateOptions::default()"
+        );
+    }
+
+    #[test]
+    fn simulate_shear_command_line_defaults_are_the_options_defaults() {
+        use pillar_pipe::stages::shear::ShearOptions;
+        let Cmd { cmd } = Cmd::parse_from(["t", "shear", "-o", "x"]);
+        let SimulateCmd::Shear(a) = cmd else {
+            panic!("shear")
+        };
+        let (_, opt) = shear_options(a).unwrap();
+        let skip = ["resume", "quiet", "halt_after"];
+        assert_eq!(
+            physics(&opt, &skip),
+            physics(ShearOptions::default(), &skip),
+            "simulate shear: the command line's defaults differ from ShearOptions::default()"
+        );
+    }
 }

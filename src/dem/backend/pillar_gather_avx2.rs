@@ -1,17 +1,20 @@
 //! The pillar's per-grain contact sums (`pillar::gather::sum_terms`, phase 3a) with AVX2
-//! intrinsics, compiled for AVX2 and AVX-512 (`avx2_entry_point!`): the same numbers.
-//! No contact law here: it adds terms.
+//! intrinsics: the same numbers. No contact law here: it adds terms. Compiled for AVX2
+//! only: an AVX-512 build of the pillar's kernels gained 0–2.5 % (docs/performance.md),
+//! under the 5 % a second copy must earn.
+
 use crate::dem::backend::avx2::transpose;
 use crate::dem::backend::simd::Quad;
 use std::arch::x86_64::*;
 
-crate::avx2_entry_point! {
 /// As [`crate::dem::pillar::gather::sum_terms`] (same results): four grains at a time, one
 /// vector add per place and grain, the four sums transposed into f_x, f_y, T.
 ///
 /// # Safety
 /// The processor must have AVX2; `t` holds `w` places per grain of `fx`, and `fy`,
 /// `tq` and `frozen` are as long as `fx`.
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments, unused_unsafe)]
 pub(crate) unsafe fn sum_terms(
     w: usize,
     t: &[Quad],
@@ -34,8 +37,6 @@ pub(crate) unsafe fn sum_terms(
         }
     }
 }
-}
-
 /// # Safety
 /// AVX2 present; as `sum_terms` with `w = W`. (Compiled into each entry point.)
 #[inline(always)]

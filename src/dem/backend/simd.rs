@@ -6,8 +6,10 @@
 //! A third level, `Avx512`, compiles the same 256-bit code with AVX-512 F/VL/DQ enabled:
 //! LLVM then has 32 vector registers instead of 16 (the pair kernels spilled), mask
 //! registers and three-input logic, for the same operations on the same lanes, so the
-//! same numbers (tested). It is used for the intrinsics kernels (`avx2_entry_point!`)
-//! only: the autovectorised loops of `multiversion!` turned slower with it. 512-bit
+//! same numbers (tested). It is used for the sheared disks' intrinsics kernels
+//! (`avx2_entry_point!`; 13–25 % faster) but not the pillar's (0–2.5 %, not worth a
+//! second copy: they are plain `#[target_feature(enable = "avx2")]` functions), and not
+//! the autovectorised loops of `multiversion!`, which turned slower with it. 512-bit
 //! vectors only where written by hand: the sheared disks' force kernel `shear_avx512`
 //! (loads and shuffles, no gathers; AVX-512 gathers, which LLVM made of the pair
 //! kernels' indexed loads, made the sheared-disk step 12–16 % slower on AMD EPYC Zen 4,

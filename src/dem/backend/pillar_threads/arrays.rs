@@ -208,16 +208,16 @@ impl SendPtr {
 }
 
 impl PillarSim {
-    /// The pair kernel the steps run, as manifests record it: `avx512` or `avx2` (the
-    /// hand-written kernel of the linear Cundall–Strack law, compiled for that level)
-    /// or `scalar` (the law's reference, for any other law or processor). Steps that
-    /// record a force snapshot always run the reference.
+    /// The pair kernel the steps run, as manifests record it: `avx2` (the hand-written
+    /// kernel of the linear Cundall–Strack law) or `scalar` (the law's reference, for
+    /// any other law or processor). Steps that record a force snapshot always run the
+    /// reference.
     pub fn pair_kernel(&self) -> &'static str {
         if cfg!(target_arch = "x86_64")
             && self.law().is_linear_cundall_strack().is_some()
             && level() >= Level::Avx2
         {
-            level().name()
+            "avx2"
         } else {
             "scalar"
         }
