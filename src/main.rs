@@ -139,6 +139,11 @@ enum Cmd {
         /// start times), `all`, or LO,HI.
         #[arg(long, default_value = "coverage", value_parser = pillar_pipe::fit::RangeRule::parse)]
         eta_range: pillar_pipe::fit::RangeRule,
+        /// Position noise σ per coordinate per frame of the tracks (length unit, frames
+        /// independent): sets the tracking-noise floor of D²min/R² instead of the data's
+        /// estimate; under the default range rule bins within 3 floors are left out.
+        #[arg(long, value_name = "SIGMA")]
+        position_noise: Option<f64>,
         /// Scatter table (default <output stem>.scatter.parquet).
         #[arg(long)]
         scatter: Option<PathBuf>,
@@ -432,6 +437,7 @@ fn run(cli: Cli) -> Result<()> {
             bootstrap,
             seed,
             eta_range,
+            position_noise,
             scatter,
             quiet,
         } => {
@@ -452,6 +458,7 @@ fn run(cli: Cli) -> Result<()> {
                 range: eta_range,
                 scatter,
                 quiet,
+                position_noise,
             };
             let rep = fit::run(&input, &output, &opt)
                 .with_context(|| format!("fit {}", input.display()))?;

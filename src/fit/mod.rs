@@ -5,6 +5,7 @@
 mod boot;
 pub mod estimate;
 pub mod model;
+pub mod noise;
 pub mod range;
 
 pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, reduce};
@@ -439,13 +440,23 @@ pub fn fit_all(
     s: &Samples,
     set: &FitSettings,
 ) -> Result<(EstimatorResult, AllEstimators, FitRange)> {
+    fit_all_above(s, set, None)
+}
+
+/// [`fit_all`] with a tracking-noise floor (D²min/R², see [`noise`]): under the default
+/// range rule, bins whose median is within [`noise::NOISE_FACTOR`] floors are left out.
+pub fn fit_all_above(
+    s: &Samples,
+    set: &FitSettings,
+    noise_floor: Option<f64>,
+) -> Result<(EstimatorResult, AllEstimators, FitRange)> {
     if s.len() < 3 {
         return Err(Error::Other(format!(
             "{} (η^s, D²min) samples: too few to fit Eq. 19",
             s.len()
         )));
     }
-    let range = range::choose(s, set.range, &set.binning);
+    let range = range::choose_above(s, set.range, &set.binning, noise_floor);
     let kept = s.within(range.lo, range.hi);
     let mut all = BTreeMap::new();
     for m in Method::ALL {

@@ -138,6 +138,18 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// Choose the fitted range of `s` by `rule`, binned as the fit bins.
 pub fn choose(s: &Samples, rule: RangeRule, b: &Binning) -> FitRange {
+    choose_above(s, rule, b, None)
+}
+
+/// [`choose`] with a tracking-noise floor of D²min/R²: under the coverage rule, bins
+/// whose median D²min/R² is at most `NOISE_FACTOR` floors are left out too (an explicit
+/// range or `all` is taken as given).
+pub fn choose_above(
+    s: &Samples,
+    rule: RangeRule,
+    b: &Binning,
+    noise_floor: Option<f64>,
+) -> FitRange {
     let edge = |key: i64| 10f64.powf(key as f64 / b.bins_per_decade);
     let mut all = bins(s, b);
     let (lo, hi, description, reasons): (f64, f64, String, Vec<Option<String>>) = match rule {
@@ -158,7 +170,30 @@ pub fn choose(s: &Samples, rule: RangeRule, b: &Binning) -> FitRange {
                 .collect();
             (lo, hi, format!("η^s in [{lo:e}, {hi:e}] as given"), reasons)
         }
-        RangeRule::Coverage => coverage(s, &all, b),
+        RangeRule::Coverage => {
+            let (lo, hi, mut description, mut reasons) = coverage(s, &all, b);
+            if let Some(f) = noise_floor.filter(|f| *f > 0.0) {
+                let limit = super::noise::NOISE_FACTOR * f;
+                let mut noisy = 0;
+                for (bin, r) in all.iter().zip(reasons.iter_mut()) {
+                    let m = median(&mut bin.ys.clone());
+                    if r.is_none() && m <= limit {
+                        *r = Some(format!(
+                            "tracking noise: median D²min/R² {m:.2e} ≤ {} × the noise floor {f:.2e}",
+                            super::noise::NOISE_FACTOR
+                        ));
+                        noisy += 1;
+                    }
+                }
+                if noisy > 0 {
+                    description.push_str(&format!(
+                        "; {noisy} bin(s) within {}× the tracking-noise floor {f:.2e} left out",
+                        super::noise::NOISE_FACTOR
+                    ));
+                }
+            }
+            (lo, hi, description, reasons)
+        }
     };
     let excluded = all
         .iter_mut()

@@ -47,6 +47,7 @@ pub(crate) const EXPECT: &[(&str, Expect)] = &[
     ("frame", Expect::Int),
     ("particle", Expect::Int),
     ("size", Expect::Float),
+    ("ep", Expect::Float),
 ];
 
 pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, SpeciesSplit)> {
@@ -72,8 +73,15 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
         frame,
         particle,
         size,
+        ep,
         found,
     } = read_columns(path)?;
+    // trackpy's `ep` (px), its median over the finite values, in the length unit.
+    let ep_median = ep.and_then(|mut v| {
+        v.retain(|e| e.is_finite() && *e >= 0.0);
+        v.sort_by(f64::total_cmp);
+        (!v.is_empty()).then(|| crate::stats::quantile_sorted(&v, 0.5) / s)
+    });
     // Checked in pixels, the file's own values, before any scaling (the bound of
     // `tracks::MAX_ABS_COORD`: no camera frame is 1e12 px wide).
     let bounded = |v: &[f64]| v.iter().fold(true, |ok, x| ok & (x.abs() <= MAX_ABS_COORD));
@@ -155,6 +163,7 @@ pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, Specie
         }
         .into(),
         frame_time: opt.frame_time,
+        position_error_ep: ep_median,
         coordinate_frame: format!(
             "from trackpy pixels: x = (x_px - {x0}) / {s}, y = ({y0} - y_px) / {s}; y up"
         ),
@@ -193,6 +202,8 @@ struct TrackpyColumns {
     frame: Vec<i64>,
     particle: Vec<i64>,
     size: Option<Vec<f64>>,
+    /// trackpy's static localisation error estimate (px), when the file has it.
+    ep: Option<Vec<f64>>,
     /// The file's columns, for the error when `size` is missing.
     found: Vec<String>,
 }
@@ -211,6 +222,7 @@ fn read_columns(path: &Path) -> Result<TrackpyColumns> {
             t.take_f64("size"),
         )
     {
+        let ep = t.take_f64("ep");
         return Ok(TrackpyColumns {
             file,
             x_px,
@@ -218,6 +230,7 @@ fn read_columns(path: &Path) -> Result<TrackpyColumns> {
             frame,
             particle,
             size: Some(size),
+            ep,
             found: Vec::new(),
         });
     }
@@ -231,6 +244,11 @@ fn read_columns(path: &Path) -> Result<TrackpyColumns> {
         particle: table.i64("particle")?,
         size: if table.has("size") {
             Some(table.f64("size")?)
+        } else {
+            None
+        },
+        ep: if table.has("ep") {
+            Some(table.f64("ep")?)
         } else {
             None
         },

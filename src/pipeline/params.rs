@@ -122,6 +122,8 @@ pub struct FitParams {
     pub seed: u64,
     /// `coverage`, `all` or `LO,HI` (see `fit --eta-range`).
     pub eta_range: String,
+    /// Position noise σ per coordinate per frame (length unit; see `fit --position-noise`).
+    pub position_noise: Option<f64>,
 }
 
 impl Default for FitParams {
@@ -140,6 +142,7 @@ impl Default for FitParams {
             bootstrap: d.bootstrap,
             seed: d.seed,
             eta_range: d.range.name(),
+            position_noise: d.position_noise,
         }
     }
 }
@@ -164,6 +167,7 @@ impl FitParams {
             range,
             scatter: None,
             quiet,
+            position_noise: self.position_noise,
         })
     }
 }

@@ -67,6 +67,10 @@ pub struct TracksMeta {
     /// Bar speed v_c (length_unit / time_unit), if known.
     #[serde(default)]
     pub bar_speed: Option<f64>,
+    /// trackpy's median `ep` (its static localisation error estimate), in length_unit,
+    /// when the tracks came from trackpy with that column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_error_ep: Option<f64>,
     pub coordinate_frame: String,
     #[serde(default)]
     pub boxes: Vec<FrameBox>,
@@ -89,6 +93,7 @@ impl Default for TracksMeta {
             time_unit: "s".into(),
             frame_time: None,
             bar_speed: None,
+            position_error_ep: None,
             coordinate_frame: "as given by the source".into(),
             boxes: Vec::new(),
             provenance: Provenance::default(),

@@ -9,7 +9,7 @@ pub mod sampling;
 use crate::error::{Error, Result};
 use crate::fit::{
     Binning, EstimatorResult, FitRange, FitSettings, Method, RangeRule, SensitivityRow, ThirdFit,
-    by_thirds, fit_all, json_nonfinite, sensitivity,
+    by_thirds, fit_all_above, json_nonfinite, sensitivity,
 };
 use crate::io::sink::stream_table;
 use crate::io::{atomic_write_str, read_tracks, sha256_file};
@@ -56,6 +56,9 @@ pub struct FitOptions {
     /// The scatter table; default `<output stem>.scatter.parquet`.
     pub scatter: Option<PathBuf>,
     pub quiet: bool,
+    /// Position noise σ per coordinate per frame (length unit, frames independent) of
+    /// the tracks; sets the tracking-noise floor instead of the data's estimate.
+    pub position_noise: Option<f64>,
 }
 
 impl Default for FitOptions {
@@ -73,6 +76,7 @@ impl Default for FitOptions {
             range: RangeRule::Coverage,
             scatter: None,
             quiet: false,
+            position_noise: None,
         }
     }
 }
@@ -129,6 +133,10 @@ pub struct FitReport {
     pub stationarity: Vec<ThirdFit>,
     /// Every estimator's result, or its error.
     pub estimators: BTreeMap<String, serde_json::Value>,
+    /// The tracking-noise floor of D²min/R², each way it was estimated, and which one
+    /// the range rule used (absent in fits made before it existed).
+    #[serde(default)]
+    pub noise: Option<NoiseReport>,
     pub protocol: Protocol,
     pub bootstrap: usize,
     pub seed: u64,
@@ -139,6 +147,90 @@ pub struct FitReport {
     pub tool_version: String,
     pub elapsed_s: f64,
     pub warnings: Vec<String>,
+}
+
+/// Tracking noise (see `fit::noise`): floors of D²min/R² from the data and from the
+/// user's σ, the displacement noise they mean, and the floor the range rule used.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct NoiseReport {
+    /// The floor the range rule used (D²min/R²), and why: `position_noise` (given),
+    /// `data` (measured tracks), or `none` (a simulation, or no floor seen).
+    pub floor: Option<f64>,
+    pub source: String,
+    /// From the data: the two shortest lags' median D²min/R² extrapolated to zero lag,
+    /// and the displacement noise per coordinate it means (length unit).
+    pub data_floor: Option<f64>,
+    pub data_displacement_noise: Option<f64>,
+    /// From `--position-noise` σ (length unit): its floor, 8σ²(1 − 1/N)/R².
+    pub position_noise: Option<f64>,
+    pub position_noise_floor: Option<f64>,
+    /// From trackpy's median `ep` (length unit, carried by ingest) taken as σ: its
+    /// floor. Reported, never used: trackpy's estimate can be far off (tested on the
+    /// bundled sample).
+    #[serde(default)]
+    pub trackpy_ep: Option<f64>,
+    #[serde(default)]
+    pub trackpy_ep_floor: Option<f64>,
+    /// Neighbours per particle assumed in (1 − 1/N).
+    pub neighbours: f64,
+    /// Bins the floor left out.
+    pub bins_left_out: usize,
+}
+
+impl NoiseReport {
+    fn of(
+        samples: &crate::fit::Samples,
+        r: f64,
+        measured: bool,
+        sigma: Option<f64>,
+        ep: Option<f64>,
+    ) -> Self {
+        use crate::fit::noise::{TYPICAL_NEIGHBOURS, data_floor, floor_of, s_of_floor};
+        let n = TYPICAL_NEIGHBOURS;
+        let data = data_floor(samples);
+        let user = sigma.map(|s| floor_of(2.0 * s * s, n, r));
+        let (floor, source) = match (user, data) {
+            (Some(f), _) => (Some(f), "position_noise"),
+            (None, Some(f)) if measured => (Some(f), "data"),
+            _ => (None, "none"),
+        };
+        NoiseReport {
+            floor,
+            source: source.into(),
+            data_floor: data,
+            data_displacement_noise: data.map(|f| s_of_floor(f, n, r)),
+            position_noise: sigma,
+            position_noise_floor: user,
+            trackpy_ep: ep,
+            trackpy_ep_floor: ep.map(|e| floor_of(2.0 * e * e, n, r)),
+            neighbours: n,
+            bins_left_out: 0,
+        }
+    }
+
+    /// One line for people.
+    pub fn summary(&self) -> String {
+        let data = match (self.data_floor, self.data_displacement_noise) {
+            (Some(f), Some(s)) => {
+                format!("data {f:.2e} (displacement noise {s:.3} per coordinate)")
+            }
+            _ => "data: none seen".into(),
+        };
+        let mut user = match (self.position_noise, self.position_noise_floor) {
+            (Some(s), Some(f)) => format!("; --position-noise {s} → {f:.2e}"),
+            _ => String::new(),
+        };
+        if let (Some(e), Some(f)) = (self.trackpy_ep, self.trackpy_ep_floor) {
+            user.push_str(&format!("; trackpy ep {e:.2e} → {f:.2e} (not used)"));
+        }
+        match self.floor {
+            Some(f) => format!(
+                "floor {f:.2e} of D²min/R² ({}), {} bin(s) left out; {data}{user}",
+                self.source, self.bins_left_out
+            ),
+            None => format!("no floor applied ({}); {data}{user}", self.source),
+        }
+    }
 }
 
 impl std::fmt::Display for FitReport {
@@ -171,6 +263,9 @@ impl std::fmt::Display for FitReport {
                 r.summary(),
                 r.excluded.len()
             )?;
+        }
+        if let Some(n) = &self.noise {
+            writeln!(f, "noise         {}", n.summary())?;
         }
         writeln!(
             f,
@@ -318,8 +413,28 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         seed: opt.seed,
         range: opt.range,
     };
-    let (chosen, all, range) = fit_all(&samples, &settings)
+    // Measured positions carry tracking noise; simulated ones do not.
+    let measured = tracks.as_ref().is_some_and(|t| {
+        !matches!(
+            t.meta.provenance.source_format.as_str(),
+            "simulation" | "generated"
+        )
+    });
+    let ep = tracks.as_ref().and_then(|t| t.meta.position_error_ep);
+    let mut noise = NoiseReport::of(
+        &samples,
+        0.5 * protocol.diameter,
+        measured,
+        opt.position_noise,
+        ep,
+    );
+    let (chosen, all, range) = fit_all_above(&samples, &settings, noise.floor)
         .map_err(|e| Error::Other(format!("{}: {e}", input.display())))?;
+    noise.bins_left_out = range
+        .excluded
+        .iter()
+        .filter(|b| b.reason.starts_with("tracking noise"))
+        .count();
     let stationarity = by_thirds(&samples, &settings, &range);
     let mut sensitivity = sensitivity(&samples, opt.rc_over_d, range.lo, &opt.binning);
     if let Some(t) = &tracks {
@@ -377,6 +492,7 @@ pub fn run(input: &Path, output: &Path, opt: &FitOptions) -> Result<FitReport> {
         sensitivity,
         stationarity,
         estimators,
+        noise: Some(noise),
         protocol,
         bootstrap: opt.bootstrap,
         seed: opt.seed,
