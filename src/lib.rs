@@ -21,6 +21,7 @@ pub mod rng;
 pub mod schema;
 pub mod stages;
 pub mod stats;
+pub mod structure;
 pub mod synth;
 pub mod tracks;
 

@@ -91,6 +91,7 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         "shear_fields",
         include_str!("../data_schema/shear_fields.schema.json"),
     ),
+    ("gofr", include_str!("../data_schema/gofr.schema.json")),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,

@@ -81,6 +81,18 @@ const FORBIDDEN: &[(&str, &[&str])] = &[
         ],
     ),
     ("report", &["stages", "pipeline", "dem"]),
+    (
+        "structure",
+        &[
+            "tracks",
+            "kinematics",
+            "fit",
+            "dem",
+            "io",
+            "stages",
+            "pipeline",
+        ],
+    ),
     ("io", &["stages", "pipeline", "report", "dem"]),
     ("stages", &["pipeline"]),
 ];

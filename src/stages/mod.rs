@@ -28,6 +28,7 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
 }
 pub mod compare;
 pub mod fit;
+pub mod gofr;
 pub mod pack;
 pub mod quickstart;
 pub mod report;

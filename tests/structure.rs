@@ -1,0 +1,76 @@
+//! `pillar-pipe gofr` on a jammed bidisperse packing (li-granular-pillars Fig. 2): the
+//! contact peaks sit where the species' diameters put them and g(r) → 1 far out.
+
+mod common;
+use common::{cli as run, tmpdir};
+use pillar_pipe::io::table::read_table;
+
+#[test]
+fn g_of_r_peaks_at_contact_distances_by_species() {
+    let d = tmpdir("gofr");
+    let pack = d.join("pack.parquet");
+    let (ok, text) = run(&[
+        "pack",
+        "--n",
+        "600",
+        "--seed",
+        "2",
+        "--quiet",
+        "-o",
+        pack.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let out = d.join("g.parquet");
+    let (ok, text) = run(&[
+        "gofr",
+        pack.to_str().unwrap(),
+        "--r-max",
+        "4",
+        "--bins",
+        "80",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    assert!(text.contains("centres counted"), "{text}");
+    let t = read_table(&out, &[]).unwrap();
+    assert_eq!(t.columns(), pillar_pipe::schema::load("gofr").names());
+    let (r, all, s, l) = (
+        t.f64("r_over_d").unwrap(),
+        t.f64("g_all").unwrap(),
+        t.f64("g_small").unwrap(),
+        t.f64("g_large").unwrap(),
+    );
+    let argmax = |g: &[f64]| r[(0..g.len()).max_by(|&a, &b| g[a].total_cmp(&g[b])).unwrap()];
+    // Small-centred: its highest peak at a small–small (0.75 D) or small–large (0.875 D)
+    // contact; large-centred: large–small (0.875 D) or large–large (1 D). Nothing closer
+    // than two small radii.
+    let (ps, pl) = (argmax(&s), argmax(&l));
+    assert!((0.72..0.92).contains(&ps), "small-centred peak at {ps} D");
+    assert!((0.85..1.06).contains(&pl), "large-centred peak at {pl} D");
+    assert!(
+        pl > ps,
+        "large centres' contacts lie farther out: {pl} vs {ps}"
+    );
+    for k in 0..r.len() {
+        if r[k] < 0.7 {
+            assert_eq!(all[k], 0.0, "overlap at r = {} D", r[k]);
+        }
+    }
+    let far: Vec<f64> = (0..r.len())
+        .filter(|&k| r[k] > 3.0)
+        .map(|k| all[k])
+        .collect();
+    let mean = far.iter().sum::<f64>() / far.len() as f64;
+    assert!((mean - 1.0).abs() < 0.1, "g → 1 far out: {mean}");
+    // A frame that is not there is an error naming it.
+    let (ok, text) = run(&[
+        "gofr",
+        pack.to_str().unwrap(),
+        "--frame",
+        "7",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("no frame 7"), "{text}");
+}
