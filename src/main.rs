@@ -235,6 +235,24 @@ enum Cmd {
         #[arg(long, default_value_t = 80)]
         bins: usize,
     },
+    /// A pillar's outline at a frame (li-granular-pillars Fig. 9), in units of its
+    /// initial width W0: outermost grain edges in slabs one D thick. With --against,
+    /// also how far it is from another pillar's outline rescaled the same way.
+    Outline {
+        /// Tracks of a pillar.
+        input: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Frame (default: the last).
+        #[arg(long)]
+        frame: Option<i64>,
+        /// Another pillar's tracks to compare with (e.g. another size).
+        #[arg(long)]
+        against: Option<PathBuf>,
+        /// Its frame (default: the last).
+        #[arg(long)]
+        against_frame: Option<i64>,
+    },
     /// Ground-truth tracks: a bidisperse packing mapped by a known affine transform.
     Synth {
         #[arg(short, long)]
@@ -577,6 +595,31 @@ fn run(cli: Cli) -> Result<()> {
                 peak(&g.g_small),
                 peak(&g.g_large)
             );
+            println!("wrote       {}", output.display());
+        }
+        Cmd::Outline {
+            input,
+            output,
+            frame,
+            against,
+            against_frame,
+        } => {
+            let other = against.as_deref().map(|p| (p, against_frame));
+            let (a, distance) = pillar_pipe::stages::outline::run(&input, frame, other, &output)
+                .with_context(|| format!("outline of {}", input.display()))?;
+            let hw = a.outline.half_width();
+            let widest = hw.iter().fold(0.0f64, |m, &w| m.max(2.0 * w));
+            println!(
+                "outline     frame {}: {} slabs, height {:.3} W0, widest {:.3} W0 (W0 = {:.4})",
+                a.frame,
+                hw.len(),
+                a.outline.height() / a.w0,
+                widest / a.w0,
+                a.w0
+            );
+            if let Some(d) = distance {
+                println!("shape       rms distance of the rescaled half-widths: {d:.4} W0");
+            }
             println!("wrote       {}", output.display());
         }
         Cmd::Synth {

@@ -74,3 +74,57 @@ fn g_of_r_peaks_at_contact_distances_by_species() {
     ]);
     assert!(!ok && text.contains("no frame 7"), "{text}");
 }
+
+/// Outlines (Fig. 9) of two pillar sizes at the same strain are closer, once rescaled by
+/// their W0, than one pillar's outlines at strain 0 and at the end: the shape evolves
+/// with strain and, rescaled, hardly with size (the paper's self-similarity). On the
+/// `fast` preset at ε = 0.2, N = 200 and 800 are 0.04 W0 apart (rms of the half-widths),
+/// one pillar's strains 0 and 0.2 are 0.19 W0 apart.
+#[test]
+fn rescaled_outlines_of_two_sizes_agree_better_than_two_strains() {
+    let d = tmpdir("outline");
+    let sim = |n: &str, seed: &str| {
+        let out = d.join(format!("p{n}"));
+        let (ok, text) = run(&[
+            "simulate",
+            "pillar",
+            "--n",
+            n,
+            "--seed",
+            seed,
+            "--preset",
+            "fast",
+            "--strain",
+            "0.15",
+            "--quiet",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+        out.join("tracks.parquet")
+    };
+    let (small, big) = (sim("150", "3"), sim("400", "4"));
+    let distance = |a: &std::path::Path, fa: Option<&str>, b: &std::path::Path| -> f64 {
+        let out = d.join("o.csv");
+        let mut args = vec!["outline", a.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        if let Some(f) = fa {
+            args.extend(["--frame", f]);
+        }
+        args.extend(["--against", b.to_str().unwrap()]);
+        let (ok, text) = run(&args);
+        assert!(ok, "{text}");
+        let t = read_table(&out, &[]).unwrap();
+        assert_eq!(t.columns(), ["y_over_w0", "left_over_w0", "right_over_w0"]);
+        text.split("half-widths: ")
+            .nth(1)
+            .and_then(|s| s.split(' ').next())
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{text}"))
+    };
+    let sizes = distance(&small, None, &big);
+    let strains = distance(&small, Some("0"), &small);
+    assert!(
+        sizes < 0.5 * strains,
+        "sizes {sizes} W0 apart, strains {strains} W0"
+    );
+}

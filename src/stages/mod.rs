@@ -10,6 +10,7 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
 pub mod kinematics;
 pub mod manifest;
+pub mod outline;
 
 /// A progress bar on stderr with ETA, hidden with `quiet` or when stderr is not a
 /// terminal (indicatif's default), so scripts and CI logs stay clean.

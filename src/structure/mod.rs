@@ -1,5 +1,6 @@
 //! Structure of a packing: the pair distribution g(r) by the species at the centre
-//! (li-granular-pillars Fig. 2: small-centred and large-centred g(r) against r/D).
+//! (li-granular-pillars Fig. 2: small-centred and large-centred g(r) against r/D), and
+//! the pillar's outline ([`Outline`], Fig. 9) with a distance between rescaled outlines.
 //!
 //! An open pillar has edges, where a shell around a grain reaches into empty space and
 //! g(r) would fall below 1 for no physical reason. So only centres at least r_max inside
@@ -11,6 +12,10 @@
 //!
 //! g_c(r) = ⟨number of grains in [r, r + dr) around a centre of species c⟩ / (ρ 2π r dr),
 //! with ρ the density of all grains: it tends to 1 at large r for any species mix.
+
+mod outline;
+
+pub use outline::{Outline, shape_distance};
 
 use crate::error::{Error, Result};
 use crate::geom::{SimBox, Vec2};
