@@ -253,6 +253,16 @@ enum Cmd {
         #[arg(long)]
         against_frame: Option<i64>,
     },
+    /// A pillar size scan's flow stress (li-granular-pillars Fig. 10a, b): per
+    /// `simulate pillar` run ⟨σ⟩ over 0.05 ≤ ε ≤ 0.2 (m g μ/D) and κ, against W0; the
+    /// fit ⟨σ⟩ = c W0/D through the origin with its 95 % interval.
+    Sizes {
+        /// `simulate pillar` output directories (run each to ε ≥ 0.2).
+        #[arg(required = true)]
+        runs: Vec<PathBuf>,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Ground-truth tracks: a bidisperse packing mapped by a known affine transform.
     Synth {
         #[arg(short, long)]
@@ -595,6 +605,29 @@ fn run(cli: Cli) -> Result<()> {
                 peak(&g.g_small),
                 peak(&g.g_large)
             );
+            println!("wrote       {}", output.display());
+        }
+        Cmd::Sizes { runs, output } => {
+            let (rows, fit) =
+                pillar_pipe::stages::sizes::run(&runs, &output).context("size scan")?;
+            for r in &rows {
+                println!(
+                    "size        N = {:6}  W0 = {:6.2} D  <sigma> = {:.3} ± {:.3} m g mu/D  kappa = {:.3}  ({})",
+                    r.n,
+                    r.w0_over_d,
+                    r.sigma,
+                    r.sigma_err,
+                    r.kappa,
+                    r.run.display()
+                );
+            }
+            match fit {
+                Some(f) => println!(
+                    "fit         <sigma> = c W0/D, c = {:.4} [{:.4}, {:.4}] (95 %) m g mu/D per D",
+                    f.c, f.c_interval[0], f.c_interval[1]
+                ),
+                None => println!("fit         needs two runs or more"),
+            }
             println!("wrote       {}", output.display());
         }
         Cmd::Outline {

@@ -128,3 +128,69 @@ fn rescaled_outlines_of_two_sizes_agree_better_than_two_strains() {
         "sizes {sizes} W0 apart, strains {strains} W0"
     );
 }
+
+/// A size scan (Fig. 10a, b): ⟨σ⟩ over 0.05 ≤ ε ≤ 0.2 grows in proportion to W0 — the
+/// substrate holds every grain with m g μ, so the bar must push a column as tall as the
+/// pillar (H0 ∝ W0) — and the fit through the origin says so with an interval; κ stays
+/// between 0 and 1. (N = 200, 400, 800 on the `fast` preset: c = 0.714 [0.688, 0.740]
+/// m g μ/D per D.) A run that stopped short of ε = 0.2 or a sheared-disk run is refused.
+#[test]
+fn flow_stress_scales_with_the_width() {
+    let d = tmpdir("sizes");
+    let sim = |n: &str, strain: &str| {
+        let out = d.join(format!("p{n}-{strain}"));
+        let (ok, text) = run(&[
+            "simulate",
+            "pillar",
+            "--n",
+            n,
+            "--seed",
+            "2",
+            "--preset",
+            "fast",
+            "--strain",
+            strain,
+            "--quiet",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+        out
+    };
+    let (a, b) = (sim("120", "0.2"), sim("360", "0.2"));
+    let out = d.join("sizes.csv");
+    let (ok, text) = run(&[
+        "sizes",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let t = read_table(&out, &[]).unwrap();
+    let (w, s, k) = (
+        t.f64("w0_over_d").unwrap(),
+        t.f64("sigma_mean").unwrap(),
+        t.f64("kappa_mean").unwrap(),
+    );
+    assert!(w[1] > 1.5 * w[0], "{w:?}");
+    let (ra, rb) = (s[0] / w[0], s[1] / w[1]);
+    assert!(
+        (ra / rb - 1.0).abs() < 0.25,
+        "σ/W0 {ra} vs {rb}: not proportional"
+    );
+    assert!(
+        s[1] > 1.4 * s[0],
+        "the wider pillar flows at a higher stress: {s:?}"
+    );
+    assert!(k.iter().all(|&x| x > 0.0 && x < 1.0), "{k:?}");
+    assert!(text.contains("c = "), "{text}");
+    let short = sim("120", "0.1");
+    let (ok, text) = run(&[
+        "sizes",
+        short.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("run to ε = 0.2"), "{text}");
+}

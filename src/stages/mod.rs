@@ -35,6 +35,7 @@ pub mod quickstart;
 pub mod report;
 pub mod shear;
 pub mod simulate;
+pub mod sizes;
 pub mod sweep;
 
 /// A checkpoint's bytes for `--resume`, or an error naming the file.

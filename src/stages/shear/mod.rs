@@ -15,6 +15,7 @@ use crate::io::table::write_table;
 use crate::io::{atomic_write_str, sidecar_path};
 use crate::stages::shear::ramp::{finish_ramp, ramp_plan};
 pub use crate::stages::shear::stats::MeanErr;
+pub(crate) use crate::stages::shear::stats::block_stats;
 use crate::stages::shear::stats::summarize;
 use crate::stages::shear::steady::Steady;
 use crate::stages::shear::tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
