@@ -212,10 +212,9 @@ fn no_module_references_a_layer_above_it() {
     assert!(bad.is_empty(), "forbidden arrows:\n{}", bad.join("\n"));
 }
 
-#[test]
-fn the_module_graph_has_no_cycle() {
-    let g = graph();
-    // Depth-first search; a node met again while on the stack closes a cycle.
+/// A cycle of the graph, as its places (`a → b at file:line`), if there is one:
+/// depth-first search; a node met again while on the stack closes a cycle.
+fn find_cycle(g: &BTreeMap<String, BTreeMap<String, String>>) -> Option<Vec<String>> {
     fn visit(
         n: &str,
         g: &BTreeMap<String, BTreeMap<String, String>>,
@@ -241,14 +240,19 @@ fn the_module_graph_has_no_cycle() {
         None
     }
     let mut done = BTreeSet::new();
-    for n in g.keys() {
-        if let Some(c) = visit(n, &g, &mut Vec::new(), &mut done) {
-            let places: Vec<String> = c
-                .windows(2)
+    g.keys().find_map(|n| {
+        visit(n, g, &mut Vec::new(), &mut done).map(|c| {
+            c.windows(2)
                 .map(|w| format!("{} → {} at {}", w[0], w[1], g[&w[0]][&w[1]]))
-                .collect();
-            panic!("module cycle:\n{}", places.join("\n"));
-        }
+                .collect()
+        })
+    })
+}
+
+#[test]
+fn the_module_graph_has_no_cycle() {
+    if let Some(places) = find_cycle(&graph()) {
+        panic!("module cycle:\n{}", places.join("\n"));
     }
 }
 
@@ -381,42 +385,11 @@ fn the_simulation_core_is_layered_and_acyclic() {
         }
     }
     assert!(bad.is_empty(), "forbidden arrows:\n{}", bad.join("\n"));
-    fn visit(
-        n: &str,
-        g: &BTreeMap<String, BTreeMap<String, String>>,
-        stack: &mut Vec<String>,
-        done: &mut BTreeSet<String>,
-    ) -> Option<Vec<String>> {
-        if let Some(i) = stack.iter().position(|s| s == n) {
-            let mut c = stack[i..].to_vec();
-            c.push(n.to_string());
-            return Some(c);
-        }
-        if done.contains(n) {
-            return None;
-        }
-        stack.push(n.to_string());
-        for to in g.get(n).into_iter().flat_map(|e| e.keys()) {
-            if let Some(c) = visit(to, g, stack, done) {
-                return Some(c);
-            }
-        }
-        stack.pop();
-        done.insert(n.to_string());
-        None
-    }
-    let mut done = BTreeSet::new();
-    for n in g.keys() {
-        if let Some(c) = visit(n, &g, &mut Vec::new(), &mut done) {
-            let places: Vec<String> = c
-                .windows(2)
-                .map(|w| format!("{} → {} at {}", w[0], w[1], g[&w[0]][&w[1]]))
-                .collect();
-            panic!(
-                "import cycle in the simulation core:\n{}",
-                places.join("\n")
-            );
-        }
+    if let Some(places) = find_cycle(&g) {
+        panic!(
+            "import cycle in the simulation core:\n{}",
+            places.join("\n")
+        );
     }
 }
 
