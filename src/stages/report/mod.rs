@@ -35,6 +35,12 @@ pub struct DatasetInputs {
     /// drawn at the grains' positions in `tracks`.
     #[serde(default)]
     pub forces: Option<PathBuf>,
+    /// A sheared-disk run's directory (`summary.json`, `collision_angles.parquet`, …).
+    #[serde(default)]
+    pub shear: Option<PathBuf>,
+    /// A sweep's directory (`sweep.parquet`, `sweep.json`).
+    #[serde(default)]
+    pub sweep: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
