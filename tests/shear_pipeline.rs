@@ -144,3 +144,107 @@ fn sweep_and_shear_keys_are_validated_before_anything_runs() {
     );
     assert!(!runs.join("cache").exists(), "nothing ran");
 }
+
+/// A synthetic sweep summary: p = c γ̇^exp with 2 % errors, and the other quantities.
+fn summary(rate: f64, exp: f64) -> Value {
+    let p = 5.0 * rate.powf(exp);
+    let q = |m: f64, e: f64| serde_json::json!({"mean": m, "err": e});
+    serde_json::json!({
+        "p": q(p, 0.02 * p), "eta_p": q(p / rate, 0.02 * p / rate), "b_p": q(p / rate / rate, 0.02 * p / rate / rate),
+        "z": q(3.0, 0.05), "two_tau_dur_nu_coll": q(2.95, 0.1), "mu": q(0.3, 0.01),
+        "theta_dot_over_gamma_dot": q(-0.5, 0.01), "r_v": q(1.5, 0.1),
+    })
+}
+
+/// A killed sweep (points missing): the report shows the flow curves and the
+/// classification of what exists and names what is missing; φ = 0.76 with p ∝ γ̇² is
+/// Bagnoldian, φ = 0.82 with p ∝ γ̇ Newtonian, and φ_c is bracketed between them.
+#[test]
+fn report_of_a_sweep_with_missing_points() {
+    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
+    use pillar_pipe::stages::shear::ShearOptions;
+    let d = tmpdir("shear-report");
+    let sweep = d.join("sweep");
+    std::fs::create_dir_all(&sweep).unwrap();
+    let rates = [1e-4, 1e-3, 1e-2];
+    let mut grid = Vec::new();
+    let mut points = Vec::new();
+    for (phi, exp) in [(0.76, 2.0), (0.80, 1.5), (0.82, 1.0)] {
+        for &rate in &rates {
+            grid.push((phi, 1.0, rate));
+            // φ = 0.80 was killed after its first run.
+            if phi != 0.80 || rate == 1e-4 {
+                points.push(((phi, 1.0, rate), summary(rate, exp)));
+            }
+        }
+    }
+    pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &ShearOptions::default())
+        .unwrap();
+    let out = d.join("report");
+    let r = run(
+        &out,
+        &ReportOptions {
+            title: "sweep".into(),
+            datasets: vec![DatasetInputs {
+                label: "flow".into(),
+                sweep: Some(sweep.clone()),
+                ..Default::default()
+            }],
+            map_stages: 1,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(&r.html).unwrap();
+    assert!(html.contains("7 of 9 grid points finished"), "{html}");
+    assert!(
+        html.contains("Missing (2 grid points")
+            && html.contains("φ = 0.8, Q = 1, γ̇ τ_e = 1e-3")
+            && html.contains("φ = 0.8, Q = 1, γ̇ τ_e = 1e-2"),
+        "the missing points are named"
+    );
+    for fig in [
+        "eta_p",
+        "b_p",
+        "z",
+        "mu",
+        "rotation",
+        "r_v",
+        "phase_phi_rate_q1",
+    ] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("figures/sweep_flow_{fig}.{ext}"));
+            assert!(f.is_file(), "{}", f.display());
+        }
+    }
+    assert!(
+        html.contains("Figs. 2, 11, 16") && html.contains("Fig. 23") && html.contains("Fig. 24")
+    );
+    let c: Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("classification_flow.json")).unwrap(),
+    )
+    .unwrap();
+    let class = |phi: f64| -> String {
+        c["slopes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["phi"] == phi && s["scope"] == "all")
+            .map(|s| s["class"].as_str().unwrap().to_string())
+            .unwrap_or_default()
+    };
+    assert_eq!(class(0.76), "bagnoldian", "{c}");
+    assert_eq!(class(0.82), "newtonian", "{c}");
+    assert_eq!(class(0.80), "", "one rate left: no slope");
+    let t = c["transitions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["along"] == "phi" && t["rate_lo"] == 1e-4 && t["rate_hi"] == 1e-2)
+        .unwrap_or_else(|| panic!("no φ_c over all rates: {c}"));
+    assert_eq!(
+        (t["lo"].as_f64(), t["hi"].as_f64()),
+        (Some(0.76), Some(0.82))
+    );
+    assert!(html.contains("φ_c(Q = 1) between 0.76 and 0.82"), "{html}");
+}

@@ -258,8 +258,19 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 provenance: provenance(s, ctx),
             };
             let r = stages::report::run(out, &opt)?;
+            let mut outs = outputs(&[("html", "report.html"), ("figures", "figures")]);
+            // The sweeps' classification tables, copied into the run beside the report.
+            for e in std::fs::read_dir(out)
+                .map_err(|e| Error::io(out, e))?
+                .flatten()
+            {
+                let name = e.file_name().to_string_lossy().into_owned();
+                if name.starts_with("classification_") {
+                    outs.insert(name.replace('.', "_"), name);
+                }
+            }
             Ok(Produced {
-                outputs: outputs(&[("html", "report.html"), ("figures", "figures")]),
+                outputs: outs,
                 metrics: json!({"figures": r.figures.len()}),
                 summary: json!({"sections": r.sections}),
             })
