@@ -369,17 +369,22 @@ fn sweep_stage_under_slurm_is_the_local_run() {
     run_ok(&["run", f, "--quiet"], &local);
     let out = run_ok(&["run", f, "--executor", "slurm"], &slurm);
     assert_eq!(out.matches(" queued ").count(), 6, "{out}");
-    let arrays: std::collections::BTreeSet<String> = ["0.8,q=1,rate=1e-2", "0.8,q=1,rate=3e-2", "0.84,q=1,rate=1e-2", "0.84,q=1,rate=3e-2"]
-        .iter()
-        .map(|p| {
-            queued_job(&out, &format!("flow.sweep:phi={p}"))
-                .unwrap_or_else(|| panic!("{p} not queued: {out}"))
-                .split('_')
-                .next()
-                .unwrap()
-                .to_string()
-        })
-        .collect();
+    let arrays: std::collections::BTreeSet<String> = [
+        "0.8,q=1,rate=1e-2",
+        "0.8,q=1,rate=3e-2",
+        "0.84,q=1,rate=1e-2",
+        "0.84,q=1,rate=3e-2",
+    ]
+    .iter()
+    .map(|p| {
+        queued_job(&out, &format!("flow.sweep:phi={p}"))
+            .unwrap_or_else(|| panic!("{p} not queued: {out}"))
+            .split('_')
+            .next()
+            .unwrap()
+            .to_string()
+    })
+    .collect();
     assert_eq!(arrays.len(), 1, "the grid points are one job array: {out}");
     assert_same(&local.join("cache"), &slurm.join("cache"));
     let again = run_ok(&["run", f, "--executor", "slurm"], &slurm);

@@ -139,6 +139,9 @@ fn key(x: f64) -> i64 {
     (x * 1e9).round() as i64
 }
 
+/// A class on an axis: (axis value, class, the value held fixed, rate span).
+type OnAxis = (f64, Class, f64, f64, f64);
+
 pub fn classify(rows: &[Row]) -> Classification {
     let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
     for r in rows {
@@ -172,9 +175,8 @@ pub fn classify(rows: &[Row]) -> Classification {
     }
     let mut located = Vec::new();
     // Along φ at each Q and rate span; along Q at each φ (all rates).
-    let mut along_phi: BTreeMap<(i64, &str, i64, i64), Vec<(f64, Class, f64, f64, f64)>> =
-        BTreeMap::new();
-    let mut along_q: BTreeMap<i64, Vec<(f64, Class, f64, f64, f64)>> = BTreeMap::new();
+    let mut along_phi: BTreeMap<(i64, &str, i64, i64), Vec<OnAxis>> = BTreeMap::new();
+    let mut along_q: BTreeMap<i64, Vec<OnAxis>> = BTreeMap::new();
     for c in &slopes {
         let s = &c.slope;
         along_phi
