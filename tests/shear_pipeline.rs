@@ -73,6 +73,12 @@ fn sweep_points_are_cached_one_by_one() {
         );
     }
     assert!(m["metrics"]["flow.shear"]["z"].is_f64(), "{m}");
+    // The run's manifest names its tables where the stage keeps them.
+    let man: Value =
+        serde_json::from_str(&std::fs::read_to_string(shear_dir.join("manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(man["tables"]["series"], "series.parquet", "{man}");
+    assert!(man["options"].get("quiet").is_none(), "{man}");
     assert_eq!(table_rows(&sweep_dir.join("sweep.parquet")), 4);
 
     // Again: nothing computed.
