@@ -105,13 +105,6 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
         .count();
     if let (true, Some(signal)) = (stopped > 0, crate::interrupt::requested()) {
         let finished = results.iter().filter(|r| r.is_ok()).count();
-        // What has finished is a table already; a report shows it and names the rest.
-        let partial: Vec<_> = grid
-            .iter()
-            .zip(&results)
-            .filter_map(|(g, r)| r.as_ref().ok().map(|(_, v)| (*g, v.clone())))
-            .collect();
-        write_outputs(out, &grid, &partial, &opt.base)?;
         return Err(Error::Interrupted {
             signal,
             what: format!(
