@@ -208,7 +208,13 @@ fn quickstart_pipeline_runs_both_branches() {
 #[test]
 fn bundled_pipelines_validate() {
     let d = tmpdir("bundled");
-    for name in ["quickstart", "paper-n1000", "experiment-only"] {
+    for name in [
+        "quickstart",
+        "paper-n1000",
+        "experiment-only",
+        "shear-flow-curves",
+        "shear-phase-diagram",
+    ] {
         let out = run_ok(&["run", &bundled(name), "--dry-run"], &d.join("runs"));
         assert!(out.contains("is valid"), "{out}");
     }

@@ -215,6 +215,7 @@ fn simulation_report_has_force_maps_kappa_and_numeric_colour_bars() {
                 fit: None,
                 stress: Some(sim.join("stress_strain.parquet")),
                 forces: Some(sim.join("forces.parquet")),
+                ..Default::default()
             }],
             map_stages: stages,
             provenance: serde_json::json!({}),

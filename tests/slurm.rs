@@ -349,6 +349,48 @@ fn sweep_under_slurm_is_the_local_sweep() {
     );
 }
 
+/// A pipeline's sweep stage under Slurm: its grid points are one job array of `shear`
+/// stages, the sweep and the report follow, and every output is the local run's.
+#[test]
+fn sweep_stage_under_slurm_is_the_local_run() {
+    let Some(_g) = need_cluster("sweep stage under Slurm") else {
+        return;
+    };
+    let d = tmpdir("slurm-sweep-stage");
+    let (local, slurm) = (d.join("local"), d.join("slurm"));
+    let file = d.join("sweep.toml");
+    std::fs::write(
+        &file,
+        "[flow.sweep]\nphi = [0.80, 0.84]\nq = [1]\nrate = [1e-2, 3e-2]\nn = 32\nstrain = 0.3\nsample_every = 2\n\n\
+         [report]\ndatasets = [\"flow\"]\n",
+    )
+    .unwrap();
+    let f = file.to_str().unwrap();
+    run_ok(&["run", f, "--quiet"], &local);
+    let out = run_ok(&["run", f, "--executor", "slurm"], &slurm);
+    assert_eq!(out.matches(" queued ").count(), 6, "{out}");
+    let arrays: std::collections::BTreeSet<String> = [
+        "0.8,q=1,rate=1e-2",
+        "0.8,q=1,rate=3e-2",
+        "0.84,q=1,rate=1e-2",
+        "0.84,q=1,rate=3e-2",
+    ]
+    .iter()
+    .map(|p| {
+        queued_job(&out, &format!("flow.sweep:phi={p}"))
+            .unwrap_or_else(|| panic!("{p} not queued: {out}"))
+            .split('_')
+            .next()
+            .unwrap()
+            .to_string()
+    })
+    .collect();
+    assert_eq!(arrays.len(), 1, "the grid points are one job array: {out}");
+    assert_same(&local.join("cache"), &slurm.join("cache"));
+    let again = run_ok(&["run", f, "--executor", "slurm"], &slurm);
+    assert!(!again.contains(" queued "), "{again}");
+}
+
 /// A simulation cancelled mid-run (`scancel`): the next `run` submits only what is not
 /// in the cache, the simulation continues from its checkpoint, and, requeued by Slurm
 /// while it runs again (`scontrol requeue`), continues from its checkpoint once more;

@@ -4,7 +4,7 @@
 
 use super::cache::StageRecord;
 use super::params::{
-    CompareParams, FitParams, IngestParams, KinematicsParams, ReportParams, typed,
+    CompareParams, FitParams, IngestParams, KinematicsParams, ReportParams, SweepParams, typed,
 };
 use super::{Kind, Pipeline, Stage};
 use crate::error::{Error, Result};
@@ -170,6 +170,62 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 summary: sum(&c),
             })
         }
+        Kind::Shear => {
+            let mut o: stages::shear::ShearOptions = typed(&s.name, &s.params)?;
+            o.quiet = q;
+            let summary = shear_resumable(out, ctx.dir, &mut o)?;
+            let mut outs = BTreeMap::new();
+            for e in std::fs::read_dir(out)
+                .map_err(|e| Error::io(out, e))?
+                .flatten()
+            {
+                let name = e.file_name().to_string_lossy().into_owned();
+                let key = name
+                    .strip_suffix(".parquet")
+                    .or_else(|| name.strip_suffix(".json").filter(|n| !n.contains('.')));
+                if let Some(k) = key {
+                    outs.insert(k.to_string(), name.clone());
+                }
+            }
+            let mean = |k: &str| summary.get(k).and_then(|v| v.get("mean")).cloned();
+            Ok(Produced {
+                outputs: outs,
+                metrics: json!({
+                    "n": o.n, "phi": o.phi, "q": o.q, "rate": o.rate, "model": o.model,
+                    "p": mean("p"), "z": mean("z"), "mu": mean("mu"),
+                }),
+                summary: json!({"summary": "summary.json"}),
+            })
+        }
+        Kind::Sweep => {
+            let p: SweepParams = typed(&s.name, &s.params)?;
+            let grid = p.grid();
+            let mut summaries = Vec::new();
+            for &point in &grid {
+                let name = super::graph::point_name(&s.name, point);
+                let done = ctx
+                    .done
+                    .get(&name)
+                    .ok_or_else(|| Error::Other(format!("{name} has not run")))?;
+                let f = done.dir.join("summary.json");
+                let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
+                summaries.push(
+                    serde_json::from_str(&text)
+                        .map_err(|e| Error::input(f.display(), e.to_string()))?,
+                );
+            }
+            let points: Vec<_> = grid.iter().copied().zip(summaries).collect();
+            let base = p.point(grid[0]);
+            let r = stages::sweep::write_outputs(out, &grid, &points, &base)?;
+            Ok(Produced {
+                outputs: outputs(&[
+                    ("sweep", stages::sweep::TABLE),
+                    ("grid", stages::sweep::GRID),
+                ]),
+                metrics: json!({"points": r.runs, "model": p.model, "n": p.n}),
+                summary: json!({"points": r.runs}),
+            })
+        }
         Kind::Report => {
             let p: ReportParams = typed(&s.name, &s.params)?;
             let datasets = s
@@ -183,6 +239,16 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                     stress: ctx.optional(&d.stress, "stress_strain"),
                     // The same simulate stage writes the per-grain forces (Fig. 6).
                     forces: ctx.optional(&d.stress, "forces"),
+                    shear: d
+                        .shear
+                        .as_ref()
+                        .and_then(|n| ctx.done.get(n))
+                        .map(|d| d.dir.clone()),
+                    sweep: d
+                        .sweep
+                        .as_ref()
+                        .and_then(|n| ctx.done.get(n))
+                        .map(|d| d.dir.clone()),
                 })
                 .collect();
             let opt = stages::report::ReportOptions {
@@ -192,8 +258,19 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 provenance: provenance(s, ctx),
             };
             let r = stages::report::run(out, &opt)?;
+            let mut outs = outputs(&[("html", "report.html"), ("figures", "figures")]);
+            // The sweeps' classification tables, copied into the run beside the report.
+            for e in std::fs::read_dir(out)
+                .map_err(|e| Error::io(out, e))?
+                .flatten()
+            {
+                let name = e.file_name().to_string_lossy().into_owned();
+                if name.starts_with("classification_") {
+                    outs.insert(name.replace('.', "_"), name);
+                }
+            }
             Ok(Produced {
-                outputs: outputs(&[("html", "report.html"), ("figures", "figures")]),
+                outputs: outs,
                 metrics: json!({"figures": r.figures.len()}),
                 summary: json!({"sections": r.sections}),
             })
@@ -233,6 +310,93 @@ fn sum<T: serde::Serialize>(r: &T) -> Json {
     serde_json::to_value(r).unwrap_or(Json::Null)
 }
 
+/// A `shear` stage's run, resumable like a simulate stage's (`simulate_resumable`):
+/// it works in `.work-shear-<hash>/` beside the cache, from its checkpoint when one
+/// is there; the files then move into `out`. Returns the summary's quantities
+/// (empty for a ramp, which has none).
+fn shear_resumable(
+    out: &Path,
+    stage_dir: &Path,
+    o: &mut stages::shear::ShearOptions,
+) -> Result<serde_json::Map<String, Json>> {
+    let work = work_dir(stage_dir);
+    let finished = work.join(stages::manifest::MANIFEST).exists();
+    o.resume = !finished && work.join("checkpoint.bin").exists();
+    if !finished && !o.resume && work.exists() {
+        std::fs::remove_dir_all(&work).map_err(|e| Error::io(&work, e))?;
+    }
+    if !finished {
+        stages::shear::run(&work, o)?;
+    }
+    move_files(&work, out)?;
+    let _ = std::fs::remove_dir_all(&work);
+    relocate_shear_records(out)?;
+    let f = out.join("summary.json");
+    if !f.exists() {
+        return Ok(Default::default());
+    }
+    let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
+    let v: Json =
+        serde_json::from_str(&text).map_err(|e| Error::input(f.display(), e.to_string()))?;
+    Ok(v.as_object().cloned().unwrap_or_default())
+}
+
+/// A shear run's `manifest.json` and `summary.json` as the stage keeps them: its tables
+/// named relative to the stage directory (they were written in the work directory and
+/// moved), and `quiet` left out of the options (how the run was watched, which a local
+/// run and a Slurm job choose differently, is no part of what it computed).
+fn relocate_shear_records(out: &Path) -> Result<()> {
+    for name in [stages::manifest::MANIFEST, "summary.json"] {
+        let f = out.join(name);
+        let Ok(text) = std::fs::read_to_string(&f) else {
+            continue;
+        };
+        let mut v: Json =
+            serde_json::from_str(&text).map_err(|e| Error::input(f.display(), e.to_string()))?;
+        if let Some(o) = v.get_mut("options").and_then(Json::as_object_mut) {
+            o.remove("quiet");
+        }
+        if let Some(t) = v.get_mut("tables").and_then(Json::as_object_mut) {
+            for p in t.values_mut() {
+                let rel = p
+                    .as_str()
+                    .and_then(|s| Path::new(s).file_name())
+                    .map(|n| n.to_string_lossy().into_owned());
+                if let Some(rel) = rel {
+                    *p = Json::String(rel);
+                }
+            }
+        }
+        atomic_write_str(&f, &serde_json::to_string_pretty(&v).expect("json"))?;
+    }
+    Ok(())
+}
+
+/// `.work-<name>` beside the stage's cache directory `<name>`: named by the stage's
+/// key, so only the holder of the stage's lock uses it, and not swept with the
+/// stage's temporary directory.
+fn work_dir(stage_dir: &Path) -> PathBuf {
+    let cache = stage_dir.parent().unwrap_or(stage_dir);
+    let name = stage_dir
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    cache.join(format!(".work-{name}"))
+}
+
+/// Move every plain file (tables, sidecars, manifest) of `from` into `to`.
+fn move_files(from: &Path, to: &Path) -> Result<()> {
+    for e in std::fs::read_dir(from)
+        .map_err(|e| Error::io(from, e))?
+        .flatten()
+    {
+        if e.path().is_file() {
+            let dest = to.join(e.file_name());
+            std::fs::rename(e.path(), &dest).map_err(|err| Error::io(&dest, err))?;
+        }
+    }
+    Ok(())
+}
+
 /// Run a simulation so that a killed pipeline resumes it: the work happens in a
 /// directory beside the cache named after the stage's (`.work-simulate-<hash>` for
 /// `simulate-<hash>`, so the stage's key, which covers its options, the packing and
@@ -244,11 +408,7 @@ fn simulate_resumable(
     stage_dir: &Path,
     o: &mut stages::simulate::SimulateOptions,
 ) -> Result<stages::simulate::SimulateReport> {
-    let cache = stage_dir.parent().unwrap_or(stage_dir);
-    let name = stage_dir
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let work = cache.join(format!(".work-{name}"));
+    let work = work_dir(stage_dir);
     let finished = work.join(stages::simulate::MANIFEST).exists();
     o.resume = !finished && work.join("checkpoint.bin").exists();
     if !finished && !o.resume && work.exists() {
@@ -264,16 +424,7 @@ fn simulate_resumable(
     } else {
         stages::simulate::run(&work, o)?
     };
-    // Move every file (tables, sidecars, manifest) into the stage directory.
-    for e in std::fs::read_dir(&work)
-        .map_err(|e| Error::io(&work, e))?
-        .flatten()
-    {
-        if e.path().is_file() {
-            let to = out.join(e.file_name());
-            std::fs::rename(e.path(), &to).map_err(|err| Error::io(&to, err))?;
-        }
-    }
+    move_files(&work, out)?;
     let _ = std::fs::remove_dir_all(&work);
     let mut report = report;
     report.out = out.to_path_buf();

@@ -18,6 +18,12 @@ pub struct Dataset {
     pub fit: Option<String>,
     /// The simulate stage whose stress-strain and forces tables to plot.
     pub stress: Option<String>,
+    /// A sheared-disk run (`shear` stage) of the branch.
+    #[serde(default)]
+    pub shear: Option<String>,
+    /// A sheared-disk grid (`sweep` stage) of the branch.
+    #[serde(default)]
+    pub sweep: Option<String>,
 }
 
 /// A validated stage, ready to run.
@@ -112,6 +118,8 @@ pub fn build(
                             ("kinematics", &d.kinematics),
                             ("fit", &d.fit),
                             ("stress", &d.stress),
+                            ("shear", &d.shear),
+                            ("sweep", &d.sweep),
                         ] {
                             if let Some(n) = n {
                                 st.upstream
@@ -125,6 +133,15 @@ pub fn build(
             }
         }
         st.params = p;
+        if st.kind == Kind::Shear {
+            let o: crate::stages::shear::ShearOptions =
+                serde_json::from_value(st.params.clone())
+                    .map_err(|e| src.err(&st.name, e.to_string()))?;
+            crate::stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
+        }
+        if st.kind == Kind::Sweep {
+            stages.extend(sweep_points(src, &mut st)?);
+        }
         stages.push(st);
     }
     check_cycles(src, &stages)?;
@@ -175,7 +192,64 @@ fn dataset(
         stress: tracks
             .filter(|s| s.kind == Kind::Simulate)
             .map(|s| s.name.clone()),
+        shear: of(&[Kind::Shear], "shear")?.map(|s| s.name.clone()),
+        sweep: of(&[Kind::Sweep], "sweep")?.map(|s| s.name.clone()),
     })
+}
+
+/// The name of a sweep's grid point stage.
+pub fn point_name(sweep: &str, (phi, q, rate): (f64, f64, f64)) -> String {
+    format!("{sweep}:phi={phi},q={q},rate={rate:e}")
+}
+
+/// A sweep's grid points as `shear` stages of their own, each with exactly the
+/// parameters a hand-written `shear` stage of the same run resolves to, so it has the
+/// same cache key: a grown grid, or a shear stage elsewhere, reuses finished runs, and
+/// under Slurm the points form one job array. The sweep stage itself only gathers their
+/// summaries (its upstream `point:…` keys).
+fn sweep_points(src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    let p: super::params::SweepParams =
+        serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))?;
+    for (key, v) in [("phi", &p.phi), ("q", &p.q), ("rate", &p.rate)] {
+        if v.is_empty() {
+            return Err(src.err(
+                &format!("{}.{key}", st.name),
+                "an empty list: a sweep needs at least one value of each of phi, q and rate",
+            ));
+        }
+    }
+    let mut out = Vec::new();
+    for point in p.grid() {
+        let o = p.point(point);
+        crate::stages::shear::params_of(&o).map_err(|m| {
+            src.err(
+                &st.name,
+                format!(
+                    "grid point φ = {}, Q = {}, γ̇ = {:e}: {m}",
+                    point.0, point.1, point.2
+                ),
+            )
+        })?;
+        let given = serde_json::to_value(o).expect("json");
+        let params = super::params::resolve(Kind::Shear, given)
+            .map_err(|m| src.err(&st.name, format!("grid point {point:?}: {m}")))?;
+        let name = point_name(&st.name, point);
+        st.upstream.insert(
+            format!("point:phi={},q={},rate={:e}", point.0, point.1, point.2),
+            name.clone(),
+        );
+        out.push(Stage {
+            name,
+            kind: Kind::Shear,
+            branch: st.branch.clone(),
+            line: st.line,
+            params,
+            upstream: BTreeMap::new(),
+            datasets: Vec::new(),
+            files: BTreeMap::new(),
+        });
+    }
+    Ok(out)
 }
 
 /// A reference cycle, reported at the key that closes it.

@@ -11,6 +11,7 @@ use crate::kinematics::Convention;
 use crate::stages::fit::FitOptions;
 use crate::stages::ingest::{Format, IngestOptions};
 use crate::stages::kinematics::{KinematicsOptions, LagSpec};
+use crate::stages::shear::ShearOptions;
 use crate::stages::simulate::SimulateOptions;
 use clap::ValueEnum;
 use serde::{Deserialize, Serialize, de::DeserializeOwned};
@@ -197,6 +198,89 @@ impl Default for ReportParams {
     }
 }
 
+/// A `sweep` stage: the grid (every combination of `phi`, `q` and `rate`) and what its
+/// runs share; each grid point runs as a `shear` stage of its own (see `graph`), so
+/// these are `ShearOptions` less the per-point keys and the ramp (a ramp is one run).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SweepParams {
+    pub phi: Vec<f64>,
+    pub q: Vec<f64>,
+    pub rate: Vec<f64>,
+    pub n: usize,
+    pub model: crate::dem::shear::Dissipation,
+    pub strain: f64,
+    pub dt: Option<f64>,
+    pub seed: u64,
+    pub output_every: Option<u64>,
+    pub sample_every: u64,
+    pub transient: f64,
+    pub blocks: usize,
+    pub checkpoint_every: u64,
+    pub checkpoint_interval: f64,
+}
+
+impl Default for SweepParams {
+    fn default() -> Self {
+        let d = ShearOptions::default();
+        SweepParams {
+            phi: Vec::new(),
+            q: Vec::new(),
+            rate: Vec::new(),
+            n: d.n,
+            model: d.model,
+            strain: d.strain,
+            dt: d.dt,
+            seed: d.seed,
+            output_every: d.output_every,
+            sample_every: d.sample_every,
+            transient: d.transient,
+            blocks: d.blocks,
+            checkpoint_every: d.checkpoint_every,
+            checkpoint_interval: d.checkpoint_interval,
+        }
+    }
+}
+
+impl SweepParams {
+    /// The grid points (φ, Q, γ̇) in table order (φ outermost), duplicates dropped.
+    pub fn grid(&self) -> Vec<(f64, f64, f64)> {
+        let mut g: Vec<(f64, f64, f64)> = Vec::new();
+        for &phi in &self.phi {
+            for &q in &self.q {
+                for &rate in &self.rate {
+                    if !g.contains(&(phi, q, rate)) {
+                        g.push((phi, q, rate));
+                    }
+                }
+            }
+        }
+        g
+    }
+
+    /// The options of the run at one grid point: exactly what a `shear` stage with the
+    /// same keys would run, so both share one cache entry.
+    pub fn point(&self, (phi, q, rate): (f64, f64, f64)) -> ShearOptions {
+        ShearOptions {
+            n: self.n,
+            phi,
+            q,
+            rate,
+            model: self.model,
+            strain: self.strain,
+            dt: self.dt,
+            seed: self.seed,
+            output_every: self.output_every,
+            sample_every: self.sample_every,
+            transient: self.transient,
+            blocks: self.blocks,
+            checkpoint_every: self.checkpoint_every,
+            checkpoint_interval: self.checkpoint_interval,
+            ..ShearOptions::default()
+        }
+    }
+}
+
 /// How a run behaves, not what it computes: `--quiet`, and resuming (a pipeline stage
 /// always starts in a fresh directory).
 const SIMULATE_RUN_ONLY: [&str; 2] = ["quiet", "resume"];
@@ -215,8 +299,10 @@ pub fn resolve(kind: Kind, given: Json) -> std::result::Result<Json, String> {
         Kind::Fit => round_trip::<FitParams>(given),
         Kind::Compare => round_trip::<CompareParams>(given),
         Kind::Report => round_trip::<ReportParams>(given),
+        Kind::Shear => round_trip::<ShearOptions>(given),
+        Kind::Sweep => round_trip::<SweepParams>(given),
     }?;
-    if kind == Kind::Simulate
+    if matches!(kind, Kind::Simulate | Kind::Shear)
         && let Some(o) = v.as_object_mut()
     {
         for k in SIMULATE_RUN_ONLY {

@@ -73,7 +73,15 @@ pub(crate) fn forced(p: &Pipeline, force: &[String]) -> Result<BTreeSet<String>>
         let hits: Vec<&Stage> = p
             .stages
             .iter()
-            .filter(|s| f == "all" || &s.name == f || s.kind.name() == f)
+            // A sweep's name also stands for its grid points' runs.
+            .filter(|s| {
+                f == "all"
+                    || &s.name == f
+                    || s.kind.name() == f
+                    || s.name
+                        .strip_prefix(f.as_str())
+                        .is_some_and(|r| r.starts_with(':'))
+            })
             .collect();
         if hits.is_empty() {
             let names: Vec<&str> = p.stages.iter().map(|s| s.name.as_str()).collect();
@@ -113,7 +121,10 @@ pub fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
                 o.remove(k);
             }
             // How often a simulation checkpoints changes none of its numbers.
-            if s.kind == super::Kind::Simulate {
+            if matches!(
+                s.kind,
+                super::Kind::Simulate | super::Kind::Shear | super::Kind::Sweep
+            ) {
                 for k in crate::stages::simulate::RUN_ONLY {
                     o.remove(k);
                 }

@@ -17,16 +17,22 @@ pub enum Kind {
     Fit,
     Compare,
     Report,
+    /// One sheared-disk run (vagberg-sheared-disks).
+    Shear,
+    /// A grid of sheared-disk runs, each grid point a `Shear` stage of its own.
+    Sweep,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 6] = [
+    pub const ALL: [Kind; 8] = [
         Kind::Ingest,
         Kind::Simulate,
         Kind::Kinematics,
         Kind::Fit,
         Kind::Compare,
         Kind::Report,
+        Kind::Shear,
+        Kind::Sweep,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -36,6 +42,8 @@ impl Kind {
             Kind::Fit => "fit",
             Kind::Compare => "compare",
             Kind::Report => "report",
+            Kind::Shear => "shear",
+            Kind::Sweep => "sweep",
         }
     }
     pub fn from_name(s: &str) -> Option<Kind> {

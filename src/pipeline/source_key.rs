@@ -33,11 +33,27 @@ fn never(path: &str) -> bool {
         || pipeline_bookkeeping
 }
 
-fn simulator(p: &str) -> bool {
-    p.starts_with("src/dem/")
-        || p.starts_with("src/stages/shear/")
+/// What both simulators are made of (contact laws, grains, pair lists, the fast
+/// paths), and the simulate stage's table plumbing that the sheared disks reuse.
+fn simulator_core(p: &str) -> bool {
+    (p.starts_with("src/dem/")
+        && !p.starts_with("src/dem/pillar/")
+        && !p.starts_with("src/dem/shear/"))
         || p.starts_with("src/stages/simulate/")
-        || matches!(p, "src/stages/pack.rs" | "src/stages/sweep.rs")
+}
+
+fn pillar_simulator(p: &str) -> bool {
+    p.starts_with("src/dem/pillar/") || p == "src/stages/pack.rs"
+}
+
+fn shear_simulator(p: &str) -> bool {
+    p.starts_with("src/dem/shear/") || p.starts_with("src/stages/shear/")
+}
+
+/// A sweep's own code only gathers its points' summaries into a table; the points
+/// are `shear` stages, whose keys (in the sweep's) stand for the simulator.
+fn sweep(p: &str) -> bool {
+    p == "src/stages/sweep.rs"
 }
 
 fn report(p: &str) -> bool {
@@ -55,7 +71,10 @@ fn kinematics(p: &str) -> bool {
 /// Code that only some kinds run: (is a file in this group, the kinds that run it).
 type Group = (fn(&str) -> bool, &'static [Kind]);
 const GROUPS: &[Group] = &[
-    (simulator, &[Kind::Simulate]),
+    (simulator_core, &[Kind::Simulate, Kind::Shear]),
+    (pillar_simulator, &[Kind::Simulate]),
+    (shear_simulator, &[Kind::Shear]),
+    (sweep, &[Kind::Sweep]),
     (report, &[Kind::Report]),
     // Eq. 19 and the Sec. IV protocol; compare reads fit types, the report draws the model.
     (fit, &[Kind::Fit, Kind::Compare, Kind::Report]),
@@ -122,6 +141,40 @@ mod tests {
         ]
     }
 
+    /// A tree whose pillar simulator, sheared-disk simulator and sweep table code are
+    /// at the given versions.
+    fn sim_tree(pillar: &str, shear: &str, sweep: &str) -> Vec<(&'static str, String)> {
+        vec![
+            ("Cargo.lock", "lock".into()),
+            ("src/dem/pillar/kernels.rs", pillar.into()),
+            ("src/stages/pack.rs", pillar.into()),
+            ("src/dem/shear/pairs.rs", shear.into()),
+            ("src/stages/shear/stats.rs", shear.into()),
+            ("src/stages/sweep.rs", sweep.into()),
+            ("src/dem/law/mod.rs", "law".into()),
+        ]
+    }
+
+    #[test]
+    fn each_simulator_changes_its_own_kind() {
+        let base = keys(&sim_tree("p1", "s1", "w1"));
+        assert_eq!(
+            changed(&base, &keys(&sim_tree("p2", "s1", "w1"))),
+            ["simulate"]
+        );
+        assert_eq!(
+            changed(&base, &keys(&sim_tree("p1", "s2", "w1"))),
+            ["shear"]
+        );
+        assert_eq!(
+            changed(&base, &keys(&sim_tree("p1", "s1", "w2"))),
+            ["sweep"]
+        );
+        let mut t = sim_tree("p1", "s1", "w1");
+        t[6].1 = "law2".into();
+        assert_eq!(changed(&base, &keys(&t)), ["simulate", "shear"]);
+    }
+
     fn keys(t: &[(&'static str, String)]) -> Vec<String> {
         let v: Vec<(&str, &str)> = t.iter().map(|(p, h)| (*p, h.as_str())).collect();
         Kind::ALL.iter().map(|k| source_hash_for(*k, &v)).collect()
@@ -148,8 +201,9 @@ mod tests {
         let base = keys(&tree("r1", "d1", "f1", "c1"));
         let edited = keys(&tree("r1", "d2", "f1", "c1"));
         // The analysis stages downstream of a simulation are recomputed through their
-        // upstream key (the simulation's), not through their own code.
-        assert_eq!(changed(&base, &edited), ["simulate"]);
+        // upstream key (the simulation's), not through their own code; the tree's
+        // files are shared code and both simulators' stages.
+        assert_eq!(changed(&base, &edited), ["simulate", "shear"]);
     }
 
     #[test]

@@ -82,6 +82,7 @@ pub fn run(
                 fit: Some(out.join("fit.json")),
                 stress: None,
                 forces: None,
+                ..Default::default()
             }],
             map_stages: 3,
             provenance: serde_json::json!({"input": input.display().to_string(), "seed": seed, "bootstrap": bootstrap}),

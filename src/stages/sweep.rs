@@ -114,12 +114,35 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
             ),
         });
     }
-    // One row per run, in grid order (deterministic whatever the scheduling).
-    let mut cols: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    let mut points = Vec::new();
     let mut reused = 0;
-    for ((phi, q, rate), r) in grid.iter().zip(results) {
+    for (point, r) in grid.iter().zip(results) {
         let (was, v) = r?;
         reused += was as usize;
+        points.push((*point, v));
+    }
+    let mut rep = write_outputs(out, &grid, &points, &opt.base)?;
+    rep.reused = reused;
+    Ok(rep)
+}
+
+/// The table of a sweep, one row per finished run.
+pub const TABLE: &str = "sweep.parquet";
+/// The grid the sweep was asked for and what its runs share, so that a reader can tell
+/// which points are missing.
+pub const GRID: &str = "sweep.json";
+
+/// Write `sweep.parquet` (one row per finished run, in grid order: φ, Q, γ̇ and every
+/// summary quantity with its `_err`) and `sweep.json` (the whole grid, the shared
+/// options, and the points missing from the table). `points` may lack grid points.
+pub fn write_outputs(
+    out: &Path,
+    grid: &[(f64, f64, f64)],
+    points: &[((f64, f64, f64), serde_json::Value)],
+    base: &ShearOptions,
+) -> Result<SweepReport> {
+    let mut cols: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for ((phi, q, rate), v) in points {
         for (k, x) in [("phi", *phi), ("q", *q), ("rate", *rate)] {
             cols.entry(k.into()).or_default().push(x);
         }
@@ -133,25 +156,47 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
             }
         }
     }
-    let n = grid.len();
+    let n = points.len();
     let mut names: Vec<String> = vec!["phi".into(), "q".into(), "rate".into()];
     names.extend(
         cols.keys()
             .filter(|k| !["phi", "q", "rate"].contains(&k.as_str()))
             .cloned(),
     );
+    let empty = Vec::new();
     let columns: Vec<Column> = names
         .iter()
-        .filter(|k| cols[*k].len() == n)
-        .map(|k| Column::new(k.as_str().into(), &cols[k]))
+        .map(|k| (k, cols.get(k).unwrap_or(&empty)))
+        .filter(|(_, c)| c.len() == n)
+        .map(|(k, c)| Column::new(k.as_str().into(), c))
         .collect();
     let mut df =
         DataFrame::new(n, columns).map_err(|e| Error::polars("building the sweep table", e))?;
-    let table = out.join("sweep.parquet");
+    let table = out.join(TABLE);
     write_table(&mut df, &table)?;
+    let missing: Vec<&(f64, f64, f64)> = grid
+        .iter()
+        .filter(|g| !points.iter().any(|(p, _)| p == *g))
+        .collect();
+    let mut shared = serde_json::to_value(base).expect("json");
+    if let Some(o) = shared.as_object_mut() {
+        for k in ["phi", "q", "rate", "quiet", "resume"] {
+            o.remove(k);
+        }
+    }
+    let meta = serde_json::json!({
+        "grid": grid.iter().map(|(phi, q, rate)| serde_json::json!({"phi": phi, "q": q, "rate": rate})).collect::<Vec<_>>(),
+        "finished": n,
+        "missing": missing.iter().map(|(phi, q, rate)| serde_json::json!({"phi": phi, "q": q, "rate": rate})).collect::<Vec<_>>(),
+        "options": shared,
+    });
+    crate::io::atomic_write_str(
+        &out.join(GRID),
+        &serde_json::to_string_pretty(&meta).expect("json"),
+    )?;
     Ok(SweepReport {
         table,
         runs: n,
-        reused,
+        reused: 0,
     })
 }

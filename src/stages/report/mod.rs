@@ -9,6 +9,7 @@ mod fit;
 pub mod frames;
 pub mod render;
 mod sections;
+pub mod shear;
 
 use crate::error::{Error, Result};
 use crate::io::atomic_write_str;
@@ -35,6 +36,12 @@ pub struct DatasetInputs {
     /// drawn at the grains' positions in `tracks`.
     #[serde(default)]
     pub forces: Option<PathBuf>,
+    /// A sheared-disk run's directory (`summary.json`, `collision_angles.parquet`, …).
+    #[serde(default)]
+    pub shear: Option<PathBuf>,
+    /// A sweep's directory (`sweep.parquet`, `sweep.json`).
+    #[serde(default)]
+    pub sweep: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -176,12 +183,35 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
         });
     }
 
-    // Stress–strain and κ.
-    sections.push(Section {
-        id: "stress".into(),
-        title: "Stress–strain".into(),
-        blocks: strain_blocks(&opt.datasets, &figdir, &mut figures)?,
-    });
+    // Stress–strain and κ, where a data set has pillar data at all.
+    if opt
+        .datasets
+        .iter()
+        .any(|d| d.tracks.is_some() || d.stress.is_some() || d.fit.is_some())
+    {
+        sections.push(Section {
+            id: "stress".into(),
+            title: "Stress–strain".into(),
+            blocks: strain_blocks(&opt.datasets, &figdir, &mut figures)?,
+        });
+    }
+
+    // Sheared disks: one run, and a sweep.
+    for d in &opt.datasets {
+        if let Some(dir) = &d.shear {
+            sections.push(shear::shear_section(&d.label, dir, &figdir, &mut figures)?);
+        }
+        if let Some(dir) = &d.sweep {
+            let data = shear::read_sweep(dir)?;
+            sections.push(shear::sweep_section(
+                &d.label,
+                &data,
+                out_dir,
+                &figdir,
+                &mut figures,
+            )?);
+        }
+    }
 
     // Provenance.
     let mut rows = Vec::new();
@@ -192,7 +222,19 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
             ("fit", &d.fit),
             ("stress", &d.stress),
             ("forces", &d.forces),
+            ("shear run", &d.shear),
+            ("sweep", &d.sweep),
         ] {
+            if p.as_ref().is_some_and(|p| p.is_dir()) {
+                let p = p.as_ref().expect("checked");
+                rows.push(vec![
+                    d.label.clone(),
+                    what.into(),
+                    p.display().to_string(),
+                    "(directory)".into(),
+                ]);
+                continue;
+            }
             if let Some(p) = p {
                 rows.push(vec![
                     d.label.clone(),

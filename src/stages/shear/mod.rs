@@ -181,8 +181,9 @@ pub fn read_checkpoint(ckpt: &Path) -> Result<Resumed> {
     })
 }
 
-pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
-    let t0 = std::time::Instant::now();
+/// The run's physical parameters, or what is wrong with the options (checked before a
+/// run starts, and by a pipeline before any stage runs).
+pub fn params_of(opt: &ShearOptions) -> std::result::Result<ShearParams, String> {
     let p = ShearParams {
         n: opt.n,
         phi: opt.phi,
@@ -193,18 +194,21 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         dt: opt.dt.unwrap_or_else(|| ShearParams::default_dt(opt.q)),
         seed: opt.seed,
     };
-    p.validate().map_err(|e| Error::param("shear", e))?;
+    p.validate()?;
     if !(opt.strain > 0.0
         && opt.transient >= 0.0
         && opt.transient < 0.9
         && opt.blocks >= 2
         && opt.sample_every >= 1)
     {
-        return Err(Error::param(
-            "shear",
-            "need strain > 0, 0 ≤ transient < 0.9, blocks ≥ 2, sample_every ≥ 1",
-        ));
+        return Err("need strain > 0, 0 ≤ transient < 0.9, blocks ≥ 2, sample_every ≥ 1".into());
     }
+    Ok(p)
+}
+
+pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
+    let t0 = std::time::Instant::now();
+    let p = params_of(opt).map_err(|e| Error::param("shear", e))?;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let (ckpt, parts_dir) = (out.join("checkpoint.bin"), out.join(".parts"));
     let physics = {

@@ -2,6 +2,7 @@
 //! display) and the self-contained HTML report. Knows nothing of files' formats: the
 //! `report` stage hands it plain data.
 
+pub mod curves;
 pub mod figures;
 pub mod html;
 pub mod map;

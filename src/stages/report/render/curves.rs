@@ -1,0 +1,267 @@
+//! Curves with error bars and categorical phase diagrams (the sheared-disk figures of
+//! vagberg-sheared-disks): plain data in, log axes drawn as log10 coordinates with
+//! decade labels so that one chart type serves linear and log axes alike.
+
+use super::{FONT_FAMILY, Figure, PALETTE};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+fn s<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
+
+/// One curve: (x, y, error of y) points, drawn as markers with error bars and a line.
+#[derive(Debug, Clone)]
+pub struct XySeries {
+    pub label: String,
+    pub points: Vec<(f64, f64, f64)>,
+    /// Markers only (a second quantity beside a curve, say 2τ_dur ν_coll beside Z).
+    pub markers_only: bool,
+    /// Colour index; series sharing it belong together.
+    pub colour: usize,
+}
+
+/// y against x, either axis linear or logarithmic.
+pub struct XyFigure {
+    pub title: String,
+    pub x_desc: String,
+    pub y_desc: String,
+    pub x_log: bool,
+    pub y_log: bool,
+    pub series: Vec<XySeries>,
+}
+
+/// Colours beyond the palette's four, for grids with many φ.
+pub fn colour(k: usize) -> RGBColor {
+    const MORE: [RGBColor; 4] = [
+        RGBColor(255, 127, 14),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(23, 190, 207),
+    ];
+    if k < PALETTE.len() {
+        PALETTE[k]
+    } else {
+        MORE[(k - PALETTE.len()) % MORE.len()]
+    }
+}
+
+fn tf(v: f64, log: bool) -> Option<f64> {
+    let t = if log {
+        if v > 0.0 { v.log10() } else { f64::NAN }
+    } else {
+        v
+    };
+    t.is_finite().then_some(t)
+}
+
+fn range(v: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |a, x| {
+        (a.0.min(x), a.1.max(x))
+    });
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let pad = if hi > lo {
+        0.08 * (hi - lo)
+    } else if log {
+        0.5
+    } else {
+        0.1 * lo.abs().max(1e-3)
+    };
+    (lo - pad, hi + pad)
+}
+
+fn label(v: f64, log: bool) -> String {
+    if log {
+        let p = 10f64.powf(v);
+        if (v - v.round()).abs() < 1e-9 {
+            format!("1e{}", v.round() as i64)
+        } else {
+            format!("{p:.1e}")
+        }
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+impl Figure for XyFigure {
+    fn size(&self) -> (u32, u32) {
+        (760, 520)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(s)?;
+        let pts = |ser: &XySeries| -> Vec<(f64, f64, f64, f64)> {
+            ser.points
+                .iter()
+                .filter_map(|&(x, y, e)| {
+                    let (x, y) = (tf(x, self.x_log)?, tf(y, self.y_log)?);
+                    let e = if e.is_finite() { e.abs() } else { 0.0 };
+                    let raw = if self.y_log { 10f64.powf(y) } else { y };
+                    // On a log axis a bar reaching zero is cut at a decade below.
+                    let lo = tf(raw - e, self.y_log).unwrap_or(y - 1.0).max(y - 1.0);
+                    let hi = tf(raw + e, self.y_log).unwrap_or(y);
+                    Some((x, y, lo, hi))
+                })
+                .collect()
+        };
+        let all: Vec<(f64, f64, f64, f64)> = self.series.iter().flat_map(pts).collect();
+        let xr = range(all.iter().map(|p| p.0), self.x_log);
+        let yr = range(all.iter().flat_map(|p| [p.2, p.3]), self.y_log);
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, (FONT_FAMILY, 20))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
+            .map_err(s)?;
+        let (xl, yl) = (self.x_log, self.y_log);
+        chart
+            .configure_mesh()
+            .x_desc(&self.x_desc)
+            .y_desc(&self.y_desc)
+            .x_label_formatter(&|v| label(*v, xl))
+            .y_label_formatter(&|v| label(*v, yl))
+            .label_style((FONT_FAMILY, 14))
+            .draw()
+            .map_err(s)?;
+        for ser in &self.series {
+            let c = colour(ser.colour);
+            let p = pts(ser);
+            if !ser.markers_only {
+                chart
+                    .draw_series(LineSeries::new(
+                        p.iter().map(|q| (q.0, q.1)),
+                        c.stroke_width(2),
+                    ))
+                    .map_err(s)?;
+            }
+            chart
+                .draw_series(
+                    p.iter()
+                        .map(|q| ErrorBar::new_vertical(q.0, q.2, q.1, q.3, c.stroke_width(1), 6)),
+                )
+                .map_err(s)?;
+            let filled = !ser.markers_only;
+            chart
+                .draw_series(p.iter().map(|q| {
+                    let style = if filled {
+                        c.filled()
+                    } else {
+                        c.stroke_width(2)
+                    };
+                    Circle::new((q.0, q.1), 4, style)
+                }))
+                .map_err(s)?
+                .label(ser.label.clone())
+                .legend(move |(x, y)| {
+                    let style = if filled {
+                        c.filled()
+                    } else {
+                        c.stroke_width(2)
+                    };
+                    Circle::new((x, y), 4, style)
+                });
+        }
+        chart
+            .configure_series_labels()
+            .label_font((FONT_FAMILY, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(s)?;
+        Ok(())
+    }
+}
+
+/// Points of a phase diagram, each in one of `classes` (by index), and intervals
+/// along x where the class changes (drawn as shaded bands).
+pub struct PhaseFigure {
+    pub title: String,
+    pub x_desc: String,
+    pub y_desc: String,
+    pub y_log: bool,
+    /// Class names, in colour order.
+    pub classes: Vec<String>,
+    /// (x, y, class index).
+    pub points: Vec<(f64, f64, usize)>,
+    /// (x_lo, x_hi, y_lo, y_hi): a transition bracketed by grid points.
+    pub bands: Vec<(f64, f64, f64, f64)>,
+}
+
+/// Newtonian, Bagnoldian, undecided.
+const CLASS_COLOURS: [RGBColor; 3] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(150, 150, 150),
+];
+
+impl Figure for PhaseFigure {
+    fn size(&self) -> (u32, u32) {
+        (760, 520)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(s)?;
+        let pts: Vec<(f64, f64, usize)> = self
+            .points
+            .iter()
+            .filter_map(|&(x, y, c)| Some((tf(x, false)?, tf(y, self.y_log)?, c)))
+            .collect();
+        let xr = range(
+            pts.iter()
+                .map(|p| p.0)
+                .chain(self.bands.iter().flat_map(|b| [b.0, b.1])),
+            false,
+        );
+        let yr = range(pts.iter().map(|p| p.1), self.y_log);
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, (FONT_FAMILY, 20))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
+            .map_err(s)?;
+        let yl = self.y_log;
+        chart
+            .configure_mesh()
+            .x_desc(&self.x_desc)
+            .y_desc(&self.y_desc)
+            .x_label_formatter(&|v| format!("{v:.3}"))
+            .y_label_formatter(&|v| label(*v, yl))
+            .label_style((FONT_FAMILY, 14))
+            .draw()
+            .map_err(s)?;
+        for &(x0, x1, y0, y1) in &self.bands {
+            let (Some(a), Some(b)) = (tf(y0, yl), tf(y1, yl)) else {
+                continue;
+            };
+            let pad = 0.05 * (yr.1 - yr.0);
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(x0, a - pad), (x1, b + pad)],
+                    RGBColor(255, 200, 0).mix(0.35).filled(),
+                )))
+                .map_err(s)?;
+        }
+        for (k, name) in self.classes.iter().enumerate() {
+            let c = CLASS_COLOURS[k % CLASS_COLOURS.len()];
+            chart
+                .draw_series(
+                    pts.iter()
+                        .filter(|p| p.2 == k)
+                        .map(|p| Circle::new((p.0, p.1), 7, c.filled())),
+                )
+                .map_err(s)?
+                .label(name.clone())
+                .legend(move |(x, y)| Circle::new((x, y), 6, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .label_font((FONT_FAMILY, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(s)?;
+        Ok(())
+    }
+}

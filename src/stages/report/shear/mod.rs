@@ -1,0 +1,683 @@
+//! The sheared-disk sections of the report (vagberg-sheared-disks): for a sweep, flow
+//! curves, Z beside 2τ_dur ν_coll, μ, rotation and R_v against φ, and the
+//! Newtonian/Bagnoldian classification with its phase diagrams; for one run, its
+//! steady-state summary and P(ϑ) at contact making and breaking. A sweep with grid
+//! points missing (a killed one) is shown as far as it goes, naming what is missing.
+
+pub mod classify;
+
+use crate::error::{Error, Result};
+use crate::io::table::read_table;
+use crate::stages::report::render::curves::{PhaseFigure, XyFigure, XySeries};
+use crate::stages::report::render::html::{Block, Section};
+use crate::stages::report::render::{SavedFigure, save};
+use crate::stages::report::sections::rel;
+use classify::{Class, Slope, Transition, fit_slope, local_slopes, transitions};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// One finished run of a sweep: its grid point and every summary quantity (mean, error).
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub phi: f64,
+    pub q: f64,
+    pub rate: f64,
+    pub v: BTreeMap<String, (f64, f64)>,
+}
+
+impl Row {
+    fn get(&self, k: &str) -> Option<(f64, f64)> {
+        self.v.get(k).copied().filter(|(m, _)| m.is_finite())
+    }
+}
+
+/// A sweep as the report sees it.
+#[derive(Debug, Clone)]
+pub struct SweepData {
+    pub rows: Vec<Row>,
+    pub grid: Vec<(f64, f64, f64)>,
+    pub missing: Vec<(f64, f64, f64)>,
+    /// `cd` or `cdrot`, N, strain (from the shared options).
+    pub model: String,
+    pub n: Option<u64>,
+    pub strain: Option<f64>,
+}
+
+/// Read `sweep.parquet` and `sweep.json` from a sweep's directory; grid points of
+/// `sweep.json` without a row are missing.
+pub fn read_sweep(dir: &Path) -> Result<SweepData> {
+    let gf = dir.join(crate::stages::sweep::GRID);
+    let text = std::fs::read_to_string(&gf).map_err(|e| Error::io(&gf, e))?;
+    let meta: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Error::input(gf.display(), e.to_string()))?;
+    let point = |v: &serde_json::Value| -> Option<(f64, f64, f64)> {
+        Some((v["phi"].as_f64()?, v["q"].as_f64()?, v["rate"].as_f64()?))
+    };
+    let grid: Vec<(f64, f64, f64)> = meta["grid"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(point)
+        .collect();
+    let mut rows = Vec::new();
+    let tf = dir.join(crate::stages::sweep::TABLE);
+    if meta["finished"].as_u64() != Some(0) && tf.exists() {
+        let t = read_table(&tf, &[])?;
+        let cols = t.columns();
+        let (phi, q, rate) = (t.f64("phi")?, t.f64("q")?, t.f64("rate")?);
+        let mut vals: BTreeMap<String, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+        for c in &cols {
+            let err = format!("{c}_err");
+            if ["phi", "q", "rate"].contains(&c.as_str()) || !cols.contains(&err) {
+                continue;
+            }
+            vals.insert(c.clone(), (t.f64_or_nan(c)?, t.f64_or_nan(&err)?));
+        }
+        for i in 0..phi.len() {
+            rows.push(Row {
+                phi: phi[i],
+                q: q[i],
+                rate: rate[i],
+                v: vals
+                    .iter()
+                    .map(|(k, (m, e))| (k.clone(), (m[i], e[i])))
+                    .collect(),
+            });
+        }
+    }
+    let missing = grid
+        .iter()
+        .filter(|g| !rows.iter().any(|r| (r.phi, r.q, r.rate) == **g))
+        .copied()
+        .collect();
+    let o = &meta["options"];
+    Ok(SweepData {
+        rows,
+        grid,
+        missing,
+        model: o["model"].as_str().unwrap_or("?").to_string(),
+        n: o["n"].as_u64(),
+        strain: o["strain"].as_f64(),
+    })
+}
+
+/// One classified slope with the (φ, Q) it belongs to.
+#[derive(Debug, Clone, Serialize)]
+pub struct Classified {
+    pub phi: f64,
+    pub q: f64,
+    /// `all` (every rate of the grid at this φ, Q) or `local` (two neighbouring rates).
+    pub scope: &'static str,
+    #[serde(flatten)]
+    pub slope: Slope,
+}
+
+/// A transition with what it runs along and at what it is held.
+#[derive(Debug, Clone, Serialize)]
+pub struct Located {
+    /// `phi` (φ_c at fixed Q, over all rates or a pair of rates) or `q` (Q_c at fixed φ).
+    pub along: &'static str,
+    /// Q (along φ) or φ (along Q).
+    pub at: f64,
+    /// The rates the classes come from.
+    pub rate_lo: f64,
+    pub rate_hi: f64,
+    #[serde(flatten)]
+    pub t: Transition,
+}
+
+/// Every (φ, Q)'s slope over all its rates and between neighbouring rates, and where
+/// the class changes along φ and along Q.
+#[derive(Debug, Clone, Serialize)]
+pub struct Classification {
+    pub slopes: Vec<Classified>,
+    pub transitions: Vec<Located>,
+}
+
+fn key(x: f64) -> i64 {
+    (x * 1e9).round() as i64
+}
+
+/// A class on an axis: (axis value, class, the value held fixed, rate span).
+type OnAxis = (f64, Class, f64, f64, f64);
+
+pub fn classify(rows: &[Row]) -> Classification {
+    let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        by.entry((key(r.phi), key(r.q))).or_default().push(r);
+    }
+    let mut slopes = Vec::new();
+    for rs in by.values() {
+        let pts: Vec<classify::Point> = rs
+            .iter()
+            .filter_map(|r| r.get("p").map(|(p, e)| (r.rate, p, e)))
+            .collect();
+        let (phi, q) = (rs[0].phi, rs[0].q);
+        if let Some(s) = fit_slope(&pts) {
+            slopes.push(Classified {
+                phi,
+                q,
+                scope: "all",
+                slope: s,
+            });
+        }
+        if pts.len() > 2 {
+            for s in local_slopes(&pts) {
+                slopes.push(Classified {
+                    phi,
+                    q,
+                    scope: "local",
+                    slope: s,
+                });
+            }
+        }
+    }
+    let mut located = Vec::new();
+    // Along φ at each Q and rate span; along Q at each φ (all rates).
+    let mut along_phi: BTreeMap<(i64, &str, i64, i64), Vec<OnAxis>> = BTreeMap::new();
+    let mut along_q: BTreeMap<i64, Vec<OnAxis>> = BTreeMap::new();
+    for c in &slopes {
+        let s = &c.slope;
+        along_phi
+            .entry((key(c.q), c.scope, key(s.rate_lo), key(s.rate_hi)))
+            .or_default()
+            .push((c.phi, s.class, c.q, s.rate_lo, s.rate_hi));
+        if c.scope == "all" {
+            along_q
+                .entry(key(c.phi))
+                .or_default()
+                .push((c.q, s.class, c.phi, s.rate_lo, s.rate_hi));
+        }
+    }
+    for (axis, groups) in [
+        ("phi", along_phi.into_values().collect::<Vec<_>>()),
+        ("q", along_q.into_values().collect()),
+    ] {
+        for mut g in groups {
+            g.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let classes: Vec<(f64, Class)> = g.iter().map(|x| (x.0, x.1)).collect();
+            for t in transitions(&classes) {
+                located.push(Located {
+                    along: axis,
+                    at: g[0].2,
+                    rate_lo: g[0].3,
+                    rate_hi: g[0].4,
+                    t,
+                });
+            }
+        }
+    }
+    Classification {
+        slopes,
+        transitions: located,
+    }
+}
+
+fn fmt_pm(m: f64, e: f64) -> String {
+    if !m.is_finite() {
+        return "–".into();
+    }
+    let mag = m.abs().max(e.abs());
+    if mag != 0.0 && !(1e-3..1e4).contains(&mag) {
+        format!("{m:.4e} ± {e:.1e}")
+    } else {
+        format!("{m:.4} ± {e:.2}")
+    }
+}
+
+fn pt(p: &(f64, f64, f64)) -> String {
+    format!("(φ = {}, Q = {}, γ̇ τ_e = {:e})", p.0, p.1, p.2)
+}
+
+struct Figures<'a> {
+    figdir: &'a Path,
+    prefix: String,
+    figures: &'a mut Vec<SavedFigure>,
+    blocks: Vec<Block>,
+}
+
+impl Figures<'_> {
+    fn add(
+        &mut self,
+        fig: &impl crate::stages::report::render::Figure,
+        file: &str,
+        caption: String,
+    ) -> Result<()> {
+        let stem = format!("{}_{file}", self.prefix);
+        let saved = save(fig, &self.figdir.join(&stem))?;
+        self.blocks.push(Block::Figure {
+            id: format!("fig-{}", stem.replace('_', "-")),
+            caption,
+            svg: saved.svg_text.clone(),
+            png: rel(&saved),
+        });
+        self.figures.push(saved);
+        Ok(())
+    }
+}
+
+/// File-name-safe form of a label.
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect()
+}
+
+/// Series of `quantity` against φ, one per (Q, γ̇).
+fn versus_phi(
+    rows: &[Row],
+    quantity: &str,
+    label: &str,
+    markers_only: bool,
+    colour_of: &BTreeMap<(i64, i64), usize>,
+) -> Vec<XySeries> {
+    let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        by.entry((key(r.q), key(r.rate))).or_default().push(r);
+    }
+    by.into_iter()
+        .filter_map(|(k, mut rs)| {
+            rs.sort_by(|a, b| a.phi.total_cmp(&b.phi));
+            let points: Vec<(f64, f64, f64)> = rs
+                .iter()
+                .filter_map(|r| r.get(quantity).map(|(m, e)| (r.phi, m, e)))
+                .collect();
+            (!points.is_empty()).then(|| XySeries {
+                label: format!("{label}Q = {}, rate {:.0e}", rs[0].q, rs[0].rate),
+                points,
+                markers_only,
+                colour: colour_of.get(&k).copied().unwrap_or(0),
+            })
+        })
+        .collect()
+}
+
+/// The sweep's section: what exists, the flow curves and φ dependences, the
+/// classification (table, phase diagrams, transitions). Writes the classification to
+/// `classification.csv` and `classification.json` in `out_dir`.
+pub fn sweep_section(
+    label: &str,
+    data: &SweepData,
+    out_dir: &Path,
+    figdir: &Path,
+    figures: &mut Vec<SavedFigure>,
+) -> Result<Section> {
+    let mut f = Figures {
+        figdir,
+        prefix: format!("sweep_{}", slug(label)),
+        figures,
+        blocks: Vec::new(),
+    };
+    let rates: Vec<f64> = {
+        let mut r: Vec<f64> = data.rows.iter().map(|r| r.rate).collect();
+        r.sort_by(f64::total_cmp);
+        r.dedup();
+        r
+    };
+    f.blocks.push(Block::Paragraph(format!(
+        "{label}: model {}, N = {}, strain {} per run; {} of {} grid points finished ({} φ, {} rates).",
+        data.model.to_uppercase(),
+        data.n.map_or("?".into(), |n| n.to_string()),
+        data.strain.map_or("?".into(), |s| s.to_string()),
+        data.rows.len(),
+        data.grid.len(),
+        {
+            let mut p: Vec<i64> = data.rows.iter().map(|r| key(r.phi)).collect();
+            p.sort();
+            p.dedup();
+            p.len()
+        },
+        rates.len(),
+    )));
+    if !data.missing.is_empty() {
+        f.blocks.push(Block::Paragraph(format!(
+            "Missing ({} grid points not finished; the figures and the classification show only what exists): {}.",
+            data.missing.len(),
+            data.missing.iter().map(pt).collect::<Vec<_>>().join(", ")
+        )));
+    }
+    if data.rows.is_empty() {
+        return Ok(Section {
+            id: format!("sweep-{}", slug(label)),
+            title: format!("Sweep {label}"),
+            blocks: f.blocks,
+        });
+    }
+    // Flow curves: one series per (φ, Q) against γ̇.
+    let mut by_phi_q: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
+    for r in &data.rows {
+        by_phi_q.entry((key(r.phi), key(r.q))).or_default().push(r);
+    }
+    let flow = |quantity: &str| -> Vec<XySeries> {
+        by_phi_q
+            .values()
+            .enumerate()
+            .filter_map(|(k, rs)| {
+                let mut rs = rs.clone();
+                rs.sort_by(|a, b| a.rate.total_cmp(&b.rate));
+                let points: Vec<(f64, f64, f64)> = rs
+                    .iter()
+                    .filter_map(|r| r.get(quantity).map(|(m, e)| (r.rate, m, e)))
+                    .collect();
+                (!points.is_empty()).then(|| XySeries {
+                    label: format!("φ = {}, Q = {}", rs[0].phi, rs[0].q),
+                    points,
+                    markers_only: false,
+                    colour: k,
+                })
+            })
+            .collect()
+    };
+    f.add(
+        &XyFigure {
+            title: "Flow curves: η_p = p/(k_d dγ/dt) (Figs. 2, 11, 16)".into(),
+            x_desc: "dγ/dt · τ_e".into(),
+            y_desc: "η_p = p / (k_d dγ/dt)".into(),
+            x_log: true,
+            y_log: true,
+            series: flow("eta_p"),
+        },
+        "eta_p",
+        "η_p = p/(k_d γ̇) against γ̇ τ_e for each φ (and Q), run errors as bars: flat where the flow is Newtonian (p ∝ γ̇), rising as γ̇⁻¹ where it is Bagnoldian (vagberg-sheared-disks Figs. 2, 11, 16).".into(),
+    )?;
+    f.add(
+        &XyFigure {
+            title: "Flow curves: B_p = p/(dγ/dt)² (Figs. 2, 11, 16)".into(),
+            x_desc: "dγ/dt · τ_e".into(),
+            y_desc: "B_p = p / (dγ/dt)²  (m = d_s = 1)".into(),
+            x_log: true,
+            y_log: true,
+            series: flow("b_p"),
+        },
+        "b_p",
+        "B_p = p/(m γ̇²) against γ̇ τ_e for each φ (and Q): flat where the flow is Bagnoldian (p ∝ γ̇²), falling as γ̇⁻¹ where it is Newtonian (vagberg-sheared-disks Figs. 2, 11, 16).".into(),
+    )?;
+    // Against φ: one colour per (Q, γ̇).
+    let mut colour_of = BTreeMap::new();
+    for r in &data.rows {
+        let n = colour_of.len();
+        colour_of.entry((key(r.q), key(r.rate))).or_insert(n);
+    }
+    let mut zs = versus_phi(&data.rows, "z", "Z, ", false, &colour_of);
+    zs.extend(versus_phi(
+        &data.rows,
+        "two_tau_dur_nu_coll",
+        "2τν, ",
+        true,
+        &colour_of,
+    ));
+    f.add(
+        &XyFigure {
+            title: "Z and 2 τ_dur ν_coll (Figs. 4–5, 12–13)".into(),
+            x_desc: "φ".into(),
+            y_desc: "contacts per particle".into(),
+            x_log: false,
+            y_log: false,
+            series: zs,
+        },
+        "z",
+        "The contact number Z (filled, line) and 2 τ_dur ν_coll (open) against φ: two independent measurements (contacts counted; durations, censoring-aware, times collision rates) that agree where the contacts are binary collisions and their durations are measured without bias (vagberg-sheared-disks Figs. 4–5, 12–13).".into(),
+    )?;
+    for (quantity, file, title, y, log, caption) in [
+        (
+            "mu",
+            "mu",
+            "Macroscopic friction μ = σ/p (Fig. 23)",
+            "μ = σ / p",
+            false,
+            "μ = σ/p against φ for each (Q, γ̇) (vagberg-sheared-disks Fig. 23).",
+        ),
+        (
+            "theta_dot_over_gamma_dot",
+            "rotation",
+            "Rotation ⟨ω⟩/(dγ/dt) (Fig. 20)",
+            "⟨ω⟩ / (dγ/dt)",
+            false,
+            "The mean spin in units of dγ/dt against φ: −1/2 is the rotation of the affine flow, which dilute CDrot disks follow (vagberg-sheared-disks Fig. 20).",
+        ),
+        (
+            "r_v",
+            "r_v",
+            "R_v = ⟨δv_x²⟩/⟨v_y²⟩ (Fig. 24)",
+            "R_v",
+            true,
+            "R_v = ⟨δv_x²⟩/⟨v_y²⟩ (Eqs. 35–37) against φ: 1 for isotropic velocity fluctuations, large where shear bands form (vagberg-sheared-disks Fig. 24).",
+        ),
+    ] {
+        let series = versus_phi(&data.rows, quantity, "", false, &colour_of);
+        if series.is_empty() {
+            continue;
+        }
+        f.add(
+            &XyFigure {
+                title: title.into(),
+                x_desc: "φ".into(),
+                y_desc: y.into(),
+                x_log: false,
+                y_log: log,
+                series,
+            },
+            file,
+            caption.into(),
+        )?;
+    }
+    // Classification.
+    let c = classify(&data.rows);
+    write_classification(out_dir, label, &c)?;
+    let classes = ["Newtonian", "Bagnoldian", "undecided"]
+        .map(String::from)
+        .to_vec();
+    let idx = |c: Class| match c {
+        Class::Newtonian => 0,
+        Class::Bagnoldian => 1,
+        Class::Undecided => 2,
+    };
+    if c.slopes.is_empty() {
+        f.blocks.push(Block::Paragraph(
+            "No classification: every (φ, Q) has fewer than two rates with a pressure.".into(),
+        ));
+    } else {
+        f.blocks.push(Block::Paragraph(format!(
+            "Newtonian or Bagnoldian: the slope s of ln p against ln γ̇ (weighted by the runs' errors of p) with its standard error e; Newtonian when s ± {0}e lies within [0.5, 1.5], Bagnoldian within [1.5, 2.5], undecided otherwise (the data cannot tell, or the slope is in neither regime). `all`: every rate of the grid; `local`: two neighbouring rates. Written to classification_{1}.csv and .json beside the report.",
+            classify::SIGMAS, slug(label)
+        )));
+        f.blocks.push(Block::Table {
+            header: [
+                "φ",
+                "Q",
+                "rates γ̇ τ_e",
+                "scope",
+                "slope ± error",
+                "class",
+                "why",
+            ]
+            .map(String::from)
+            .to_vec(),
+            rows: c
+                .slopes
+                .iter()
+                .map(|s| {
+                    vec![
+                        s.phi.to_string(),
+                        s.q.to_string(),
+                        format!("{:.1e} – {:.1e}", s.slope.rate_lo, s.slope.rate_hi),
+                        s.scope.into(),
+                        format!("{:.3} ± {:.3}", s.slope.slope, s.slope.err),
+                        s.slope.class.name().into(),
+                        s.slope.note.clone(),
+                    ]
+                })
+                .collect(),
+        });
+        let trans: Vec<String> = c
+            .transitions
+            .iter()
+            .map(|l| {
+                let what = if l.along == "phi" { format!("φ_c(Q = {})", l.at) } else { format!("Q_c(φ = {})", l.at) };
+                format!(
+                    "{what} between {} and {} ({} → {}; midpoint {:.4} ± {:.4} from the grid spacing; rates {:.1e}–{:.1e})",
+                    l.t.lo, l.t.hi, l.t.from.name(), l.t.to.name(), 0.5 * (l.t.lo + l.t.hi), 0.5 * (l.t.hi - l.t.lo), l.rate_lo, l.rate_hi
+                )
+            })
+            .collect();
+        f.blocks.push(Block::Paragraph(if trans.is_empty() {
+            "Transition: not bracketed by this grid (no decided Newtonian point next to a decided Bagnoldian one along φ or Q).".into()
+        } else {
+            format!("Transition located: {}.", trans.join("; "))
+        }));
+        // (φ, γ̇) at each Q: local slopes at the rates' geometric mean; with a single
+        // pair of rates per (φ, Q), the overall slope.
+        let qs: Vec<i64> = {
+            let mut v: Vec<i64> = c.slopes.iter().map(|s| key(s.q)).collect();
+            v.sort();
+            v.dedup();
+            v
+        };
+        for qk in &qs {
+            let local: Vec<&Classified> = c
+                .slopes
+                .iter()
+                .filter(|s| key(s.q) == *qk && s.scope == "local")
+                .collect();
+            let use_: Vec<&Classified> = if local.is_empty() {
+                c.slopes.iter().filter(|s| key(s.q) == *qk).collect()
+            } else {
+                local
+            };
+            let q = use_[0].q;
+            let bands = c
+                .transitions
+                .iter()
+                .filter(|l| l.along == "phi" && key(l.at) == *qk)
+                .map(|l| (l.t.lo, l.t.hi, l.rate_lo, l.rate_hi))
+                .collect();
+            f.add(
+                &PhaseFigure {
+                    title: format!("Phase diagram in (φ, dγ/dt) at Q = {q} (Figs. 17, 25)"),
+                    x_desc: "φ".into(),
+                    y_desc: "dγ/dt τ_e (geometric mean of the two rates)".into(),
+                    y_log: true,
+                    classes: classes.clone(),
+                    points: use_.iter().map(|s| (s.phi, (s.slope.rate_lo * s.slope.rate_hi).sqrt(), idx(s.slope.class))).collect(),
+                    bands,
+                },
+                &format!("phase_phi_rate_q{}", slug(&q.to_string())),
+                format!("Each (φ, neighbouring rates) at Q = {q} classified from the local slope of ln p against ln γ̇; shaded: the transition φ_c bracketed by the grid (vagberg-sheared-disks Fig. 17 for CDrot, the (φ, γ̇) plane of Fig. 25)."),
+            )?;
+        }
+        if qs.len() > 1 {
+            f.add(
+                &PhaseFigure {
+                    title: "Phase diagram in (φ, Q) (Figs. 3, 17)".into(),
+                    x_desc: "φ".into(),
+                    y_desc: "Q".into(),
+                    y_log: true,
+                    classes,
+                    points: c.slopes.iter().filter(|s| s.scope == "all").map(|s| (s.phi, s.q, idx(s.slope.class))).collect(),
+                    bands: Vec::new(),
+                },
+                "phase_phi_q",
+                "Each (φ, Q) classified from the slope of ln p against ln γ̇ over all the grid's rates (vagberg-sheared-disks Fig. 3 for CD, Q_c(φ); Fig. 17 for CDrot, φ_c(Q)).".into(),
+            )?;
+        }
+    }
+    Ok(Section {
+        id: format!("sweep-{}", slug(label)),
+        title: format!("Sweep {label}: flow curves and phase diagram"),
+        blocks: f.blocks,
+    })
+}
+
+fn write_classification(out_dir: &Path, label: &str, c: &Classification) -> Result<()> {
+    let mut csv = String::from("phi,q,scope,rate_lo,rate_hi,slope,slope_err,class,note\n");
+    for s in &c.slopes {
+        csv += &format!(
+            "{},{},{},{:e},{:e},{},{},{},\"{}\"\n",
+            s.phi,
+            s.q,
+            s.scope,
+            s.slope.rate_lo,
+            s.slope.rate_hi,
+            s.slope.slope,
+            s.slope.err,
+            s.slope.class.name(),
+            s.slope.note.replace('"', "'")
+        );
+    }
+    let stem = format!("classification_{}", slug(label));
+    crate::io::atomic_write_str(&out_dir.join(format!("{stem}.csv")), &csv)?;
+    crate::io::atomic_write_str(
+        &out_dir.join(format!("{stem}.json")),
+        &serde_json::to_string_pretty(c).expect("json"),
+    )
+}
+
+/// One run's section: the steady-state summary and P(ϑ) at contact making and breaking.
+pub fn shear_section(
+    label: &str,
+    dir: &Path,
+    figdir: &Path,
+    figures: &mut Vec<SavedFigure>,
+) -> Result<Section> {
+    let mut f = Figures {
+        figdir,
+        prefix: format!("shear_{}", slug(label)),
+        figures,
+        blocks: Vec::new(),
+    };
+    let sf = dir.join("summary.json");
+    if sf.exists() {
+        let text = std::fs::read_to_string(&sf).map_err(|e| Error::io(&sf, e))?;
+        let v: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| Error::input(sf.display(), e.to_string()))?;
+        let p = &v["params"];
+        f.blocks.push(Block::Paragraph(format!(
+            "{label}: N = {}, φ = {}, Q = {}, γ̇ τ_e = {}, {}, strain {}; means over the steady window with errors from {} blocks.",
+            p["n"], p["phi"], p["q"], p["rate"], p["model"].as_str().unwrap_or("?").to_uppercase(), v["strain"], v["blocks"]
+        )));
+        let rows = v
+            .as_object()
+            .into_iter()
+            .flatten()
+            .filter_map(|(k, x)| {
+                Some(vec![
+                    k.clone(),
+                    fmt_pm(x.get("mean")?.as_f64()?, x.get("err")?.as_f64()?),
+                ])
+            })
+            .collect();
+        f.blocks.push(Block::Table {
+            header: vec!["quantity".into(), "mean ± error".into()],
+            rows,
+        });
+    }
+    let af = dir.join("collision_angles.parquet");
+    if af.exists() {
+        let t = read_table(&af, &[])?;
+        let (lo, hi) = (t.f64("angle_lo_deg")?, t.f64("angle_hi_deg")?);
+        let mid: Vec<f64> = lo.iter().zip(&hi).map(|(a, b)| 0.5 * (a + b)).collect();
+        let series = [("making", "making_pdf", 0), ("breaking", "breaking_pdf", 1)]
+            .into_iter()
+            .map(|(name, col, colour)| -> Result<XySeries> {
+                let y = t.f64(col)?;
+                Ok(XySeries {
+                    label: format!("contacts {name}"),
+                    points: mid.iter().zip(&y).map(|(x, y)| (*x, *y, 0.0)).collect(),
+                    markers_only: false,
+                    colour,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        f.add(
+            &XyFigure { title: "P(ϑ) at contact making and breaking (Figs. 8, 18)".into(), x_desc: "ϑ (degrees)".into(), y_desc: "P(ϑ) (1/degree)".into(), x_log: false, y_log: false, series },
+            "angles",
+            "Distribution of the contact direction ϑ of r_ij when contacts form and when they break over the steady window: forming near 135° (the compressive axis), breaking near 45° (vagberg-sheared-disks Figs. 8, 18).".into(),
+        )?;
+    }
+    Ok(Section {
+        id: format!("shear-{}", slug(label)),
+        title: format!("Sheared disks {label}"),
+        blocks: f.blocks,
+    })
+}

@@ -1,0 +1,256 @@
+//! Sheared-disk stages in pipelines (issue 21): `shear` and `sweep` stages cached like
+//! the pillar's, every grid point of a sweep cached on its own (a grown grid computes
+//! only its new points; a `shear` stage equal to a grid point is the same entry), the
+//! sweep's table, validation naming file, line and key, and the report's sections.
+
+mod common;
+
+use common::*;
+use serde_json::Value;
+use std::path::Path;
+
+/// A tiny grid: 32 disks (box side 6.8 d_s), strain 0.3, γ̇ τ_e ≥ 1e-2 (≈ 600 steps).
+fn tiny(phi: &str, extra: &str) -> String {
+    format!(
+        "[pipeline]\nname = \"tiny-sweep\"\n\n[flow.sweep]\nphi = {phi}\nq = [1]\nrate = [1e-2, 3e-2]\n\
+         n = 32\nstrain = 0.3\nsample_every = 2\n\n[flow.shear]\nphi = 0.84\nrate = 1e-2\nn = 32\nstrain = 0.3\nsample_every = 2\n{extra}"
+    )
+}
+
+fn table_rows(p: &Path) -> usize {
+    let t = pillar_pipe::io::table::read_table(p, &[]).unwrap();
+    t.f64("phi").unwrap().len()
+}
+
+#[test]
+fn sweep_points_are_cached_one_by_one() {
+    let d = tmpdir("shear-sweep");
+    let runs = d.join("runs");
+    let file = d.join("s.toml");
+    std::fs::write(&file, tiny("[0.78, 0.84]", "")).unwrap();
+    let f = file.to_str().unwrap();
+    run_ok(&["run", f, "--quiet"], &runs);
+    let m = latest(&runs);
+    // Four grid points, the sweep; the shear stage is the point φ = 0.84, γ̇ = 1e-2.
+    assert_eq!(
+        computed(&m),
+        [
+            "flow.sweep:phi=0.78,q=1,rate=1e-2",
+            "flow.sweep:phi=0.78,q=1,rate=3e-2",
+            "flow.sweep:phi=0.84,q=1,rate=1e-2",
+            "flow.sweep:phi=0.84,q=1,rate=3e-2",
+            "flow.sweep",
+        ],
+        "{m}"
+    );
+    let st = |m: &Value, name: &str| -> Value {
+        m["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name)
+            .cloned()
+            .unwrap_or_else(|| panic!("no stage {name} in {m}"))
+    };
+    assert_eq!(
+        st(&m, "flow.shear")["dir"],
+        st(&m, "flow.sweep:phi=0.84,q=1,rate=1e-2")["dir"]
+    );
+    let sweep_dir = runs.join(st(&m, "flow.sweep")["dir"].as_str().unwrap());
+    let grid: Value =
+        serde_json::from_str(&std::fs::read_to_string(sweep_dir.join("sweep.json")).unwrap())
+            .unwrap();
+    assert_eq!(grid["grid"].as_array().unwrap().len(), 4, "{grid}");
+    assert_eq!(grid["missing"].as_array().unwrap().len(), 0, "{grid}");
+    let shear_dir = runs.join(st(&m, "flow.shear")["dir"].as_str().unwrap());
+    for out in ["summary", "series", "tracks", "collision_angles"] {
+        let rel = st(&m, "flow.shear")["outputs"][out]
+            .as_str()
+            .map(String::from);
+        assert!(
+            rel.is_some_and(|r| shear_dir.join(r).is_file()),
+            "{out}: {m}"
+        );
+    }
+    assert!(m["metrics"]["flow.shear"]["z"].is_f64(), "{m}");
+    // The run's manifest names its tables where the stage keeps them.
+    let man: Value =
+        serde_json::from_str(&std::fs::read_to_string(shear_dir.join("manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(man["tables"]["series"], "series.parquet", "{man}");
+    assert!(man["options"].get("quiet").is_none(), "{man}");
+    assert_eq!(table_rows(&sweep_dir.join("sweep.parquet")), 4);
+
+    // Again: nothing computed.
+    run_ok(&["run", f, "--quiet"], &runs);
+    assert!(computed(&latest(&runs)).is_empty());
+
+    // A grown grid computes its new points and the table only.
+    run_ok(
+        &["run", f, "--quiet", "--set", "sweep.phi=[0.78, 0.80, 0.84]"],
+        &runs,
+    );
+    let m = latest(&runs);
+    assert_eq!(
+        computed(&m),
+        [
+            "flow.sweep:phi=0.8,q=1,rate=1e-2",
+            "flow.sweep:phi=0.8,q=1,rate=3e-2",
+            "flow.sweep",
+        ],
+        "{m}"
+    );
+    let sweep_dir = runs.join(st(&m, "flow.sweep")["dir"].as_str().unwrap());
+    assert_eq!(table_rows(&sweep_dir.join("sweep.parquet")), 6);
+
+    // --force on the sweep recomputes its points too.
+    run_ok(&["run", f, "--quiet", "--force", "flow.sweep"], &runs);
+    let m = latest(&runs);
+    assert_eq!(computed(&m).len(), 4 + 1, "the points and the sweep: {m}");
+}
+
+#[test]
+fn sweep_and_shear_keys_are_validated_before_anything_runs() {
+    let d = tmpdir("shear-bad");
+    let runs = d.join("runs");
+    let file = d.join("bad.toml");
+    let f = file.to_str().unwrap();
+    let refuse = |text: &str, needles: &[&str]| {
+        std::fs::write(&file, text).unwrap();
+        let (ok, out, err) = pp(&["run", f, "--quiet"], &runs);
+        assert!(!ok, "{out}");
+        for n in needles {
+            assert!(err.contains(n), "missing '{n}' in: {err}");
+        }
+        assert!(err.contains("bad.toml"), "{err}");
+    };
+    let text = tiny("[0.78, 2.0]", "");
+    refuse(
+        &text,
+        &[
+            &format!("line {}", line_of(&text, "[flow.sweep]")),
+            "flow.sweep",
+            "φ = 2",
+            "phi must be in",
+        ],
+    );
+    let text = tiny("[0.78]", "visc = 3\n");
+    refuse(
+        &text,
+        &[
+            &format!("line {}", line_of(&text, "visc")),
+            "flow.shear.visc",
+            "unknown key",
+        ],
+    );
+    refuse(&tiny("[]", ""), &["flow.sweep.phi", "non-empty"]);
+    refuse(
+        &tiny("[0.8]", "model = \"cdx\"\n"),
+        &["flow.shear.model", "cd, cdrot"],
+    );
+    assert!(!runs.join("cache").exists(), "nothing ran");
+}
+
+/// A synthetic sweep summary: p = c γ̇^exp with 2 % errors, and the other quantities.
+fn summary(rate: f64, exp: f64) -> Value {
+    let p = 5.0 * rate.powf(exp);
+    let q = |m: f64, e: f64| serde_json::json!({"mean": m, "err": e});
+    serde_json::json!({
+        "p": q(p, 0.02 * p), "eta_p": q(p / rate, 0.02 * p / rate), "b_p": q(p / rate / rate, 0.02 * p / rate / rate),
+        "z": q(3.0, 0.05), "two_tau_dur_nu_coll": q(2.95, 0.1), "mu": q(0.3, 0.01),
+        "theta_dot_over_gamma_dot": q(-0.5, 0.01), "r_v": q(1.5, 0.1),
+    })
+}
+
+/// A killed sweep (points missing): the report shows the flow curves and the
+/// classification of what exists and names what is missing; φ = 0.76 with p ∝ γ̇² is
+/// Bagnoldian, φ = 0.82 with p ∝ γ̇ Newtonian, and φ_c is bracketed between them.
+#[test]
+fn report_of_a_sweep_with_missing_points() {
+    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
+    use pillar_pipe::stages::shear::ShearOptions;
+    let d = tmpdir("shear-report");
+    let sweep = d.join("sweep");
+    std::fs::create_dir_all(&sweep).unwrap();
+    let rates = [1e-4, 1e-3, 1e-2];
+    let mut grid = Vec::new();
+    let mut points = Vec::new();
+    for (phi, exp) in [(0.76, 2.0), (0.80, 1.5), (0.82, 1.0)] {
+        for &rate in &rates {
+            grid.push((phi, 1.0, rate));
+            // φ = 0.80 was killed after its first run.
+            if phi != 0.80 || rate == 1e-4 {
+                points.push(((phi, 1.0, rate), summary(rate, exp)));
+            }
+        }
+    }
+    pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &ShearOptions::default())
+        .unwrap();
+    let out = d.join("report");
+    let r = run(
+        &out,
+        &ReportOptions {
+            title: "sweep".into(),
+            datasets: vec![DatasetInputs {
+                label: "flow".into(),
+                sweep: Some(sweep.clone()),
+                ..Default::default()
+            }],
+            map_stages: 1,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(&r.html).unwrap();
+    assert!(html.contains("7 of 9 grid points finished"), "{html}");
+    assert!(
+        html.contains("Missing (2 grid points")
+            && html.contains("φ = 0.8, Q = 1, γ̇ τ_e = 1e-3")
+            && html.contains("φ = 0.8, Q = 1, γ̇ τ_e = 1e-2"),
+        "the missing points are named"
+    );
+    for fig in [
+        "eta_p",
+        "b_p",
+        "z",
+        "mu",
+        "rotation",
+        "r_v",
+        "phase_phi_rate_q1",
+    ] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("figures/sweep_flow_{fig}.{ext}"));
+            assert!(f.is_file(), "{}", f.display());
+        }
+    }
+    assert!(
+        html.contains("Figs. 2, 11, 16") && html.contains("Fig. 23") && html.contains("Fig. 24")
+    );
+    let c: Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("classification_flow.json")).unwrap(),
+    )
+    .unwrap();
+    let class = |phi: f64| -> String {
+        c["slopes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["phi"] == phi && s["scope"] == "all")
+            .map(|s| s["class"].as_str().unwrap().to_string())
+            .unwrap_or_default()
+    };
+    assert_eq!(class(0.76), "bagnoldian", "{c}");
+    assert_eq!(class(0.82), "newtonian", "{c}");
+    assert_eq!(class(0.80), "", "one rate left: no slope");
+    let t = c["transitions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["along"] == "phi" && t["rate_lo"] == 1e-4 && t["rate_hi"] == 1e-2)
+        .unwrap_or_else(|| panic!("no φ_c over all rates: {c}"));
+    assert_eq!(
+        (t["lo"].as_f64(), t["hi"].as_f64()),
+        (Some(0.76), Some(0.82))
+    );
+    assert!(html.contains("φ_c(Q = 1) between 0.76 and 0.82"), "{html}");
+}
