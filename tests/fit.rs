@@ -280,11 +280,9 @@ fn random_steps_sized_by_strain_give_back_theta_and_eta_c() {
     }
 }
 
-/// From tracks the protocol is rerun with R_c = 1.0 and 1.5 D for the sensitivity table:
-/// every estimator × upper end × R_c, the R_c = 1.25 D cells the headline's own samples.
-#[test]
-fn sensitivity_from_tracks_varies_estimator_range_and_rc() {
-    let dir = tmpdir("sens");
+/// A `fast` pillar of 150 grains simulated to `strain` in `dir/sim`, then fitted from its
+/// tracks with 20 bootstrap replicates into `dir/fit.json`: (fit.json, what `fit` printed).
+fn simulated_fit(dir: &Path, strain: &str) -> (std::path::PathBuf, String) {
     let sim = dir.join("sim");
     let (ok, text) = run(&[
         "simulate",
@@ -294,7 +292,7 @@ fn sensitivity_from_tracks_varies_estimator_range_and_rc() {
         "--preset",
         "fast",
         "--strain",
-        "0.08",
+        strain,
         "--quiet",
         "-o",
         sim.to_str().unwrap(),
@@ -311,6 +309,15 @@ fn sensitivity_from_tracks_varies_estimator_range_and_rc() {
         fit.to_str().unwrap(),
     ]);
     assert!(ok, "{text}");
+    (fit, text)
+}
+
+/// From tracks the protocol is rerun with R_c = 1.0 and 1.5 D for the sensitivity table:
+/// every estimator × upper end × R_c, the R_c = 1.25 D cells the headline's own samples.
+#[test]
+fn sensitivity_from_tracks_varies_estimator_range_and_rc() {
+    let dir = tmpdir("sens");
+    let (fit, text) = simulated_fit(&dir, "0.08");
     assert!(
         text.contains("sensitivity") && text.contains("range "),
         "{text}"
@@ -412,32 +419,7 @@ fn tracking_noise_from_the_data_matches_the_ground_truth() {
             == left_out
     );
     // A simulation: no floor, whatever the data's intercept.
-    let sim = dir.join("sim");
-    let (ok, text) = run(&[
-        "simulate",
-        "pillar",
-        "--n",
-        "150",
-        "--preset",
-        "fast",
-        "--strain",
-        "0.05",
-        "--quiet",
-        "-o",
-        sim.to_str().unwrap(),
-    ]);
-    assert!(ok, "{text}");
-    let sfit = dir.join("sim.fit.json");
-    let (ok, text) = run(&[
-        "fit",
-        sim.join("tracks.parquet").to_str().unwrap(),
-        "--bootstrap",
-        "20",
-        "--quiet",
-        "-o",
-        sfit.to_str().unwrap(),
-    ]);
-    assert!(ok, "{text}");
+    let (sfit, _) = simulated_fit(&tmpdir("noise-sim"), "0.05");
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&sfit).unwrap()).unwrap();
     assert!(j["noise"]["floor"].is_null(), "{}", j["noise"]);
