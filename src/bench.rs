@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::geom::{Mat2, Vec2};
-use crate::kinematics::{Convention, KinematicsParams, frame_pair};
+use crate::kinematics::{Convention, KinematicsParams, frame_pair_columns};
 use crate::neighbors::{CellList, Cutoff};
 use crate::synth::{bidisperse_packing, two_frame_tracks};
 use serde::Serialize;
@@ -60,7 +60,7 @@ pub fn bench_kinematics_tracks(
     let mut err = None;
     let seconds = pool.install(|| {
         best_of(reps, || {
-            if let Err(e) = frame_pair(&a, &b, 1.0, &params) {
+            if let Err(e) = frame_pair_columns(&a, &b, 1.0, &params) {
                 err = Some(e);
             }
         })

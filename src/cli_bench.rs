@@ -25,6 +25,22 @@ pub enum BenchCmd {
         #[arg(long)]
         json: bool,
     },
+    /// The whole `kinematics` command on one frame pair from a file, against OVITO's Atomic
+    /// Strain as a whole Python process on the same frames (alternating runs, medians).
+    KinematicsWhole {
+        #[arg(long, default_value_t = 1_000_000)]
+        n: usize,
+        #[arg(long, default_value_t = 5)]
+        reps: usize,
+        /// Where to put the frames and outputs (default: a fresh temp dir, removed after).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+        /// The Python with OVITO (`pip install ovito`); without it only ours is timed.
+        #[arg(long, default_value = "python3")]
+        python: String,
+        #[arg(long)]
+        json: bool,
+    },
     /// Ingest of a generated trackpy CSV vs polars' plain CSV read (time, peak memory).
     Ingest {
         #[arg(long, default_value_t = 10_000_000)]
@@ -216,6 +232,61 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                     );
                 }
             }
+        }
+        BenchCmd::KinematicsWhole {
+            n,
+            reps,
+            dir,
+            python,
+            json,
+        } => {
+            let tmp =
+                std::env::temp_dir().join(format!("pillar-pipe-whole-{}", std::process::id()));
+            let at = dir.clone().unwrap_or_else(|| tmp.clone());
+            let exe = std::env::current_exe()?;
+            let b = pillar_pipe::bench_whole::bench_kinematics_whole(&exe, n, reps, &at, &python);
+            if dir.is_none() {
+                let _ = std::fs::remove_dir_all(&tmp);
+            }
+            let b = b?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&b)?);
+                return Ok(());
+            }
+            let mb = |x: u64| x as f64 / 1e6;
+            let ours = b.ours_median();
+            println!(
+                "kinematics-whole n = {}, one frame pair from a file, {} alternating runs each, medians",
+                b.n, b.reps
+            );
+            println!(
+                "  pillar-pipe kinematics (whole process)   {:>7.3} s   peak {:>5.0} MB = {:.2}x the output table ({:.0} MB in memory, {:.0} MB file)",
+                ours,
+                mb(b.ours_peak()),
+                b.ours_peak() as f64 / b.output_table_bytes.max(1) as f64,
+                mb(b.output_table_bytes),
+                mb(b.output_bytes)
+            );
+            match b.ovito_median() {
+                Some(ov) => {
+                    let peak = b.ovito.iter().map(|r| r.peak_rss_bytes).max().unwrap_or(0);
+                    println!(
+                        "  OVITO Atomic Strain (whole process)      {ov:>7.3} s   peak {:>5.0} MB",
+                        mb(peak)
+                    );
+                    println!("  OVITO / pillar-pipe, whole process: {:.2}x", ov / ours);
+                }
+                None => println!(
+                    "  no same-run reference: {}",
+                    b.ovito_missing.as_deref().unwrap_or("OVITO unavailable")
+                ),
+            }
+            let phases: Vec<String> = b
+                .phases
+                .iter()
+                .map(|p| format!("{} {:.3} s", p.name, p.seconds))
+                .collect();
+            println!("  our phases (one more run): {}", phases.join(", "));
         }
         BenchCmd::Kinematics {
             n,

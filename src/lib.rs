@@ -28,4 +28,5 @@ pub mod tracks;
 pub use error::{Error, Result};
 pub mod bench_dem;
 pub mod bench_fit;
+pub mod bench_whole;
 pub mod dem;

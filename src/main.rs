@@ -100,6 +100,9 @@ enum Cmd {
         quiet: bool,
         #[arg(long)]
         json: bool,
+        /// Also print where the wall time went (read, hash, compute, assemble, write).
+        #[arg(long)]
+        timings: bool,
     },
     /// Fit the D²min–η^s crossover (Li et al. Eq. 19) with every estimator; writes
     /// fit.json and the scatter table.
@@ -439,6 +442,7 @@ fn run(cli: Cli) -> Result<()> {
             convention,
             quiet,
             json,
+            timings,
         } => {
             let lag = match (lag, lag_time, lags) {
                 (Some(l), _, _) => LagSpec::Frames(vec![l]),
@@ -463,6 +467,12 @@ fn run(cli: Cli) -> Result<()> {
                 println!("{}", serde_json::to_string_pretty(&rep)?);
             } else {
                 println!("{rep}");
+                if timings {
+                    println!(
+                        "{}",
+                        pillar_pipe::stages::timing::format_phases(&rep.timings)
+                    );
+                }
                 for w in &rep.warnings {
                     println!("warning: {w}");
                 }

@@ -308,10 +308,7 @@ pub fn write_table(df: &mut DataFrame, path: &Path) -> Result<()> {
     let file = path.display().to_string();
     atomic_write(path, |f| {
         match TableFormat::of(path) {
-            TableFormat::Parquet => ParquetWriter::new(f)
-                .with_compression(ParquetCompression::Lz4Raw)
-                .finish(df)
-                .map(|_| ()),
+            TableFormat::Parquet => super::sink::write_parquet(f, df),
             TableFormat::Csv => CsvWriter::new(f).include_header(true).finish(df),
         }
         .map_err(|e| Error::polars(format!("{file}: writing"), e))

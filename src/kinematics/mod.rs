@@ -3,8 +3,10 @@
 //! non-affine residual D²min, the Lagrangian strain η, its deviatoric part η^s, the
 //! rate J2 and the mean velocity. Pure kernels on slices: no I/O, no polars.
 
+mod columns;
 mod strain;
 
+pub use columns::{F64_COLUMNS, KinematicsColumns};
 pub use strain::{LocalStrain, strain_from_j};
 
 use crate::error::Result;
@@ -158,51 +160,116 @@ pub fn frame_pair(
     dt: f64,
     p: &KinematicsParams,
 ) -> Result<(Vec<ParticleKinematics>, PairCounts)> {
-    let (pairs, missing_at_end, missing_at_start) = pair_rows(a, b);
-    let pos0: Vec<Vec2> = pairs.iter().map(|&(i, _)| a.pos(i)).collect();
-    let disp: Vec<Vec2> = pairs
-        .iter()
-        .map(|&(i, k)| delta(b.simbox, b.pos(k) - a.pos(i)))
+    let setup = PairSetup::new(a, b, p)?;
+    let out: Vec<ParticleKinematics> = (0..setup.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map_init(Vec::new, |buf, n| {
+            setup.particle(n, a, buf, dt, p.convention)
+        })
         .collect();
-    let kind = match p.convention {
-        Convention::Paper => Cutoff::Strict,
-        Convention::Ovito => Cutoff::Inclusive,
-    };
-    let seam = match (a.simbox, b.simbox) {
-        (Some(ba), Some(bb)) if ba.periodic_y && bb.xy != ba.xy => Some((ba.ly, bb.xy - ba.xy)),
-        _ => None,
-    };
-    let out = if pos0.is_empty() {
-        Vec::new()
-    } else {
-        let cells = CellList::new(&pos0, p.rc, kind, a.simbox)?;
-        (0..pos0.len())
-            .into_par_iter()
-            .with_min_len(256)
-            .map_init(Vec::new, |buf, n| {
-                let (i, _) = pairs[n];
-                let species = a.species.map_or(UNKNOWN_SPECIES, |s| s[i]);
-                let mut k = particle(n, &pos0, &disp, &cells, seam, buf, dt, p.convention);
-                k.particle = a.particle[i];
-                k.species = species;
-                k
-            })
-            .collect::<Vec<_>>()
-    };
-    let mut c = PairCounts {
-        paired: out.len(),
-        missing_at_end,
-        missing_at_start,
-        ..Default::default()
-    };
-    for k in &out {
-        match k.status {
-            Status::Ok => {}
-            Status::TooFewNeighbours => c.invalid_few_neighbors += 1,
-            Status::Singular => c.invalid_singular += 1,
-        }
+    let counts = setup.counts(out.iter().map(|k| k.status));
+    Ok((out, counts))
+}
+
+/// As [`frame_pair`], written straight into the table's columns: no per-particle
+/// records in between, so one pass and one allocation per column (what the
+/// `kinematics` command writes; 1 M particles are 140 MB of records otherwise).
+pub fn frame_pair_columns(
+    a: &FrameView,
+    b: &FrameView,
+    dt: f64,
+    p: &KinematicsParams,
+) -> Result<(KinematicsColumns, PairCounts)> {
+    let setup = PairSetup::new(a, b, p)?;
+    let cols = KinematicsColumns::fill(setup.len(), |n, buf| {
+        setup.particle(n, a, buf, dt, p.convention)
+    });
+    let counts = setup.counts(cols.status.iter().copied());
+    Ok((cols, counts))
+}
+
+/// What every particle of a frame pair shares: the pairing, positions at t,
+/// displacements and the cell list.
+struct PairSetup {
+    pairs: Vec<(usize, usize)>,
+    pos0: Vec<Vec2>,
+    disp: Vec<Vec2>,
+    cells: Option<CellList>,
+    seam: Option<(f64, f64)>,
+    missing_at_end: usize,
+    missing_at_start: usize,
+}
+
+impl PairSetup {
+    fn new(a: &FrameView, b: &FrameView, p: &KinematicsParams) -> Result<Self> {
+        let (pairs, missing_at_end, missing_at_start) = pair_rows(a, b);
+        let pos0: Vec<Vec2> = pairs.iter().map(|&(i, _)| a.pos(i)).collect();
+        let disp: Vec<Vec2> = pairs
+            .iter()
+            .map(|&(i, k)| delta(b.simbox, b.pos(k) - a.pos(i)))
+            .collect();
+        let kind = match p.convention {
+            Convention::Paper => Cutoff::Strict,
+            Convention::Ovito => Cutoff::Inclusive,
+        };
+        let seam = match (a.simbox, b.simbox) {
+            (Some(ba), Some(bb)) if ba.periodic_y && bb.xy != ba.xy => Some((ba.ly, bb.xy - ba.xy)),
+            _ => None,
+        };
+        let cells = if pos0.is_empty() {
+            None
+        } else {
+            Some(CellList::new(&pos0, p.rc, kind, a.simbox)?)
+        };
+        Ok(Self {
+            pairs,
+            pos0,
+            disp,
+            cells,
+            seam,
+            missing_at_end,
+            missing_at_start,
+        })
     }
-    Ok((out, c))
+
+    fn len(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Pair row `n`'s result (`buf` is the caller's reusable neighbour buffer).
+    fn particle(
+        &self,
+        n: usize,
+        a: &FrameView,
+        buf: &mut Vec<(Vec2, Vec2)>,
+        dt: f64,
+        conv: Convention,
+    ) -> ParticleKinematics {
+        let cells = self.cells.as_ref().expect("cells exist when rows do");
+        let (i, _) = self.pairs[n];
+        let mut k = particle(n, &self.pos0, &self.disp, cells, self.seam, buf, dt, conv);
+        k.particle = a.particle[i];
+        k.species = a.species.map_or(UNKNOWN_SPECIES, |s| s[i]);
+        k
+    }
+
+    fn counts(&self, status: impl Iterator<Item = Status>) -> PairCounts {
+        let mut c = PairCounts {
+            paired: self.len(),
+            missing_at_end: self.missing_at_end,
+            missing_at_start: self.missing_at_start,
+            ..Default::default()
+        };
+        for s in status {
+            match s {
+                Status::Ok => {}
+                Status::TooFewNeighbours => c.invalid_few_neighbors += 1,
+                Status::Singular => c.invalid_singular += 1,
+            }
+        }
+        c
+    }
 }
 
 /// One particle: gather (r_ji(t), r_ji(t+Δt)) into `buf`, fit J, then D²min exactly

@@ -286,3 +286,86 @@ fn isolated_collinear_and_missing_particles_are_counted() {
         .count();
     assert_eq!((few, singular), (3, 1));
 }
+
+/// The columns the `kinematics` command writes are the per-particle records, row for
+/// row and bit for bit (NaN where undetermined), whatever the thread count and across
+/// several row blocks.
+#[test]
+fn columns_equal_the_records_bit_for_bit_at_any_thread_count() {
+    let p = bidisperse_packing(7000, 1.0, 0.12, 11);
+    let src = two_frame_tracks(&p, Mat2::new(1.0, 0.04, 0.01, 0.97), 0.03, 5);
+    // The same rows plus, in each frame, a lone particle far away (too few neighbours).
+    let mut t = Tracks::default();
+    for (f, r) in src.frame_ranges() {
+        for i in r {
+            t.frame.push(f);
+            t.particle.push(src.particle[i]);
+            t.x.push(src.x[i]);
+            t.y.push(src.y[i]);
+            t.radius.push(src.radius[i]);
+        }
+        t.frame.push(f);
+        t.particle.push(1_000_000);
+        t.x.push(1e4);
+        t.y.push(1e4);
+        t.radius.push(0.5);
+    }
+    let fr = t.frame_ranges();
+    let a = t.view(fr[0].0, fr[0].1.clone());
+    let b = t.view(fr[1].0, fr[1].1.clone());
+    let (ks, counts) = frame_pair(&a, &b, 0.5, &params(Convention::Paper)).unwrap();
+    assert!(ks.len() > 3 * 2048, "several row blocks");
+    assert_eq!(counts.invalid_few_neighbors, 1);
+    // Each column named in the table, read from the record's own field.
+    let field = |name: &str, k: &ParticleKinematics| -> f64 {
+        match name {
+            "x" => k.pos.x,
+            "y" => k.pos.y,
+            "j11" => k.j.a11,
+            "j12" => k.j.a12,
+            "j21" => k.j.a21,
+            "j22" => k.j.a22,
+            "eta_xx" => k.strain.eta_xx,
+            "eta_xy" => k.strain.eta_xy,
+            "eta_yy" => k.strain.eta_yy,
+            "eta_m" => k.strain.eta_m,
+            "eta_s" => k.strain.eta_s,
+            "j2" => k.j2,
+            "d2min" => k.d2min,
+            "vx" => k.velocity.x,
+            "vy" => k.velocity.y,
+            "speed" => k.velocity.norm(),
+            other => panic!("unknown column {other}"),
+        }
+    };
+    for threads in [1, 2, 3] {
+        let (c, cc) = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| frame_pair_columns(&a, &b, 0.5, &params(Convention::Paper)))
+            .unwrap();
+        assert_eq!(cc, counts);
+        assert_eq!(c.len(), ks.len());
+        for (r, k) in ks.iter().enumerate() {
+            assert_eq!(
+                (
+                    c.particle[r],
+                    c.species[r],
+                    c.n_neighbors[r] as u32,
+                    c.valid[r],
+                    c.status[r]
+                ),
+                (k.particle, k.species, k.n_neighbors, k.valid, k.status),
+                "row {r}"
+            );
+            for (col, name) in F64_COLUMNS.iter().enumerate() {
+                assert_eq!(
+                    c.f64s[col][r].to_bits(),
+                    field(name, k).to_bits(),
+                    "row {r} column {name}, {threads} threads"
+                );
+            }
+        }
+    }
+}

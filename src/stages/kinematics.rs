@@ -1,11 +1,12 @@
 //! `kinematics`: canonical tracks → the per-particle `kinematics` table for every
 //! (start frame, lag) requested, streamed pair by pair so output memory stays bounded.
 
+use super::timing::{Phase, PhaseTimer};
 use crate::error::{Error, Result};
 use crate::io::kinematics_io::{kinematics_dataframe, kinematics_schema};
 use crate::io::sink::stream_table;
 use crate::io::{read_tracks, sha256_file, write_with_sidecar};
-use crate::kinematics::{Convention, KinematicsParams, PairCounts, frame_pair};
+use crate::kinematics::{Convention, KinematicsParams, PairCounts, frame_pair_columns};
 use crate::tracks::Tracks;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -51,6 +52,8 @@ pub struct KinematicsReport {
     pub rows: usize,
     pub counts: PairCounts,
     pub warnings: Vec<String>,
+    /// Wall time per phase (read, hash, compute, assemble, write), seconds.
+    pub timings: Vec<Phase>,
 }
 
 impl std::fmt::Display for KinematicsReport {
@@ -142,7 +145,20 @@ pub fn plan_pairs(
 
 pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<KinematicsReport> {
     let file = input.display().to_string();
-    let (tracks, mut warnings) = read_tracks(input)?;
+    let mut clock = PhaseTimer::default();
+    // The provenance hash reads the file a second time: on its own thread, it is done
+    // by the time the tracks are decoded.
+    let (read, source_sha256) = std::thread::scope(|s| {
+        let hash = s.spawn(|| sha256_file(input));
+        let read = read_tracks(input);
+        let hashed = hash
+            .join()
+            .unwrap_or_else(|_| Err(Error::input(&file, "hashing the input failed")));
+        (read, hashed)
+    });
+    let (tracks, mut warnings) = read?;
+    let source_sha256 = source_sha256?;
+    clock.lap("read + hash");
     let ranges = tracks.frame_ranges();
     let d_large = tracks
         .large_diameter()
@@ -227,7 +243,7 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         "lags": lags,
         "provenance": {
             "tool": crate::stages::TOOL, "tool_version": crate::stages::VERSION,
-            "source": file, "source_sha256": sha256_file(input)?,
+            "source": file, "source_sha256": source_sha256,
             "parameters": {"lags": lags, "rc": rc, "start": opt.start, "every": opt.every, "convention": opt.convention},
         },
         "bar_speed": tracks.meta.bar_speed,
@@ -247,14 +263,20 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
                         format!("frames {fa} and {fb} have non-increasing times (dt = {dt})"),
                     ));
                 }
-                let (ks, c) = frame_pair(&a, &b, dt, &params)?;
+                clock.lap("other");
+                let (ks, c) = frame_pair_columns(&a, &b, dt, &params)?;
+                clock.lap("compute");
                 counts.add(&c);
-                sink.write(&kinematics_dataframe(fa, fb, dt, &ks)?)?;
+                let df = kinematics_dataframe(fa, fb, dt, ks)?;
+                clock.lap("assemble");
+                sink.write(&df)?;
+                clock.lap("write");
                 bar.inc(1);
             }
             Ok(())
         })
     })?;
+    clock.lap("write");
     bar.finish_and_clear();
     Ok(KinematicsReport {
         input: file,
@@ -269,5 +291,6 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         rows,
         counts,
         warnings,
+        timings: clock.finish(),
     })
 }

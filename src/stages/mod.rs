@@ -37,6 +37,7 @@ pub mod shear;
 pub mod simulate;
 pub mod sizes;
 pub mod sweep;
+pub mod timing;
 
 /// A checkpoint's bytes for `--resume`, or an error naming the file.
 pub(crate) fn read_checkpoint_bytes(ckpt: &std::path::Path) -> crate::error::Result<Vec<u8>> {
