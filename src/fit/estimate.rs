@@ -177,7 +177,7 @@ fn standard_error(ys: &[f64], mean: f64) -> f64 {
 
 /// What is minimised: mean squared log residual, or (weighted means) mean squared
 /// residual in units of each bin's standard error.
-const LN_4: f64 = std::f64::consts::LN_2 * 2.0;
+pub(super) const LN_4: f64 = std::f64::consts::LN_2 * 2.0;
 
 struct LogCost<'a> {
     pts: &'a [BinPoint],
@@ -322,17 +322,44 @@ pub fn fit_method(pts: &[BinPoint], method: Method) -> Result<PointFit> {
         ));
     }
     let cost = LogCost::new(pts, weighted);
-    // η_c grid 1e-5 … 1e2, 4 per decade, on the profile (Θ at its best for each η_c);
-    // Brent's method refines between the best node's neighbours.
-    let (lo, hi, n) = ((1e-5f64).ln(), (1e2f64).ln(), 28);
-    let node = |k: usize| lo + k as f64 * (hi - lo) / n as f64;
-    let best = (0..=n)
-        .map(|k| (k, cost.profile(node(k))))
+    let best = (0..=GRID_STEPS)
+        .map(|k| (k, cost.profile(grid_node(k))))
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map_or(0, |(k, _)| k);
-    let (a, b) = (node(best.saturating_sub(1)), node((best + 1).min(n)));
+    let (ln_ec, iterations) = refine(Profile(&cost), best, |l| cost.profile(l))?;
+    let ln_th = cost.best_ln_theta(ln_ec);
+    let p = [ln_th, ln_ec];
+    Ok(PointFit {
+        theta: p[0].exp(),
+        eta_c: p[1].exp(),
+        cost: cost.eval(p[0], p[1]),
+        iterations,
+    })
+}
+
+/// The η_c grid the profile is scanned on before Brent's method: ln η_c from
+/// ln 1e-5 to ln 1e2 in `GRID_STEPS` steps (4 per decade).
+pub(super) const GRID_STEPS: usize = 28;
+
+/// ln η_c at grid node `k` (0..=GRID_STEPS).
+pub(super) fn grid_node(k: usize) -> f64 {
+    let (lo, hi) = ((1e-5f64).ln(), (1e2f64).ln());
+    lo + k as f64 * (hi - lo) / GRID_STEPS as f64
+}
+
+/// Brent's method on `cost` between the neighbours of the best grid node `best`; the
+/// node itself where it is lower (the minimum at the grid's edge). Returns ln η_c and
+/// the solver's iterations. `profile` is the same cost as a plain function.
+pub(super) fn refine<C>(cost: C, best: usize, profile: impl Fn(f64) -> f64) -> Result<(f64, u64)>
+where
+    C: CostFunction<Param = f64, Output = f64>,
+{
+    let (a, b) = (
+        grid_node(best.saturating_sub(1)),
+        grid_node((best + 1).min(GRID_STEPS)),
+    );
     let solver = BrentOpt::new(a, b).set_tolerance(1e-10, 1e-12);
-    let res = Executor::new(Profile(&cost), solver)
+    let res = Executor::new(cost, solver)
         .configure(|s| s.max_iters(200))
         .timer(false)
         .run()
@@ -341,18 +368,11 @@ pub fn fit_method(pts: &[BinPoint], method: Method) -> Result<PointFit> {
     let ln_ec = *st
         .get_best_param()
         .ok_or_else(|| Error::Other("fit: no parameters".into()))?;
-    // The grid node itself where Brent's bracket ends there (minimum at the grid's edge).
-    let ln_ec = if cost.profile(node(best)) < cost.profile(ln_ec) {
-        node(best)
+    let node = grid_node(best);
+    let ln_ec = if profile(node) < profile(ln_ec) {
+        node
     } else {
         ln_ec
     };
-    let ln_th = cost.best_ln_theta(ln_ec);
-    let p = [ln_th, ln_ec];
-    Ok(PointFit {
-        theta: p[0].exp(),
-        eta_c: p[1].exp(),
-        cost: cost.eval(p[0], p[1]),
-        iterations: st.get_iter(),
-    })
+    Ok((ln_ec, st.get_iter()))
 }

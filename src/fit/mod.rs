@@ -6,6 +6,7 @@ mod boot;
 pub mod estimate;
 pub mod model;
 pub mod noise;
+mod points_boot;
 pub mod range;
 
 pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, reduce};
@@ -133,47 +134,45 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     let mut groups: Vec<u32> = group.clone();
     groups.sort_unstable();
     groups.dedup();
-    // Each start's samples, for the points estimator's replicates (the binned ones weigh
-    // starts instead).
-    let mut members: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
-    if method == Method::Points {
-        for (k, g) in group.iter().enumerate() {
-            members.entry(*g).or_default().push(k);
-        }
-    }
     let reps = if method == Method::Points {
         set.bootstrap.min(POINTS_REPLICATES_MAX)
     } else {
         set.bootstrap
     };
-    // Binned estimators: bin once, then each replicate weighs the starts it drew.
-    let pre = (method != Method::Points).then(|| {
-        let dense: Vec<u32> = group
-            .iter()
-            .map(|g| groups.binary_search(g).expect("a start of the samples") as u32)
-            .collect();
-        boot::Prebinned::new(&eta, &y, &dense, groups.len(), method, &set.binning)
-    });
+    // Each replicate weighs the starts it drew: the binned estimators bin once, the
+    // points estimator keeps each start's residual sums.
+    let dense: Vec<u32> = group
+        .iter()
+        .map(|g| groups.binary_search(g).expect("a start of the samples") as u32)
+        .collect();
+    enum Pre {
+        Binned(boot::Prebinned),
+        Points(points_boot::PointsBoot),
+    }
+    let pre = if method == Method::Points {
+        Pre::Points(points_boot::PointsBoot::new(&eta, &y, &dense, groups.len()))
+    } else {
+        Pre::Binned(boot::Prebinned::new(
+            &eta,
+            &y,
+            &dense,
+            groups.len(),
+            method,
+            &set.binning,
+        ))
+    };
     let fits: Vec<Option<PointFit>> = (0..reps)
         .into_par_iter()
         .map(|b| {
             let mut rng = Rng::new(set.seed ^ (b as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-            if let Some(pre) = &pre {
-                let mut weight = vec![0u32; groups.len()];
-                for _ in 0..groups.len() {
-                    weight[rng.below(groups.len())] += 1;
-                }
-                return fit_method(&pre.reduce(&weight), method).ok();
-            }
-            let (mut be, mut by) = (Vec::new(), Vec::new());
+            let mut weight = vec![0u32; groups.len()];
             for _ in 0..groups.len() {
-                let g = groups[rng.below(groups.len())];
-                for &k in &members[&g] {
-                    be.push(eta[k]);
-                    by.push(y[k]);
-                }
+                weight[rng.below(groups.len())] += 1;
             }
-            fit_method(&reduce(&be, &by, method, &set.binning), method).ok()
+            match &pre {
+                Pre::Binned(pre) => fit_method(&pre.reduce(&weight), method).ok(),
+                Pre::Points(pre) => pre.fit(&weight),
+            }
         })
         .collect();
     let ok: Vec<PointFit> = fits.iter().flatten().copied().collect();
