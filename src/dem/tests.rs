@@ -439,6 +439,43 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
     assert_eq!(one.record, mixed.record);
 }
 
+/// The force snapshot's per-grain top-bar force (the contact pressure of
+/// li-granular-pillars Fig. 10c) adds up to the step's bar force, is non-zero exactly
+/// for the grains that overlap the bar, and is the same split over any thread count.
+#[test]
+fn snapshot_bar_forces_add_up_to_the_bar_force() {
+    let mut p = PillarParams::fast();
+    p.bar_speed *= 20.0;
+    let start = packed_pillar(300, 4, p);
+    let mut runs = Vec::new();
+    for threads in [1, 2] {
+        let mut s = start.clone();
+        s.scratch.no_fallback = true;
+        s.advance_with(6_000, threads);
+        s.record = Some(ContactRecord::default());
+        s.advance_with(1, threads);
+        let rec = s.record.clone().expect("recorded");
+        let total: f64 = rec.f_bar.iter().sum();
+        assert!(s.top_force > 0.0, "the bar is loaded");
+        assert!(
+            (total - s.top_force).abs() <= 1e-12 * s.top_force,
+            "Σ f_bar {total} vs top force {}",
+            s.top_force
+        );
+        // Positions after the step: the forces are of the state before it, so a grain
+        // that was just leaving (or arriving at) the bar may differ; count the rest.
+        let top = s.top_y();
+        let g = &s.grains;
+        let touching = (0..g.len()).filter(|&i| rec.f_bar[i] > 0.0).count();
+        let overlap = (0..g.len()).filter(|&i| top - g.y[i] < g.radius[i]).count();
+        assert!(touching >= 3, "{touching} grains touch the bar");
+        assert!(touching.abs_diff(overlap) <= 1, "{touching} loaded, {overlap} overlap");
+        assert!(rec.f_bar.iter().all(|&f| f >= 0.0 && f.is_finite()));
+        runs.push(rec);
+    }
+    assert_eq!(runs[0], runs[1], "one and two threads");
+}
+
 /// Each grain's contact force and torque is the sum of its own contacts: an
 /// independent pass over every slot of the list (`slot_contact` from the same contact
 /// history), summed per grain in the documented order (its own slots, then those where

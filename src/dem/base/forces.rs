@@ -10,6 +10,9 @@ pub struct ContactRecord {
     pub f_t: Vec<f64>,
     /// Number of grain–grain contacts.
     pub contacts: Vec<u32>,
+    /// Normal force of the top (moving) bar on the grain (N), 0 where it does not
+    /// touch it: the bar's contact pressure (li-granular-pillars Fig. 10c).
+    pub f_bar: Vec<f64>,
 }
 
 impl ContactRecord {
@@ -18,6 +21,7 @@ impl ContactRecord {
             f_n: vec![0.0; n],
             f_t: vec![0.0; n],
             contacts: vec![0; n],
+            f_bar: vec![0.0; n],
         }
     }
 }

@@ -351,6 +351,9 @@ pub struct BarGrains<'a> {
     pub frozen: Option<&'a [bool]>,
     pub top_shear: &'a mut [f64],
     pub bottom_shear: &'a mut [f64],
+    /// On force-snapshot steps: each grain's normal force from the top bar (N), zero
+    /// where it does not touch it (li-granular-pillars Fig. 10c's contact pressure).
+    pub top_fn: Option<&'a mut [f64]>,
 }
 
 /// Phase 3b: grain–bar contacts of a range (all slices are the range's), added into
@@ -358,7 +361,7 @@ pub struct BarGrains<'a> {
 /// bars' tangential forces on the grains (N).
 pub fn bar_contacts(
     b: &Bars,
-    g: BarGrains,
+    mut g: BarGrains,
     fx: &mut [f64],
     fy: &mut [f64],
     tq: &mut [f64],
@@ -385,14 +388,23 @@ pub fn bar_contacts(
             continue;
         }
         // n points from the bar into the grain.
-        for (face, ny, bar_vy, shear, total) in [
-            (b.top, -1.0, -b.v_bar, &mut g.top_shear[i], &mut top_force),
+        let mut top_fn = g.top_fn.as_deref_mut().map(|f| &mut f[i]);
+        for (face, ny, bar_vy, shear, total, own) in [
+            (
+                b.top,
+                -1.0,
+                -b.v_bar,
+                &mut g.top_shear[i],
+                &mut top_force,
+                top_fn.take(),
+            ),
             (
                 b.bottom,
                 1.0,
                 0.0,
                 &mut g.bottom_shear[i],
                 &mut bottom_force,
+                None,
             ),
         ] {
             let gap = (g.y[i] - face) * ny;
@@ -403,6 +415,9 @@ pub fn bar_contacts(
                 fy[i] += c.fy;
                 tq[i] += c.t_i;
                 *total += c.f_n;
+                if let Some(own) = own {
+                    *own = c.f_n;
+                }
             }
         }
         i += 1;
@@ -431,6 +446,8 @@ pub struct StepBuffers {
     pub rec_fn: Vec<f64>,
     pub rec_ft: Vec<f64>,
     pub rec_touch: Vec<bool>,
+    /// Per grain: the top bar's normal force (N), filled on force-snapshot steps.
+    pub rec_bar: Vec<f64>,
     /// Per chunk: Σ F_n top, Σ F_n bottom, Σ bar shear (N); substrate power (W).
     pub bar_sums: Vec<[f64; 3]>,
     pub power: Vec<[f64; 2]>,

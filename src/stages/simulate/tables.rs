@@ -113,6 +113,7 @@ impl Buffers {
                     "f_sub_reduced",
                 ]));
                 c.push(("contacts", Col::I32(vec![])));
+                c.extend(f(&["f_bar", "f_bar_reduced"]));
                 c
             },
         }
@@ -204,6 +205,8 @@ impl Buffers {
                     (0..g.len()).map(|i| s.sub_fx[i].hypot(s.sub_fy[i]) / (g.mass[i] * p.g * p.mu)),
                 ),
                 ("contacts", Col::I32(c)) => c.extend(rec.contacts.iter().map(|&v| v as i32)),
+                ("f_bar", Col::F64(c)) => c.extend_from_slice(&rec.f_bar),
+                ("f_bar_reduced", Col::F64(c)) => c.extend(rec.f_bar.iter().map(|v| v / unit)),
                 _ => unreachable!(),
             }
         }

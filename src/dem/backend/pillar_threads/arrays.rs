@@ -98,6 +98,7 @@ pub(crate) struct Arrays {
     rec_fn: P<f64>,
     rec_ft: P<f64>,
     rec_touch: P<bool>,
+    rec_bar: P<f64>,
     bar_sums: P<[f64; 3]>,
     power: P<[f64; 2]>,
     pow_t: P<f64>,
@@ -274,6 +275,7 @@ impl PillarSim {
             rec_fn: P::of(&mut b.rec_fn),
             rec_ft: P::of(&mut b.rec_ft),
             rec_touch: P::of(&mut b.rec_touch),
+            rec_bar: P::of(&mut b.rec_bar),
             bar_sums: P::of(&mut b.bar_sums),
             power: P::of(&mut b.power),
             pow_t: P::of(&mut b.pow_t),
@@ -567,6 +569,8 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u
         let (ys, rs): (&[f64], &[f64]) = (a.y.part(r.clone()), &a.radius.all()[r.clone()]);
         let (top_shear, bottom_shear) =
             (a.top_shear.part(r.clone()), a.bottom_shear.part(r.clone()));
+        let top_fn: Option<&mut [f64]> = a.record.then(|| a.rec_bar.part(r.clone()));
+        let mut top_fn = top_fn;
         for (k, ch) in chunks.clone().enumerate() {
             let cr = ch * CHUNK..((ch + 1) * CHUNK).min(r.end);
             let local = cr.start - r.start..cr.end - r.start;
@@ -581,6 +585,7 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u
                     frozen: fz.map(|f| &f[local.clone()]),
                     top_shear: &mut top_shear[local.clone()],
                     bottom_shear: &mut bottom_shear[local.clone()],
+                    top_fn: top_fn.as_deref_mut().map(|f| &mut f[local.clone()]),
                 },
                 &mut fx[local.clone()],
                 &mut fy[local.clone()],

@@ -322,6 +322,9 @@ impl PillarSim {
         b.rec_fn.resize(want, 0.0);
         b.rec_ft.resize(want, 0.0);
         b.rec_touch.resize(want, false);
+        // Per grain; zeroed for each snapshot (only touching grains are written).
+        b.rec_bar.clear();
+        b.rec_bar.resize(if rec { n } else { 0 }, 0.0);
     }
 
     /// Thread 0 between the kick and the forces: the list's rebuild test and rebuild,
@@ -365,6 +368,7 @@ impl PillarSim {
             let n = self.grains.len();
             *rec = crate::dem::base::forces::ContactRecord::zeroed(n);
             let b = &self.scratch.buffers;
+            rec.f_bar.copy_from_slice(&b.rec_bar);
             for i in 0..n {
                 for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
                     if b.rec_touch[k] {
