@@ -263,6 +263,30 @@ enum Cmd {
         /// `simulate pillar` output directories (run each to ε ≥ 0.2).
         #[arg(required = true)]
         runs: Vec<PathBuf>,
+        /// One row per run: N, W0/D, ⟨σ⟩ and its error (m g μ/D), ⟨κ⟩, χ = W/W0 at
+        /// ε = 0.1 and 0.2, the bar pressure at the interface's centre (m g μ/D).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also every run's frames: ε, σ (m g μ/D), κ, χ (Figs. 10a, 10d, shape scaling).
+        #[arg(long)]
+        curves: Option<PathBuf>,
+        /// Also every run's bar pressure profile p (m g μ/D) against x/W (Fig. 10c).
+        #[arg(long)]
+        pressure: Option<PathBuf>,
+    },
+    /// Contact pressure along the compressing bar of a `simulate pillar` run
+    /// (li-granular-pillars Fig. 10c): p in m g μ/D against x/W (W the span of the
+    /// grains touching the bar), averaged over the force snapshots in a strain window.
+    BarPressure {
+        /// A `simulate pillar` output directory.
+        run: PathBuf,
+        /// Strain window LO,HI of the snapshots averaged (engineering strain).
+        #[arg(long, value_parser = parse_pair, default_value = "0.1,0.2")]
+        strain: (f64, f64),
+        /// Bins across the interface.
+        #[arg(long, default_value_t = 10)]
+        bins: usize,
+        /// x_over_w, p table (CSV or Parquet by extension).
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -617,10 +641,20 @@ fn run(cli: Cli) -> Result<()> {
             );
             println!("wrote       {}", output.display());
         }
-        Cmd::Sizes { runs, output } => {
-            let (rows, fit) =
-                pillar_pipe::stages::sizes::run(&runs, &output).context("size scan")?;
-            for r in &rows {
+        Cmd::Sizes {
+            runs,
+            output,
+            curves,
+            pressure,
+        } => {
+            let out = pillar_pipe::stages::sizes::SizeOutputs {
+                table: output.clone(),
+                curves,
+                pressure,
+            };
+            let scan = pillar_pipe::stages::sizes::run(&runs, &out).context("size scan")?;
+            let (rows, fit) = (&scan.rows, &scan.fit);
+            for r in rows {
                 println!(
                     "size        N = {:6}  W0 = {:6.2} D  <sigma> = {:.3} ± {:.3} m g mu/D  kappa = {:.3}  ({})",
                     r.n,
@@ -637,6 +671,61 @@ fn run(cli: Cli) -> Result<()> {
                     f.c, f.c_interval[0], f.c_interval[1]
                 ),
                 None => println!("fit         needs two runs or more"),
+            }
+            for r in rows {
+                println!(
+                    "shape       N = {:6}  chi = W/W0: {:.3} at eps = 0.1, {:.3} at 0.2",
+                    r.n, r.chi[0], r.chi[1]
+                );
+                match &r.pressure {
+                    Ok((_, snaps)) => println!(
+                        "pressure    N = {:6}  p at the centre = {:.3} m g mu/D ({snaps} snapshots, 0.1 <= eps <= 0.2), p/W0 = {:.4}",
+                        r.n,
+                        r.p_centre(),
+                        r.p_centre() / r.w0_over_d
+                    ),
+                    Err(e) => println!("warning     N = {}: no bar pressure: {e}", r.n),
+                }
+            }
+            if let Some(c) = &scan.checks {
+                let verdict = |ok: bool| if ok { "holds" } else { "does NOT hold" };
+                println!(
+                    "check       <sigma>/W0 equal across sizes within 10 %: spread {:.1} % ({})",
+                    100.0 * c.sigma_over_w0_spread,
+                    verdict(c.sigma_over_w0_spread <= 0.10)
+                );
+                println!(
+                    "check       kappa equal across sizes within 0.03: spread {:.3} ({})",
+                    c.kappa_spread,
+                    verdict(c.kappa_spread <= 0.03)
+                );
+                for (k, at) in pillar_pipe::stages::sizes::CHI_AT.iter().enumerate() {
+                    println!(
+                        "check       W/W0 at eps = {at} equal across sizes within 5 %: spread {:.1} % ({})",
+                        100.0 * c.chi_spread[k],
+                        verdict(c.chi_spread[k] <= 0.05)
+                    );
+                }
+            }
+            println!("wrote       {}", output.display());
+            for p in [&out.curves, &out.pressure].into_iter().flatten() {
+                println!("wrote       {}", p.display());
+            }
+        }
+        Cmd::BarPressure {
+            run,
+            strain,
+            bins,
+            output,
+        } => {
+            let (p, snaps) = pillar_pipe::stages::bar_pressure::run(&run, strain, bins, &output)
+                .context("bar pressure")?;
+            println!(
+                "pressure    {snaps} snapshots at {} <= eps <= {}: W = {:.2} D, bar force {:.3} m g mu, {} grains touching",
+                strain.0, strain.1, p.width, p.force, p.contacts
+            );
+            for (x, v) in p.x_over_w.iter().zip(&p.p) {
+                println!("  x/W = {x:.2}   p = {v:.3} m g mu/D");
             }
             println!("wrote       {}", output.display());
         }

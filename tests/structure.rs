@@ -159,14 +159,20 @@ fn flow_stress_scales_with_the_width() {
     };
     let (a, b) = (sim("120", "0.2"), sim("360", "0.2"));
     let out = d.join("sizes.csv");
+    let (curves, pressure) = (d.join("curves.csv"), d.join("pressure.csv"));
     let (ok, text) = run(&[
         "sizes",
         a.to_str().unwrap(),
         b.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
+        "--curves",
+        curves.to_str().unwrap(),
+        "--pressure",
+        pressure.to_str().unwrap(),
     ]);
     assert!(ok, "{text}");
+    assert!(text.contains("check       <sigma>/W0"), "{text}");
     let t = read_table(&out, &[]).unwrap();
     let (w, s, k) = (
         t.f64("w0_over_d").unwrap(),
@@ -185,7 +191,55 @@ fn flow_stress_scales_with_the_width() {
     );
     assert!(k.iter().all(|&x| x > 0.0 && x < 1.0), "{k:?}");
     assert!(text.contains("c = "), "{text}");
+    // Shape scaling: the pillar widens as it is compressed, alike at both sizes.
+    let (c1, c2) = (t.f64("chi_at_0_1").unwrap(), t.f64("chi_at_0_2").unwrap());
+    for k in 0..2 {
+        assert!(c1[k] > 1.05 && c2[k] > c1[k], "χ {c1:?} {c2:?}");
+    }
+    assert!((c2[0] / c2[1] - 1.0).abs() < 0.15, "χ(0.2) {c2:?}");
+    let cv = read_table(&curves, &[]).unwrap();
+    let (n, chi) = (cv.i64("n").unwrap(), cv.f64("chi").unwrap());
+    assert!(n.contains(&120) && n.contains(&360));
+    assert!(chi.iter().all(|v| v.is_finite() && *v > 0.5), "χ curve");
+    // Fig. 10c: near zero at the interface's edges, highest around its centre, and the
+    // centre's pressure grows with the width as the flow stress does.
+    let pt = read_table(&pressure, &[]).unwrap();
+    let (pn, x, p) = (
+        pt.i64("n").unwrap(),
+        pt.f64("x_over_w").unwrap(),
+        pt.f64("p").unwrap(),
+    );
+    let centre = t.f64("p_centre").unwrap();
+    for (k, size) in [120, 360].into_iter().enumerate() {
+        let edge: Vec<f64> = (0..p.len())
+            .filter(|&i| pn[i] == size && (x[i] - 0.5).abs() > 0.4)
+            .map(|i| p[i])
+            .collect();
+        assert_eq!(edge.len(), 2, "two edge bins");
+        let edge = edge.iter().sum::<f64>() / 2.0;
+        assert!(
+            edge < 0.75 * centre[k],
+            "N = {size}: edge {edge} centre {}",
+            centre[k]
+        );
+    }
+    assert!(
+        centre[1] > 1.2 * centre[0],
+        "p at the centre grows with W0: {centre:?}"
+    );
     let short = sim("120", "0.1");
+    let (ok, text) = run(&[
+        "bar-pressure",
+        short.to_str().unwrap(),
+        "--strain",
+        "0.15,0.2",
+        "-o",
+        d.join("p.csv").to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && text.contains("forces.parquet") && text.contains("reached ε = 0.1"),
+        "{text}"
+    );
     let (ok, text) = run(&[
         "sizes",
         short.to_str().unwrap(),

@@ -469,7 +469,10 @@ fn snapshot_bar_forces_add_up_to_the_bar_force() {
         let touching = (0..g.len()).filter(|&i| rec.f_bar[i] > 0.0).count();
         let overlap = (0..g.len()).filter(|&i| top - g.y[i] < g.radius[i]).count();
         assert!(touching >= 3, "{touching} grains touch the bar");
-        assert!(touching.abs_diff(overlap) <= 1, "{touching} loaded, {overlap} overlap");
+        assert!(
+            touching.abs_diff(overlap) <= 1,
+            "{touching} loaded, {overlap} overlap"
+        );
         assert!(rec.f_bar.iter().all(|&f| f >= 0.0 && f.is_finite()));
         runs.push(rec);
     }

@@ -27,6 +27,7 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
     bar.set_message(what.to_string());
     bar
 }
+pub mod bar_pressure;
 pub mod compare;
 pub mod fit;
 pub mod gofr;

@@ -1,7 +1,10 @@
 //! `pillar-pipe sizes`: a size scan's flow stress (li-granular-pillars Fig. 10a, b): for
 //! each `simulate pillar` run, ⟨σ⟩ over 0.05 ≤ ε ≤ 0.2 in m g μ/D with its error, the
 //! mean dissipation ratio κ there (Fig. 10d), W0 and H0 in D; and the fit ⟨σ⟩ = c W0/D
-//! through the origin with its 95 % interval.
+//! through the origin with its 95 % interval; the shape scaling χ = W/W0 at ε = 0.1
+//! and 0.2, the contact pressure along the bar (Fig. 10c, `bar_pressure`), and the
+//! paper's claims as checks across the sizes. Optionally the curves of every run
+//! (σ, κ, χ against ε) and the pressure profiles, for overlays.
 
 use crate::error::{Error, Result};
 use crate::io::csvdiag::Expect;
@@ -24,6 +27,66 @@ pub struct SizeRow {
     pub sigma_err: f64,
     /// ⟨κ⟩ over the window.
     pub kappa: f64,
+    /// χ = W/W0 at ε = 0.1 and 0.2 (W: the `width` column, 2 D band at the top bar).
+    pub chi: [f64; 2],
+    /// The mean bar pressure profile over `bar_pressure::WINDOW` (p in m g μ/D), or why
+    /// there is none.
+    #[serde(skip)]
+    pub pressure: std::result::Result<(crate::structure::pressure::PressureProfile, usize), String>,
+    /// Frames of the run: ε, σ (m g μ/D), κ, χ.
+    #[serde(skip)]
+    pub curves: [Vec<f64>; 4],
+}
+
+/// The strains at which χ = W/W0 is compared across sizes.
+pub const CHI_AT: [f64; 2] = [0.1, 0.2];
+
+impl SizeRow {
+    /// The pressure at the centre of the interface: the mean of the middle 40 % of x/W
+    /// (the paper's "saturated values around the centre"), m g μ/D.
+    pub fn p_centre(&self) -> f64 {
+        match &self.pressure {
+            Ok((p, _)) => {
+                let mid: Vec<f64> = (0..p.p.len())
+                    .filter(|&k| (p.x_over_w[k] - 0.5).abs() < 0.2)
+                    .map(|k| p.p[k])
+                    .collect();
+                mid.iter().sum::<f64>() / mid.len().max(1) as f64
+            }
+            Err(_) => f64::NAN,
+        }
+    }
+}
+
+/// The paper's size-independence claims (li-granular-pillars Sec. V) as numbers: the
+/// relative spread (max − min over the mean) across the runs of ⟨σ⟩/W0 and of χ at
+/// `CHI_AT`, and the absolute spread of ⟨κ⟩. The tolerances: 10 %, 5 %, 0.03.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ScanChecks {
+    pub sigma_over_w0_spread: f64,
+    pub chi_spread: [f64; 2],
+    pub kappa_spread: f64,
+}
+
+fn spread(v: &[f64]) -> f64 {
+    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
+        (a.0.min(x), a.1.max(x))
+    });
+    (hi - lo) / (v.iter().sum::<f64>() / v.len() as f64)
+}
+
+/// χ at strain `at` by linear interpolation between frames (NaN beyond the run).
+fn interpolate(eps: &[f64], v: &[f64], at: f64) -> f64 {
+    (1..eps.len())
+        .find(|&k| eps[k - 1] <= at && eps[k] >= at)
+        .map_or(f64::NAN, |k| {
+            let t = if eps[k] > eps[k - 1] {
+                (at - eps[k - 1]) / (eps[k] - eps[k - 1])
+            } else {
+                0.0
+            };
+            v[k - 1] + t * (v[k] - v[k - 1])
+        })
 }
 
 /// The scan's fit ⟨σ⟩ = c W0/D: c (m g μ/D per D) and its 95 % interval.
@@ -58,13 +121,17 @@ fn row(dir: &Path) -> Result<SizeRow> {
             ("strain", Expect::Float),
             ("stress_reduced", Expect::Float),
             ("kappa", Expect::Float),
+            ("width", Expect::Float),
         ],
     )?;
-    let (eps, sig, kap) = (
+    let (eps, sig, kap, width) = (
         t.f64("strain")?,
         t.f64_or_nan("stress_reduced")?,
         t.f64_or_nan("kappa")?,
+        t.f64("width")?,
     );
+    let w_start = width.first().copied().unwrap_or(f64::NAN);
+    let chi: Vec<f64> = width.iter().map(|w| w / w_start).collect();
     let idx: Vec<usize> = (0..eps.len())
         .filter(|&k| eps[k] >= WINDOW.0 && eps[k] <= WINDOW.1 && sig[k].is_finite())
         .collect();
@@ -103,6 +170,14 @@ fn row(dir: &Path) -> Result<SizeRow> {
         } else {
             mean(&kappa_idx, &kap)
         },
+        chi: CHI_AT.map(|at| interpolate(&eps, &chi, at)),
+        pressure: super::bar_pressure::run_profile(
+            dir,
+            super::bar_pressure::WINDOW,
+            super::bar_pressure::BINS,
+        )
+        .map_err(|e| e.to_string()),
+        curves: [eps, sig, kap, chi],
     })
 }
 
@@ -135,8 +210,27 @@ pub fn fit_through_origin(x: &[f64], y: &[f64], err: &[f64]) -> Option<SizeFit> 
     })
 }
 
-/// The scan of the runs in `dirs`, written to `output` (Parquet or CSV).
-pub fn run(dirs: &[PathBuf], output: &Path) -> Result<(Vec<SizeRow>, Option<SizeFit>)> {
+/// Where the scan writes: the one-row-per-run table, and optionally every run's curves
+/// against ε and every run's pressure profile (Parquet or CSV by extension).
+#[derive(Debug, Clone, Default)]
+pub struct SizeOutputs {
+    pub table: PathBuf,
+    pub curves: Option<PathBuf>,
+    pub pressure: Option<PathBuf>,
+}
+
+/// What the scan found.
+#[derive(Debug, Clone)]
+pub struct SizeScan {
+    pub rows: Vec<SizeRow>,
+    pub fit: Option<SizeFit>,
+    /// None with fewer than two runs.
+    pub checks: Option<ScanChecks>,
+}
+
+/// The scan of the runs in `dirs`, written where `out` says.
+pub fn run(dirs: &[PathBuf], out: &SizeOutputs) -> Result<SizeScan> {
+    let output = &out.table;
     let mut rows = dirs.iter().map(|d| row(d)).collect::<Result<Vec<_>>>()?;
     rows.sort_by(|a, b| a.w0_over_d.total_cmp(&b.w0_over_d));
     let col = |f: &dyn Fn(&SizeRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
@@ -157,11 +251,71 @@ pub fn run(dirs: &[PathBuf], output: &Path) -> Result<(Vec<SizeRow>, Option<Size
             Column::new("sigma_mean".into(), col(&|r| r.sigma)),
             Column::new("sigma_err".into(), col(&|r| r.sigma_err)),
             Column::new("kappa_mean".into(), col(&|r| r.kappa)),
+            Column::new("chi_at_0_1".into(), col(&|r| r.chi[0])),
+            Column::new("chi_at_0_2".into(), col(&|r| r.chi[1])),
+            Column::new("p_centre".into(), col(&|r| r.p_centre())),
         ],
     )
     .map_err(|e| Error::polars("the size-scan table", e))?;
     write_table(&mut df, output)?;
-    Ok((rows, fit))
+    if let Some(path) = &out.curves {
+        write_long(
+            &rows,
+            path,
+            &["strain", "stress_reduced", "kappa", "chi"],
+            |r| r.curves.to_vec(),
+        )?;
+    }
+    if let Some(path) = &out.pressure {
+        write_long(&rows, path, &["x_over_w", "p"], |r| match &r.pressure {
+            Ok((p, _)) => vec![p.x_over_w.clone(), p.p.clone()],
+            Err(_) => vec![Vec::new(), Vec::new()],
+        })?;
+    }
+    let checks = (rows.len() >= 2).then(|| ScanChecks {
+        sigma_over_w0_spread: spread(&col(&|r| r.sigma / r.w0_over_d)),
+        chi_spread: [0, 1].map(|k| spread(&col(&|r| r.chi[k]))),
+        kappa_spread: {
+            let k = col(&|r| r.kappa);
+            k.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+                - k.iter().copied().fold(f64::INFINITY, f64::min)
+        },
+    });
+    Ok(SizeScan { rows, fit, checks })
+}
+
+/// One table of per-run columns stacked, each row labelled with its run's N and W0/D.
+fn write_long(
+    rows: &[SizeRow],
+    path: &Path,
+    names: &[&str],
+    cols: impl Fn(&SizeRow) -> Vec<Vec<f64>>,
+) -> Result<()> {
+    let (mut n, mut w0) = (Vec::new(), Vec::new());
+    let mut data: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    for r in rows {
+        let c = cols(r);
+        let len = c.first().map_or(0, Vec::len);
+        n.extend(std::iter::repeat_n(r.n as i64, len));
+        w0.extend(std::iter::repeat_n(r.w0_over_d, len));
+        for (d, v) in data.iter_mut().zip(c) {
+            d.extend(v);
+        }
+    }
+    let mut columns = vec![
+        Column::new("n".into(), n),
+        Column::new("w0_over_d".into(), w0),
+    ];
+    columns.extend(
+        names
+            .iter()
+            .zip(data)
+            .map(|(name, v)| Column::new((*name).into(), v)),
+    );
+    let height = columns[0].len();
+    let mut df = DataFrame::new(height, columns)
+        .map_err(|e| Error::polars(format!("{}: building", path.display()), e))?;
+    write_table(&mut df, path)
 }
 
 #[cfg(test)]
@@ -183,5 +337,15 @@ mod tests {
         let g = fit_through_origin(&x, &[5.0, 12.0, 18.0], &[0.1, 0.1, 0.1]).unwrap();
         assert!(g.c_interval[1] - g.c_interval[0] > 10.0 * (f.c_interval[1] - f.c_interval[0]));
         assert!(fit_through_origin(&[1.0], &[1.0], &[1.0]).is_none());
+    }
+
+    #[test]
+    fn spread_and_interpolation() {
+        assert!((spread(&[0.9, 1.0, 1.1]) - 0.2).abs() < 1e-12);
+        let eps = [0.0, 0.08, 0.12, 0.2];
+        let chi = [1.0, 1.2, 1.4, 1.6];
+        assert!((interpolate(&eps, &chi, 0.1) - 1.3).abs() < 1e-12);
+        assert_eq!(interpolate(&eps, &chi, 0.2), 1.6);
+        assert!(interpolate(&eps, &chi, 0.3).is_nan(), "beyond the run");
     }
 }

@@ -14,6 +14,7 @@
 //! with ρ the density of all grains: it tends to 1 at large r for any species mix.
 
 mod outline;
+pub mod pressure;
 
 pub use outline::{Outline, shape_distance};
 

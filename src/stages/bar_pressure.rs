@@ -1,0 +1,127 @@
+//! `pillar-pipe bar-pressure`: the contact pressure along the compressing bar of a
+//! `simulate pillar` run (li-granular-pillars Fig. 10c), averaged over the force
+//! snapshots whose strain lies in a window of the plastic regime, in the paper's units:
+//! p in m g μ/D against x/W (see `structure::pressure` for the construction).
+
+use crate::error::{Error, Result};
+use crate::io::csvdiag::Expect;
+use crate::io::table::{read_table, write_table};
+use crate::structure::pressure::{PressureProfile, bar_pressure, mean_profile};
+use polars::prelude::{Column, DataFrame};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// The default strain window: plastic flow at every size (li-granular-pillars Fig. 4:
+/// the stress has levelled off by ε ≈ 0.05; the paper's ⟨σ⟩ window ends at 0.2).
+pub const WINDOW: (f64, f64) = (0.1, 0.2);
+
+/// Bins across the interface.
+pub const BINS: usize = 10;
+
+/// A run's mean profile over its snapshots in `window`, p in m g μ/D, and how many
+/// snapshots it averages.
+pub fn run_profile(
+    dir: &Path,
+    window: (f64, f64),
+    bins: usize,
+) -> Result<(PressureProfile, usize)> {
+    let ss_path = dir.join("stress_strain.parquet");
+    let ss = read_table(
+        &ss_path,
+        &[("frame", Expect::Int), ("strain", Expect::Float)],
+    )?;
+    let strain_of: HashMap<i64, f64> = ss
+        .i64("frame")?
+        .into_iter()
+        .zip(ss.f64("strain")?)
+        .collect();
+    let reached = strain_of
+        .values()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    let f_path = dir.join("forces.parquet");
+    let forces = read_table(
+        &f_path,
+        &[
+            ("frame", Expect::Int),
+            ("particle", Expect::Int),
+            ("f_bar_reduced", Expect::Float),
+        ],
+    )
+    .map_err(|e| match e {
+        Error::Io { .. } => e,
+        other => Error::input(
+            f_path.display(),
+            format!("{other} (runs before the bar force was recorded per grain lack f_bar_reduced: simulate again)"),
+        ),
+    })?;
+    let (ff, fp, fb) = (
+        forces.i64("frame")?,
+        forces.i64("particle")?,
+        forces.f64("f_bar_reduced")?,
+    );
+    let (tracks, _) = crate::io::read_tracks(&dir.join("tracks.parquet"))?;
+    let d = tracks
+        .large_diameter()
+        .ok_or_else(|| Error::input(dir.join("tracks.parquet").display(), "no grain radii"))?;
+    let ranges: HashMap<i64, std::ops::Range<usize>> = tracks.frame_ranges().into_iter().collect();
+    let mut profiles = Vec::new();
+    let mut s = 0;
+    while s < ff.len() {
+        let frame = ff[s];
+        let e = s + ff[s..].iter().take_while(|&&v| v == frame).count();
+        let in_window = strain_of
+            .get(&frame)
+            .is_some_and(|&eps| eps >= window.0 && eps <= window.1);
+        if let (true, Some(r)) = (in_window, ranges.get(&frame)) {
+            // Grain positions of this frame, by id, in D.
+            let at: HashMap<i64, usize> = r.clone().map(|i| (tracks.particle[i], i)).collect();
+            let (mut x, mut rad, mut f) = (Vec::new(), Vec::new(), Vec::new());
+            for k in s..e {
+                if let Some(&i) = at.get(&fp[k]) {
+                    x.push(tracks.x[i] / d);
+                    rad.push(tracks.radius[i] / d);
+                    f.push(fb[k]);
+                }
+            }
+            if let Some(p) = bar_pressure(&x, &rad, &f, bins) {
+                profiles.push(p);
+            }
+        }
+        s = e;
+    }
+    let n = profiles.len();
+    let mean = mean_profile(&profiles).ok_or_else(|| {
+        Error::input(
+            f_path.display(),
+            format!(
+                "no force snapshot with the bar in contact at {} ≤ ε ≤ {} (the run reached ε = {reached:.3}; snapshots every --forces-every frames)",
+                window.0, window.1
+            ),
+        )
+    })?;
+    Ok((mean, n))
+}
+
+/// [`run_profile`], written to `output` as an (x_over_w, p) table.
+pub fn run(
+    dir: &Path,
+    window: (f64, f64),
+    bins: usize,
+    output: &Path,
+) -> Result<(PressureProfile, usize)> {
+    if bins == 0 {
+        return Err(Error::param("bins", "must be at least 1"));
+    }
+    let (p, n) = run_profile(dir, window, bins)?;
+    let mut df = DataFrame::new(
+        p.p.len(),
+        vec![
+            Column::new("x_over_w".into(), p.x_over_w.clone()),
+            Column::new("p".into(), p.p.clone()),
+        ],
+    )
+    .map_err(|e| Error::polars("the bar pressure table", e))?;
+    write_table(&mut df, output)?;
+    Ok((p, n))
+}
