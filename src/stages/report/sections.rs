@@ -126,3 +126,31 @@ pub fn strain_blocks(
     }
     Ok(blocks)
 }
+
+/// Figures of one section, saved as `<prefix>_<file>.{png,svg}` and collected as blocks.
+pub struct Figures<'a> {
+    pub figdir: &'a Path,
+    pub prefix: String,
+    pub figures: &'a mut Vec<SavedFigure>,
+    pub blocks: Vec<Block>,
+}
+
+impl Figures<'_> {
+    pub fn add(
+        &mut self,
+        fig: &impl crate::stages::report::render::Figure,
+        file: &str,
+        caption: String,
+    ) -> Result<()> {
+        let stem = format!("{}_{file}", self.prefix);
+        let saved = save(fig, &self.figdir.join(&stem))?;
+        self.blocks.push(Block::Figure {
+            id: format!("fig-{}", stem.replace('_', "-")),
+            caption,
+            svg: saved.svg_text.clone(),
+            png: rel(&saved),
+        });
+        self.figures.push(saved);
+        Ok(())
+    }
+}

@@ -10,8 +10,8 @@ use crate::error::{Error, Result};
 use crate::io::table::read_table;
 use crate::stages::report::render::curves::{PhaseFigure, XyFigure, XySeries};
 use crate::stages::report::render::html::{Block, Section};
-use crate::stages::report::render::{SavedFigure, save};
-use crate::stages::report::sections::rel;
+use crate::stages::report::render::SavedFigure;
+use crate::stages::report::sections::Figures;
 use classify::{Class, Slope, Transition, fit_slope, local_slopes, transitions};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -228,33 +228,6 @@ fn fmt_pm(m: f64, e: f64) -> String {
 
 fn pt(p: &(f64, f64, f64)) -> String {
     format!("(φ = {}, Q = {}, γ̇ τ_e = {:e})", p.0, p.1, p.2)
-}
-
-struct Figures<'a> {
-    figdir: &'a Path,
-    prefix: String,
-    figures: &'a mut Vec<SavedFigure>,
-    blocks: Vec<Block>,
-}
-
-impl Figures<'_> {
-    fn add(
-        &mut self,
-        fig: &impl crate::stages::report::render::Figure,
-        file: &str,
-        caption: String,
-    ) -> Result<()> {
-        let stem = format!("{}_{file}", self.prefix);
-        let saved = save(fig, &self.figdir.join(&stem))?;
-        self.blocks.push(Block::Figure {
-            id: format!("fig-{}", stem.replace('_', "-")),
-            caption,
-            svg: saved.svg_text.clone(),
-            png: rel(&saved),
-        });
-        self.figures.push(saved);
-        Ok(())
-    }
 }
 
 /// File-name-safe form of a label.
