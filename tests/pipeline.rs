@@ -214,6 +214,7 @@ fn bundled_pipelines_validate() {
         "experiment-only",
         "shear-flow-curves",
         "shear-phase-diagram",
+        "paper-sizes",
     ] {
         let out = run_ok(&["run", &bundled(name), "--dry-run"], &d.join("runs"));
         assert!(out.contains("is valid"), "{out}");

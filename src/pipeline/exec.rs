@@ -259,13 +259,14 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             };
             let r = stages::report::run(out, &opt)?;
             let mut outs = outputs(&[("html", "report.html"), ("figures", "figures")]);
-            // The sweeps' classification tables, copied into the run beside the report.
+            // The sweeps' classification tables and the size scan's tables, copied into
+            // the run beside the report.
             for e in std::fs::read_dir(out)
                 .map_err(|e| Error::io(out, e))?
                 .flatten()
             {
                 let name = e.file_name().to_string_lossy().into_owned();
-                if name.starts_with("classification_") {
+                if name.starts_with("classification_") || name.starts_with("size_scan") {
                     outs.insert(name.replace('.', "_"), name);
                 }
             }

@@ -7,7 +7,7 @@ use crate::geom::Vec2;
 use crate::io::read_tracks;
 use crate::io::table::write_table;
 use crate::structure::{PairDistribution, pair_distribution};
-use crate::tracks::SMALL;
+use crate::tracks::{SMALL, Tracks};
 use polars::prelude::*;
 use std::path::Path;
 
@@ -21,30 +21,7 @@ pub fn run(
     bins: usize,
 ) -> Result<(PairDistribution, i64, f64)> {
     let (t, _) = read_tracks(input)?;
-    let ranges = t.frame_ranges();
-    let (f, rows) = match frame {
-        None => ranges
-            .first()
-            .cloned()
-            .ok_or_else(|| Error::input(input.display(), "no rows"))?,
-        Some(f) => ranges
-            .iter()
-            .find(|(k, _)| *k == f)
-            .cloned()
-            .ok_or_else(|| Error::param("frame", format!("{}: no frame {f}", input.display())))?,
-    };
-    let d = t
-        .large_diameter()
-        .ok_or_else(|| Error::input(input.display(), "no radii to take D from"))?;
-    let pos: Vec<Vec2> = rows.clone().map(|i| Vec2::new(t.x[i], t.y[i])).collect();
-    let small: Vec<bool> = match &t.species {
-        Some(s) => rows.clone().map(|i| s[i] == SMALL).collect(),
-        None => rows
-            .clone()
-            .map(|i| t.radius[i] < 0.5 * d * 0.999)
-            .collect(),
-    };
-    let g = pair_distribution(&pos, &small, r_max_over_d * d, bins, t.meta.box_at(f))?;
+    let (g, f, d) = of_tracks(&t, &input.display().to_string(), frame, r_max_over_d, bins)?;
     let mut df = DataFrame::new(
         bins,
         vec![
@@ -59,5 +36,41 @@ pub fn run(
     )
     .map_err(|e| Error::polars("the g(r) table", e))?;
     write_table(&mut df, output)?;
+    Ok((g, f, d))
+}
+
+/// g(r) of frame `frame` (default: the first) of tracks `t` read from `source` (named
+/// in errors): the distribution (r in the tracks' length unit), the frame, and D.
+pub fn of_tracks(
+    t: &Tracks,
+    source: &str,
+    frame: Option<i64>,
+    r_max_over_d: f64,
+    bins: usize,
+) -> Result<(PairDistribution, i64, f64)> {
+    let ranges = t.frame_ranges();
+    let (f, rows) = match frame {
+        None => ranges
+            .first()
+            .cloned()
+            .ok_or_else(|| Error::input(source, "no rows"))?,
+        Some(f) => ranges
+            .iter()
+            .find(|(k, _)| *k == f)
+            .cloned()
+            .ok_or_else(|| Error::param("frame", format!("{}: no frame {f}", source)))?,
+    };
+    let d = t
+        .large_diameter()
+        .ok_or_else(|| Error::input(source, "no radii to take D from"))?;
+    let pos: Vec<Vec2> = rows.clone().map(|i| Vec2::new(t.x[i], t.y[i])).collect();
+    let small: Vec<bool> = match &t.species {
+        Some(s) => rows.clone().map(|i| s[i] == SMALL).collect(),
+        None => rows
+            .clone()
+            .map(|i| t.radius[i] < 0.5 * d * 0.999)
+            .collect(),
+    };
+    let g = pair_distribution(&pos, &small, r_max_over_d * d, bins, t.meta.box_at(f))?;
     Ok((g, f, d))
 }

@@ -7,6 +7,7 @@ use crate::geom::Vec2;
 use crate::io::read_tracks;
 use crate::io::table::write_table;
 use crate::structure::{Outline, shape_distance};
+use crate::tracks::Tracks;
 use polars::prelude::*;
 use std::path::Path;
 
@@ -22,10 +23,16 @@ pub struct FrameOutline {
 /// The outline of `frame` (default: the last) of the tracks at `input`.
 pub fn outline_of(input: &Path, frame: Option<i64>) -> Result<FrameOutline> {
     let (t, _) = read_tracks(input)?;
+    outline_of_tracks(&t, &input.display().to_string(), frame)
+}
+
+/// The outline of `frame` (default: the last) of tracks `t` read from `source` (named in
+/// errors).
+pub fn outline_of_tracks(t: &Tracks, source: &str, frame: Option<i64>) -> Result<FrameOutline> {
     let ranges = t.frame_ranges();
     let d = t
         .large_diameter()
-        .ok_or_else(|| Error::input(input.display(), "no radii to take D from"))?;
+        .ok_or_else(|| Error::input(source, "no radii to take D from"))?;
     let of = |rows: std::ops::Range<usize>| {
         let pos: Vec<Vec2> = rows.clone().map(|i| Vec2::new(t.x[i], t.y[i])).collect();
         Outline::of(&pos, &t.radius[rows], d)
@@ -33,7 +40,7 @@ pub fn outline_of(input: &Path, frame: Option<i64>) -> Result<FrameOutline> {
     let (f0, r0) = ranges
         .first()
         .cloned()
-        .ok_or_else(|| Error::input(input.display(), "no rows"))?;
+        .ok_or_else(|| Error::input(source, "no rows"))?;
     let first = of(r0);
     let w0 = first
         .half_width()
@@ -52,7 +59,7 @@ pub fn outline_of(input: &Path, frame: Option<i64>) -> Result<FrameOutline> {
             .iter()
             .find(|(k, _)| *k == f)
             .cloned()
-            .ok_or_else(|| Error::param("frame", format!("{}: no frame {f}", input.display())))?,
+            .ok_or_else(|| Error::param("frame", format!("{}: no frame {f}", source)))?,
     };
     Ok(FrameOutline {
         outline: of(rows),

@@ -230,7 +230,13 @@ pub struct SizeScan {
 
 /// The scan of the runs in `dirs`, written where `out` says.
 pub fn run(dirs: &[PathBuf], out: &SizeOutputs) -> Result<SizeScan> {
-    let output = &out.table;
+    let scan = scan(dirs)?;
+    write(&scan, out)?;
+    Ok(scan)
+}
+
+/// The scan of the runs in `dirs`, ordered by W0, without writing anything.
+pub fn scan(dirs: &[PathBuf]) -> Result<SizeScan> {
     let mut rows = dirs.iter().map(|d| row(d)).collect::<Result<Vec<_>>>()?;
     rows.sort_by(|a, b| a.w0_over_d.total_cmp(&b.w0_over_d));
     let col = |f: &dyn Fn(&SizeRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
@@ -239,6 +245,22 @@ pub fn run(dirs: &[PathBuf], out: &SizeOutputs) -> Result<SizeScan> {
         &col(&|r| r.sigma),
         &col(&|r| r.sigma_err),
     );
+    let checks = (rows.len() >= 2).then(|| ScanChecks {
+        sigma_over_w0_spread: spread(&col(&|r| r.sigma / r.w0_over_d)),
+        chi_spread: [0, 1].map(|k| spread(&col(&|r| r.chi[k]))),
+        kappa_spread: {
+            let k = col(&|r| r.kappa);
+            k.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+                - k.iter().copied().fold(f64::INFINITY, f64::min)
+        },
+    });
+    Ok(SizeScan { rows, fit, checks })
+}
+
+/// The scan's tables where `out` says.
+pub fn write(scan: &SizeScan, out: &SizeOutputs) -> Result<()> {
+    let rows = &scan.rows;
+    let col = |f: &dyn Fn(&SizeRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let mut df = DataFrame::new(
         rows.len(),
         vec![
@@ -257,31 +279,22 @@ pub fn run(dirs: &[PathBuf], out: &SizeOutputs) -> Result<SizeScan> {
         ],
     )
     .map_err(|e| Error::polars("the size-scan table", e))?;
-    write_table(&mut df, output)?;
+    write_table(&mut df, &out.table)?;
     if let Some(path) = &out.curves {
         write_long(
-            &rows,
+            rows,
             path,
             &["strain", "stress_reduced", "kappa", "chi"],
             |r| r.curves.to_vec(),
         )?;
     }
     if let Some(path) = &out.pressure {
-        write_long(&rows, path, &["x_over_w", "p"], |r| match &r.pressure {
+        write_long(rows, path, &["x_over_w", "p"], |r| match &r.pressure {
             Ok((p, _)) => vec![p.x_over_w.clone(), p.p.clone()],
             Err(_) => vec![Vec::new(), Vec::new()],
         })?;
     }
-    let checks = (rows.len() >= 2).then(|| ScanChecks {
-        sigma_over_w0_spread: spread(&col(&|r| r.sigma / r.w0_over_d)),
-        chi_spread: [0, 1].map(|k| spread(&col(&|r| r.chi[k]))),
-        kappa_spread: {
-            let k = col(&|r| r.kappa);
-            k.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-                - k.iter().copied().fold(f64::INFINITY, f64::min)
-        },
-    });
-    Ok(SizeScan { rows, fit, checks })
+    Ok(())
 }
 
 /// One table of per-run columns stacked, each row labelled with its run's N and W0/D.

@@ -10,6 +10,7 @@ pub mod frames;
 pub mod render;
 mod sections;
 pub mod shear;
+mod sizes;
 
 use crate::error::{Error, Result};
 use crate::io::atomic_write_str;
@@ -194,6 +195,11 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
             title: "Stress–strain".into(),
             blocks: strain_blocks(&opt.datasets, &figdir, &mut figures)?,
         });
+    }
+
+    // Two or more pillar runs: the size scan (li-granular-pillars Sec. V).
+    if let Some(s) = sizes::size_section(&opt.datasets, out_dir, &figdir, &mut figures)? {
+        sections.push(s);
     }
 
     // Sheared disks: one run, and a sweep.

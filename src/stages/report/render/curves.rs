@@ -10,7 +10,11 @@ fn s<E: std::fmt::Display>(e: E) -> String {
     e.to_string()
 }
 
-/// One curve: (x, y, error of y) points, drawn as markers with error bars and a line.
+/// Points beyond which a curve with a line is drawn without markers.
+const DENSE: usize = 60;
+
+/// One curve: (x, y, error of y) points, drawn as markers with error bars and a line
+/// (the line alone beyond `DENSE` points).
 #[derive(Debug, Clone)]
 pub struct XySeries {
     pub label: String,
@@ -136,15 +140,19 @@ impl Figure for XyFigure {
                     ))
                     .map_err(s)?;
             }
+            // Bars only where there is an error to show.
             chart
                 .draw_series(
                     p.iter()
+                        .filter(|q| q.3 > q.2)
                         .map(|q| ErrorBar::new_vertical(q.0, q.2, q.1, q.3, c.stroke_width(1), 6)),
                 )
                 .map_err(s)?;
             let filled = !ser.markers_only;
+            // A dense curve (a run's frames, an outline) is its line; markers would hide it.
+            let dense = filled && p.len() > DENSE;
             chart
-                .draw_series(p.iter().map(|q| {
+                .draw_series(p.iter().filter(|_| !dense).map(|q| {
                     let style = if filled {
                         c.filled()
                     } else {

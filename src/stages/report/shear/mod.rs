@@ -8,9 +8,9 @@ pub mod classify;
 
 use crate::error::{Error, Result};
 use crate::io::table::read_table;
+use crate::stages::report::render::SavedFigure;
 use crate::stages::report::render::curves::{PhaseFigure, XyFigure, XySeries};
 use crate::stages::report::render::html::{Block, Section};
-use crate::stages::report::render::SavedFigure;
 use crate::stages::report::sections::Figures;
 use classify::{Class, Slope, Transition, fit_slope, local_slopes, transitions};
 use serde::Serialize;

@@ -1,0 +1,448 @@
+//! The size-scan section (li-granular-pillars Sec. V): when a report shows two or more
+//! `simulate pillar` runs, it compares them as the paper compares its sizes — flow
+//! stress against width with the fit through the origin (Fig. 10a, b), the bar's contact
+//! pressure (Fig. 10c), dissipation (Fig. 10d), the shape's scaling χ = W/W0 and the
+//! rescaled outlines (Fig. 9), g(r) by species beside any experiment's (Fig. 2) — and
+//! states the paper's size-independence claims as checks with their values. The scan's
+//! tables are written beside the report (`size_scan*.csv`).
+
+use crate::error::{Error, Result};
+use crate::io::csvdiag::Expect;
+use crate::io::read_tracks;
+use crate::io::table::read_table;
+use crate::stages::report::DatasetInputs;
+use crate::stages::report::render::SavedFigure;
+use crate::stages::report::render::curves::{XyFigure, XySeries};
+use crate::stages::report::render::html::{Block, Section};
+use crate::stages::report::sections::Figures;
+use crate::stages::sizes::{CHI_AT, SizeOutputs, SizeScan};
+use crate::structure::shape_distance;
+use std::path::{Path, PathBuf};
+
+/// g(r) out to this many D, in bins of D/25.
+const GOFR_R_MAX: f64 = 4.0;
+const GOFR_BINS: usize = 100;
+
+/// A `simulate pillar` run directory behind a data set (its stress table's folder).
+fn pillar_run(d: &DatasetInputs) -> Option<PathBuf> {
+    let dir = d.stress.as_ref()?.parent()?.to_path_buf();
+    let text = std::fs::read_to_string(dir.join(crate::stages::manifest::MANIFEST)).ok()?;
+    let m: serde_json::Value = serde_json::from_str(&text).ok()?;
+    (m["command"] == "simulate pillar").then_some(dir)
+}
+
+fn line(label: String, colour: usize, points: Vec<(f64, f64)>) -> XySeries {
+    XySeries {
+        label,
+        points: points.into_iter().map(|(x, y)| (x, y, 0.0)).collect(),
+        markers_only: false,
+        colour,
+    }
+}
+
+/// The section, or None when fewer than two pillar runs are shown.
+pub fn size_section(
+    datasets: &[DatasetInputs],
+    out_dir: &Path,
+    figdir: &Path,
+    figures: &mut Vec<SavedFigure>,
+) -> Result<Option<Section>> {
+    let runs: Vec<(String, PathBuf)> = datasets
+        .iter()
+        .filter_map(|d| pillar_run(d).map(|p| (d.label.clone(), p)))
+        .collect();
+    if runs.len() < 2 {
+        return Ok(None);
+    }
+    let dirs: Vec<PathBuf> = runs.iter().map(|r| r.1.clone()).collect();
+    let mut f = Figures {
+        figdir,
+        prefix: "sizes".into(),
+        figures,
+        blocks: Vec::new(),
+    };
+    let scan = match crate::stages::sizes::scan(&dirs) {
+        Ok(s) => s,
+        Err(e) => {
+            f.blocks.push(Block::Paragraph(format!(
+                "The data sets {} are pillar runs of different sizes, but they cannot be compared as a size scan: {e}",
+                runs.iter().map(|r| r.0.as_str()).collect::<Vec<_>>().join(", ")
+            )));
+            return Ok(Some(section(f.blocks)));
+        }
+    };
+    crate::stages::sizes::write(
+        &scan,
+        &SizeOutputs {
+            table: out_dir.join("size_scan.csv"),
+            curves: Some(out_dir.join("size_scan_curves.csv")),
+            pressure: Some(out_dir.join("size_scan_pressure.csv")),
+        },
+    )?;
+    let label = |run: &Path| {
+        runs.iter()
+            .find(|r| r.1 == run)
+            .map_or_else(|| run.display().to_string(), |r| r.0.clone())
+    };
+    let names: Vec<String> = scan
+        .rows
+        .iter()
+        .map(|r| format!("{} (N = {})", label(&r.run), r.n))
+        .collect();
+    f.blocks.push(Block::Paragraph(format!(
+        "{} pillar runs compared as the paper compares its sizes (li-granular-pillars Sec. V); stresses in m g μ/D, lengths in D. Tables: size_scan.csv, size_scan_curves.csv, size_scan_pressure.csv beside this report.",
+        scan.rows.len()
+    )));
+    f.blocks.push(run_table(&scan, &names));
+    f.blocks.push(checks_table(&scan));
+    curves(&mut f, &scan, &names)?;
+    outlines(&mut f, &scan, &names)?;
+    gofr(&mut f, datasets, &scan, &names)?;
+    Ok(Some(section(f.blocks)))
+}
+
+fn section(blocks: Vec<Block>) -> Section {
+    Section {
+        id: "sizes".into(),
+        title: "Size scan (li-granular-pillars Sec. V)".into(),
+        blocks,
+    }
+}
+
+fn run_table(scan: &SizeScan, names: &[String]) -> Block {
+    let rows = scan
+        .rows
+        .iter()
+        .zip(names)
+        .map(|(r, name)| {
+            let snaps = r.pressure.as_ref().map_or(0, |p| p.1);
+            vec![
+                name.clone(),
+                format!("{:.2}", r.w0_over_d),
+                format!("{:.3} ± {:.3}", r.sigma, r.sigma_err),
+                format!("{:.4}", r.sigma / r.w0_over_d),
+                format!("{:.3}", r.kappa),
+                format!("{:.3}", r.chi[0]),
+                format!("{:.3}", r.chi[1]),
+                match &r.pressure {
+                    Ok(_) => format!("{:.2} ({snaps} snapshots)", r.p_centre()),
+                    Err(e) => format!("none: {e}"),
+                },
+            ]
+        })
+        .collect();
+    Block::Table {
+        header: [
+            "run",
+            "W0/D",
+            "⟨σ⟩, 0.05 ≤ ε ≤ 0.2",
+            "⟨σ⟩/W0",
+            "⟨κ⟩",
+            "χ(0.1)",
+            "χ(0.2)",
+            "p at the bar's centre, 0.1 ≤ ε ≤ 0.2",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    }
+}
+
+fn checks_table(scan: &SizeScan) -> Block {
+    let verdict = |ok: bool| if ok { "holds" } else { "does not hold" }.to_string();
+    let mut rows = Vec::new();
+    if let Some(fit) = &scan.fit {
+        rows.push(vec![
+            "⟨σ⟩ ∝ W0 (Fig. 10b)".into(),
+            "linear through the origin".into(),
+            format!(
+                "c = {:.4} [{:.4}, {:.4}] m g μ/D per D (95 %)",
+                fit.c, fit.c_interval[0], fit.c_interval[1]
+            ),
+            String::new(),
+        ]);
+    }
+    if let Some(c) = &scan.checks {
+        rows.push(vec![
+            "⟨σ⟩/W0 independent of size".into(),
+            "spread ≤ 10 %".into(),
+            format!("{:.1} %", 100.0 * c.sigma_over_w0_spread),
+            verdict(c.sigma_over_w0_spread <= 0.10),
+        ]);
+        rows.push(vec![
+            "κ independent of size (Fig. 10d)".into(),
+            "spread ≤ 0.03".into(),
+            format!("{:.3}", c.kappa_spread),
+            verdict(c.kappa_spread <= 0.03),
+        ]);
+        for (k, at) in CHI_AT.iter().enumerate() {
+            rows.push(vec![
+                format!("W/W0 at ε = {at} independent of size (self-similar shape)"),
+                "spread ≤ 5 %".into(),
+                format!("{:.1} %", 100.0 * c.chi_spread[k]),
+                verdict(c.chi_spread[k] <= 0.05),
+            ]);
+        }
+    }
+    Block::Table {
+        header: ["the paper's claim", "judged by", "measured", "verdict"]
+            .map(String::from)
+            .to_vec(),
+        rows,
+    }
+}
+
+/// Figs. 10a–d and χ(ε).
+fn curves(f: &mut Figures, scan: &SizeScan, names: &[String]) -> Result<()> {
+    let by_strain = |k: usize| -> Vec<XySeries> {
+        scan.rows
+            .iter()
+            .zip(names)
+            .enumerate()
+            .map(|(c, (r, name))| {
+                let (eps, v) = (&r.curves[0], &r.curves[k]);
+                let pts = eps.iter().zip(v).filter(|(_, y)| y.is_finite());
+                line(name.clone(), c, pts.map(|(&x, &y)| (x, y)).collect())
+            })
+            .collect()
+    };
+    for (k, file, title, y, caption) in [
+        (
+            1,
+            "stress",
+            "Stress–strain by size (Fig. 10a)",
+            "σ  (m g μ / D)",
+            "σ = F_bar/W against ε for every size: wider pillars flow at higher stress (li-granular-pillars Fig. 10a).",
+        ),
+        (
+            2,
+            "kappa",
+            "Dissipation by size (Fig. 10d)",
+            "κ = P_g-s / P_in",
+            "The fraction of the input power dissipated by substrate friction against ε; the paper finds it independent of size (li-granular-pillars Fig. 10d).",
+        ),
+        (
+            3,
+            "chi",
+            "Shape scaling χ = W/W0",
+            "χ = W / W0",
+            "The width at the bar (grains within 2 D of it) over its initial value against ε: curves that coincide mean a self-similar shape evolution (li-granular-pillars Sec. V).",
+        ),
+    ] {
+        f.add(
+            &XyFigure {
+                title: title.into(),
+                x_desc: "ε".into(),
+                y_desc: y.into(),
+                x_log: false,
+                y_log: false,
+                series: by_strain(k),
+            },
+            file,
+            caption.into(),
+        )?;
+    }
+    // Fig. 10b: the runs with their errors and the fitted line through the origin.
+    let mut series = vec![XySeries {
+        label: "runs".into(),
+        points: scan
+            .rows
+            .iter()
+            .map(|r| (r.w0_over_d, r.sigma, r.sigma_err))
+            .collect(),
+        markers_only: true,
+        colour: 0,
+    }];
+    if let Some(fit) = &scan.fit {
+        let w_max = scan.rows.iter().map(|r| r.w0_over_d).fold(0.0, f64::max) * 1.1;
+        series.push(line(
+            format!("⟨σ⟩ = {:.3} W0/D", fit.c),
+            1,
+            vec![(0.0, 0.0), (w_max, fit.c * w_max)],
+        ));
+    }
+    f.add(
+        &XyFigure {
+            title: "Flow stress against width (Fig. 10b)".into(),
+            x_desc: "W0 / D".into(),
+            y_desc: "⟨σ⟩ (0.05 ≤ ε ≤ 0.2)  (m g μ / D)".into(),
+            x_log: false,
+            y_log: false,
+            series,
+        },
+        "sigma_w0",
+        "The mean flow stress over 0.05 ≤ ε ≤ 0.2 (errors from four blocks) against the initial width, with the weighted fit through the origin: \"smaller is weaker\" (li-granular-pillars Fig. 10b).".into(),
+    )?;
+    let pressure: Vec<XySeries> = scan
+        .rows
+        .iter()
+        .zip(names)
+        .enumerate()
+        .filter_map(|(c, (r, name))| {
+            let (p, _) = r.pressure.as_ref().ok()?;
+            Some(line(
+                name.clone(),
+                c,
+                p.x_over_w
+                    .iter()
+                    .copied()
+                    .zip(p.p.iter().copied())
+                    .collect(),
+            ))
+        })
+        .collect();
+    if !pressure.is_empty() {
+        f.add(
+            &XyFigure {
+                title: "Contact pressure along the bar (Fig. 10c)".into(),
+                x_desc: "x / W".into(),
+                y_desc: "p  (m g μ / D)".into(),
+                x_log: false,
+                y_log: false,
+                series: pressure,
+            },
+            "pressure",
+            "The bar's normal force per length across the contact interface (W its span, radii included), averaged over the force snapshots at 0.1 ≤ ε ≤ 0.2: near zero at the edges, highest around the centre, and growing with the width (li-granular-pillars Fig. 10c).".into(),
+        )?;
+    }
+    Ok(())
+}
+
+/// The strain of each frame of a run (its stress table).
+fn frame_at_strain(run: &Path, eps: f64) -> Result<Option<i64>> {
+    let t = read_table(
+        &run.join("stress_strain.parquet"),
+        &[("frame", Expect::Int), ("strain", Expect::Float)],
+    )?;
+    let (frames, strain) = (t.i64("frame")?, t.f64("strain")?);
+    Ok(frames
+        .iter()
+        .zip(&strain)
+        .filter(|(_, s)| (*s - eps).abs() <= 0.01)
+        .min_by(|a, b| (a.1 - eps).abs().total_cmp(&(b.1 - eps).abs()))
+        .map(|(f, _)| *f))
+}
+
+/// Fig. 9: each run's outline at ε = 0.1 and 0.2 rescaled by its W0, overlaid, and the
+/// rms distance of each to the largest run's.
+fn outlines(f: &mut Figures, scan: &SizeScan, names: &[String]) -> Result<()> {
+    let mut rows = Vec::new();
+    for eps in CHI_AT {
+        let mut series = Vec::new();
+        let mut got = Vec::new();
+        for (c, (r, name)) in scan.rows.iter().zip(names).enumerate() {
+            let Some(frame) = frame_at_strain(&r.run, eps)? else {
+                continue;
+            };
+            let tracks = r.run.join("tracks.parquet");
+            let (t, _) = read_tracks(&tracks)?;
+            let o = crate::stages::outline::outline_of_tracks(
+                &t,
+                &tracks.display().to_string(),
+                Some(frame),
+            )?;
+            let mut pts: Vec<(f64, f64)> = o
+                .outline
+                .polygon()
+                .iter()
+                .map(|p| ((p.x - o.x_mid) / o.w0, (p.y - o.outline.y0) / o.w0))
+                .collect();
+            if let Some(&first) = pts.first() {
+                pts.push(first);
+            }
+            series.push(line(name.clone(), c, pts));
+            got.push((name.clone(), o));
+        }
+        if let Some((big_name, big)) = got.last() {
+            for (name, o) in &got[..got.len() - 1] {
+                rows.push(vec![
+                    format!("{eps}"),
+                    format!("{name} vs {big_name}"),
+                    format!(
+                        "{:.3}",
+                        shape_distance(&o.outline, o.w0, &big.outline, big.w0)
+                    ),
+                ]);
+            }
+        }
+        if series.is_empty() {
+            continue;
+        }
+        f.add(
+            &XyFigure {
+                title: format!("Outlines rescaled by W0 at ε = {eps} (Fig. 9)"),
+                x_desc: "x / W0".into(),
+                y_desc: "y / W0".into(),
+                x_log: false,
+                y_log: false,
+                series,
+            },
+            &format!("outline_{}", (eps * 100.0).round() as i64),
+            format!("Each pillar's outline (outermost grain edges in slabs one D thick) at ε = {eps}, lengths over its own initial width W0: outlines that coincide are the same shape at another size (li-granular-pillars Fig. 9)."),
+        )?;
+    }
+    if !rows.is_empty() {
+        f.blocks.push(Block::Table {
+            header: ["ε", "outlines", "rms half-width difference / W0"]
+                .map(String::from)
+                .to_vec(),
+            rows,
+        });
+    }
+    Ok(())
+}
+
+/// Fig. 2: g(r) around small and around large grains of each run's first frame and of
+/// each experiment's (data sets with tracks and no simulation).
+fn gofr(
+    f: &mut Figures,
+    datasets: &[DatasetInputs],
+    scan: &SizeScan,
+    names: &[String],
+) -> Result<()> {
+    let mut sources: Vec<(String, PathBuf)> = scan
+        .rows
+        .iter()
+        .zip(names)
+        .map(|(r, n)| (n.clone(), r.run.join("tracks.parquet")))
+        .collect();
+    sources.extend(
+        datasets
+            .iter()
+            .filter(|d| d.stress.is_none() && d.shear.is_none() && d.sweep.is_none())
+            .filter_map(|d| Some((d.label.clone(), d.tracks.clone()?))),
+    );
+    let (mut small, mut large) = (Vec::new(), Vec::new());
+    for (c, (name, path)) in sources.iter().enumerate() {
+        let (t, _) = read_tracks(path)?;
+        let (g, _, d) = crate::stages::gofr::of_tracks(
+            &t,
+            &path.display().to_string(),
+            None,
+            GOFR_R_MAX,
+            GOFR_BINS,
+        )
+        .map_err(|e| Error::Other(format!("g(r) of {name}: {e}")))?;
+        let pts = |v: &[f64]| g.r.iter().map(|r| r / d).zip(v.iter().copied()).collect();
+        small.push(line(name.clone(), c, pts(&g.g_small)));
+        large.push(line(name.clone(), c, pts(&g.g_large)));
+    }
+    for (series, file, who) in [
+        (small, "gofr_small", "small"),
+        (large, "gofr_large", "large"),
+    ] {
+        f.add(
+            &XyFigure {
+                title: format!("g(r) around {who} grains (Fig. 2)"),
+                x_desc: "r / D".into(),
+                y_desc: "g(r)".into(),
+                x_log: false,
+                y_log: false,
+                series,
+            },
+            file,
+            format!("The pair distribution around {who} grains at the first frame, normalised by the density of all grains (→ 1 far out); in open pillars only centres 4 D inside the convex hull count (li-granular-pillars Fig. 2)."),
+        )?;
+    }
+    Ok(())
+}
