@@ -258,7 +258,7 @@ enum Cmd {
         against_frame: Option<i64>,
     },
     /// Transient shear lines (li-granular-pillars Fig. 11) in one frame pair of a
-    /// `kinematics` table: grains with J2 above THRESHOLD x the median J2, linked at
+    /// `kinematics` table: grains with J2 above THRESHOLD x the mean J2, linked at
     /// 1.25 D, measured by the principal axes of their centres. Writes one row per line:
     /// angle to the compression axis y in degrees (0-90), width and length in units of
     /// the large-grain diameter D, centre in the table's length unit, mean J2 in
@@ -275,7 +275,8 @@ enum Cmd {
         /// Lag of the pair in frames, frame_end - frame (default: the smallest there).
         #[arg(long)]
         lag_frames: Option<i64>,
-        /// A grain is high when J2 > THRESHOLD x median J2 (dimensionless).
+        /// A grain is high when J2 > THRESHOLD x J2_ref, the mean J2 of the pair's grains
+        /// below their 99th percentile (dimensionless).
         #[arg(long, default_value_t = ShearLineOptions::default().threshold)]
         threshold: f64,
         /// Fewest grains in a line.

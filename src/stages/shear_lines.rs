@@ -63,17 +63,8 @@ impl std::fmt::Display for ShearLinesReport {
         )?;
         writeln!(
             f,
-            "grains      {} with J2, {} above {} x J2_ref = {:.4e} per {} (median of {})",
-            s.determined,
-            s.high,
-            self.options.threshold,
-            s.j2_ref,
-            self.time_unit,
-            if s.j2_ref_all {
-                "all"
-            } else {
-                "the moving grains: most are at rest"
-            }
+            "grains      {} with J2, {} above {} x J2_ref = {:.4e} per {} (J2_ref: mean below the 99th percentile)",
+            s.determined, s.high, self.options.threshold, s.j2_ref, self.time_unit
         )?;
         if s.lines == 0 {
             write!(f, "lines       none; {} compact clusters", s.compact)?;

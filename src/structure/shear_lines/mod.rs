@@ -3,10 +3,14 @@
 //! 2 D wide whatever the pillar's size. This finds them in one J2 map and measures each.
 //!
 //! Method, for grains at centres r_i with J2_i (NaN: undetermined, left out everywhere):
-//! 1. High grains: J2_i > threshold × J2_ref, with J2_ref the median J2 of the determined
-//!    grains. When that median is 0 (more than half the pillar at rest, as the bottom of
-//!    a pillar early on, held by substrate friction), J2_ref is the median over the
-//!    grains with J2 > 0, so that "high" still means high among the grains that deform.
+//! 1. High grains: J2_i > threshold × J2_ref, with J2_ref the mean of the determined
+//!    J2 below their 99th percentile (the trim keeps a few near-singular fits from
+//!    setting it). Not the median: in a compressed pillar a third or more of the grains
+//!    are at rest (J2 = 0 up to round-off, held by substrate friction) and most of the
+//!    rest creep, so the median falls between the two populations, 10⁻² of the mean or
+//!    less, and 3 × it marks 40 % of the pillar as high (simulated N = 1000 pillar,
+//!    Δt = 8/15 R/v_c: one cluster spanning the moving part, no line). The mean is set by
+//!    the grains that deform, and 3 × it marks about 13 %.
 //! 2. Local direction of each high grain: among the high grains within 4 D, the direction
 //!    (5° steps) of the line through it that holds the most of them within 0.6 D. Unlike
 //!    the principal axis of the neighbourhood, this follows one line where two cross.
@@ -57,7 +61,7 @@ const JOIN_GAP_D: f64 = 4.0;
 /// The detection's parameters (defaults in [`ShearLineOptions::default`]).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ShearLineOptions {
-    /// A grain is high when J2 > threshold × J2_ref (dimensionless).
+    /// A grain is high when J2 > threshold × J2_ref (dimensionless; J2_ref: step 1).
     pub threshold: f64,
     /// Single-linkage distance in D.
     pub link_over_d: f64,
@@ -108,10 +112,8 @@ pub struct ShearLineSummary {
     /// Grains with a determined J2, and of those the high ones.
     pub determined: usize,
     pub high: usize,
-    /// J2_ref (1/time) and whether it is the median of all determined grains (false:
-    /// of those with J2 > 0, the median of all being 0).
+    /// J2_ref (1/time): the trimmed mean of step 1.
     pub j2_ref: f64,
-    pub j2_ref_all: bool,
     /// Clusters of at least `min_grains`: lines and the rest (compact).
     pub lines: usize,
     pub compact: usize,
@@ -156,12 +158,10 @@ pub fn shear_lines(pos: &[Vec2], j2: &[f64], d: f64, opt: &ShearLineOptions) -> 
         .filter(|&i| j2[i].is_finite() && pos[i].is_finite())
         .collect();
     let mut v: Vec<f64> = det.iter().map(|&i| j2[i]).collect();
-    let mut j2_ref = crate::stats::median_select(&mut v);
-    let j2_ref_all = j2_ref > 0.0;
-    if !j2_ref_all {
-        v.retain(|&x| x > 0.0);
-        j2_ref = crate::stats::median_select(&mut v);
-    }
+    v.sort_by(f64::total_cmp);
+    let cut = crate::stats::quantile_sorted(&v, 0.99);
+    let kept = v.partition_point(|&x| x <= cut);
+    let j2_ref = crate::stats::mean(&v[..kept]);
     let high: Vec<usize> = det
         .iter()
         .copied()
@@ -206,7 +206,6 @@ pub fn shear_lines(pos: &[Vec2], j2: &[f64], d: f64, opt: &ShearLineOptions) -> 
         determined: det.len(),
         high: high.len(),
         j2_ref,
-        j2_ref_all,
         lines: lines.len(),
         compact,
         median_angle_deg: median(|l| l.angle_deg),

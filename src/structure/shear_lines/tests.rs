@@ -88,7 +88,7 @@ fn a_planted_band_is_found_at_its_angle_and_width() {
         assert!(l.length_d > 30.0 && l.elongation > 10.0, "{deg}°: {l:?}");
         let got = l.n_grains as f64 / planted as f64;
         assert!((0.95..=1.02).contains(&got), "{deg}°: {l:?}, {planted}");
-        assert!(l.j2_contrast > 8.0 && r.summary.compact == 0, "{r:#?}");
+        assert!(l.j2_contrast > 5.0 && r.summary.compact == 0, "{r:#?}");
         let cm = 0.635;
         let scaled: Vec<Vec2> = pos.iter().map(|&p| p * cm).collect();
         let s = shear_lines(&scaled, &j2, cm, &ShearLineOptions::default()).unwrap();
@@ -112,17 +112,28 @@ fn the_width_follows_the_planted_width() {
     }
 }
 
-/// Log-normal J2 with a wide spread (13 % of the grains above 3 × the median, scattered
-/// at random): high grains and small clusters, never a line. (The longest chance chains
-/// here hold up to 12 grains over 7 D, thinner than a band: hence 15 grains at least.)
+/// Log-normal J2 with a wide spread, scattered at random (with threshold 2 at log-spread
+/// 1, 14 % of the grains are high): high grains and small clusters, never a line. (The
+/// longest chance chains hold up to 12 grains over 7 D, thinner than a band: hence 15
+/// grains at least.)
 #[test]
 fn noise_gives_no_lines() {
-    for seed in 1..=4 {
-        let pos = packing(4000, seed);
-        let j2 = background(pos.len(), 1.0, 10 + seed);
-        let r = detect(&pos, &j2);
-        assert!(r.lines.is_empty(), "seed {seed}: {:#?}", r.lines);
-        assert!(r.summary.high > 400, "{:?}", r.summary);
+    for (sigma, threshold) in [(1.0, 3.0), (1.5, 3.0), (1.0, 2.0)] {
+        let o = ShearLineOptions {
+            threshold,
+            ..Default::default()
+        };
+        for seed in 1..=3 {
+            let pos = packing(4000, seed);
+            let j2 = background(pos.len(), sigma, 10 + seed);
+            let r = shear_lines(&pos, &j2, 1.0, &o).unwrap();
+            assert!(
+                r.lines.is_empty(),
+                "{sigma} {threshold} {seed}: {:#?}",
+                r.lines
+            );
+            assert!(r.summary.high > 200, "{:?}", r.summary);
+        }
     }
 }
 
@@ -201,10 +212,13 @@ fn undetermined_grains_are_ignored() {
     assert_eq!(with.lines.len(), 1, "{with:#?}");
 }
 
-/// More than half the grains at rest (J2 = 0, the pillar's bottom early on): J2_ref is
-/// the median of the moving grains, and the band among them is still the one line.
+/// A pillar mostly not deforming, as a simulated one: the bottom at rest (J2 of
+/// round-off, 1e-17), a middle that creeps (J2 ~ 1e-3), the top flowing (J2 ~ 1) with
+/// a band in it. The median J2 lies in the creep, so 3 × it would mark the whole top as
+/// high (one compact cluster, no line); J2_ref is set by the flowing grains and the band
+/// is the one line.
 #[test]
-fn a_pillar_half_at_rest_is_referred_to_its_moving_grains() {
+fn a_pillar_mostly_at_rest_is_referred_to_its_deforming_grains() {
     let pos = packing(3000, 10);
     let mut j2 = background(pos.len(), 0.3, 10);
     let c = centre(&pos);
@@ -216,17 +230,19 @@ fn a_pillar_half_at_rest_is_referred_to_its_moving_grains() {
         2.0,
         10.0,
     );
+    let mut rng = Rng::new(11);
     for (p, v) in pos.iter().zip(j2.iter_mut()) {
-        if p.y < c.y + 5.0 {
-            *v = 0.0;
+        if p.y < c.y - 5.0 {
+            *v = 1e-17 * rng.uniform();
+        } else if p.y < c.y + 5.0 {
+            *v *= 1e-3;
         }
     }
+    let mut sorted = j2.clone();
+    let median = crate::stats::median_select(&mut sorted);
+    assert!(median < 1e-2, "the median lies in the creep: {median}");
     let r = detect(&pos, &j2);
-    assert!(
-        !r.summary.j2_ref_all && r.summary.j2_ref > 0.5,
-        "{:?}",
-        r.summary
-    );
+    assert!(r.summary.j2_ref > 0.3, "{:?}", r.summary);
     assert_eq!(r.lines.len(), 1, "{r:#?}");
     assert!((r.lines[0].angle_deg - 45.0).abs() < 3.0);
 }
