@@ -194,7 +194,7 @@ pub fn shear_lines(pos: &[Vec2], j2: &[f64], d: f64, opt: &ShearLineOptions) -> 
             compact += 1;
         }
     }
-    lines.sort_by(|a, b| b.n_grains.cmp(&a.n_grains));
+    lines.sort_by_key(|l| std::cmp::Reverse(l.n_grains));
     for (k, l) in lines.iter_mut().enumerate() {
         l.id = k;
     }
