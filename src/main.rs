@@ -10,6 +10,7 @@ use cli_runs::{RunsCmd, run_pipeline, runs};
 use pillar_pipe::kinematics::Convention;
 use pillar_pipe::stages::ingest::{self, Format, IngestOptions};
 use pillar_pipe::stages::kinematics::{self as kin, KinematicsOptions, LagSpec};
+use pillar_pipe::structure::ShearLineOptions;
 use std::path::PathBuf;
 
 // Large tables allocate and free hundreds of MB; glibc returns each to the kernel and
@@ -255,6 +256,44 @@ enum Cmd {
         /// Its frame (default: the last).
         #[arg(long)]
         against_frame: Option<i64>,
+    },
+    /// Transient shear lines (li-granular-pillars Fig. 11) in one frame pair of a
+    /// `kinematics` table: grains with J2 above THRESHOLD x the mean J2, linked at
+    /// 1.25 D, measured by the principal axes of their centres. Writes one row per line:
+    /// angle to the compression axis y in degrees (0-90), width and length in units of
+    /// the large-grain diameter D, centre in the table's length unit, mean J2 in
+    /// 1/time. Method: docs/shear-lines.md.
+    ShearLines {
+        /// A `kinematics` table (from `pillar-pipe kinematics`: frame, frame_end, x, y, j2).
+        kinematics: PathBuf,
+        /// Output table (.csv or .parquet); default <stem>.shear_lines.csv beside the input.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Start frame of the pair (default: the first).
+        #[arg(long)]
+        frame: Option<i64>,
+        /// Lag of the pair in frames, frame_end - frame (default: the smallest there).
+        #[arg(long)]
+        lag_frames: Option<i64>,
+        /// A grain is high when J2 > THRESHOLD x J2_ref, the mean J2 of the pair's grains
+        /// below their 99th percentile (dimensionless).
+        #[arg(long, default_value_t = ShearLineOptions::default().threshold)]
+        threshold: f64,
+        /// Fewest grains in a line.
+        #[arg(long, default_value_t = ShearLineOptions::default().min_grains)]
+        min_grains: usize,
+        /// Least length of a line, in D.
+        #[arg(long, default_value_t = ShearLineOptions::default().min_length_over_d)]
+        min_length: f64,
+        /// Least elongation of a line (length / width).
+        #[arg(long, default_value_t = ShearLineOptions::default().min_elongation)]
+        min_elongation: f64,
+        /// Large-grain diameter D in the table's length unit (default: the table's sidecar).
+        #[arg(long)]
+        diameter: Option<f64>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
     },
     /// A pillar size scan's flow stress (li-granular-pillars Fig. 10a, b): per
     /// `simulate pillar` run ⟨σ⟩ over 0.05 ≤ ε ≤ 0.2 (m g μ/D) and κ, against W0; the
@@ -640,6 +679,41 @@ fn run(cli: Cli) -> Result<()> {
                 peak(&g.g_large)
             );
             println!("wrote       {}", output.display());
+        }
+        Cmd::ShearLines {
+            kinematics,
+            output,
+            frame,
+            lag_frames,
+            threshold,
+            min_grains,
+            min_length,
+            min_elongation,
+            diameter,
+            json,
+        } => {
+            use pillar_pipe::stages::shear_lines as sl;
+            let output = output.unwrap_or_else(|| sl::default_output(&kinematics));
+            let opt = sl::ShearLinesOptions {
+                frame,
+                lag_frames,
+                diameter,
+                detect: ShearLineOptions {
+                    threshold,
+                    min_grains,
+                    min_length_over_d: min_length,
+                    min_elongation,
+                    ..ShearLineOptions::default()
+                },
+            };
+            let rep = sl::run(&kinematics, &output, &opt)
+                .with_context(|| format!("shear lines of {}", kinematics.display()))?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rep)?);
+            } else {
+                println!("{rep}");
+                println!("wrote       {}", output.display());
+            }
         }
         Cmd::Sizes {
             runs,

@@ -92,6 +92,10 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         include_str!("../data_schema/shear_fields.schema.json"),
     ),
     ("gofr", include_str!("../data_schema/gofr.schema.json")),
+    (
+        "shear_lines",
+        include_str!("../data_schema/shear_lines.schema.json"),
+    ),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,

@@ -35,6 +35,7 @@ pub mod pack;
 pub mod quickstart;
 pub mod report;
 pub mod shear;
+pub mod shear_lines;
 pub mod simulate;
 pub mod sizes;
 pub mod sweep;

@@ -1,6 +1,7 @@
 //! Structure of a packing: the pair distribution g(r) by the species at the centre
 //! (li-granular-pillars Fig. 2: small-centred and large-centred g(r) against r/D), and
-//! the pillar's outline ([`Outline`], Fig. 9) with a distance between rescaled outlines.
+//! the pillar's outline ([`Outline`], Fig. 9) with a distance between rescaled outlines,
+//! and the transient shear lines of a J2 map ([`shear_lines()`], Fig. 11).
 //!
 //! An open pillar has edges, where a shell around a grain reaches into empty space and
 //! g(r) would fall below 1 for no physical reason. So only centres at least r_max inside
@@ -15,8 +16,10 @@
 
 mod outline;
 pub mod pressure;
+mod shear_lines;
 
 pub use outline::{Outline, shape_distance};
+pub use shear_lines::{ShearLine, ShearLineOptions, ShearLineSummary, ShearLines, shear_lines};
 
 use crate::error::{Error, Result};
 use crate::geom::{SimBox, Vec2};
