@@ -45,6 +45,8 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "Fig. 9",
         "Fig. 2",
         "⟨σ⟩/W0 independent of size",
+        "Fig. 11",
+        "shear-line width between 1.5 and 3 D",
     ] {
         assert!(html.contains(needle), "report lacks {needle}");
     }
@@ -58,6 +60,8 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "sizes_outline_20",
         "sizes_gofr_small",
         "sizes_gofr_large",
+        "sizes_line_angles",
+        "sizes_line_widths",
     ] {
         for ext in ["png", "svg"] {
             let p = run_dir.join("figures").join(format!("{fig}.{ext}"));

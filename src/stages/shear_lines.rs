@@ -8,10 +8,10 @@ use crate::geom::Vec2;
 use crate::io::csvdiag::Expect;
 use crate::io::table::{Table, read_table, write_table};
 use crate::io::{sha256_file, sidecar_path, write_with_sidecar};
-use crate::structure::{ShearLineOptions, ShearLines, shear_lines};
+use crate::structure::{ShearLine, ShearLineOptions, ShearLines, shear_lines};
 use polars::prelude::*;
 use serde::Serialize;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// Columns the detection reads from the kinematics table.
@@ -144,21 +144,7 @@ pub fn run(input: &Path, output: &Path, opt: &ShearLinesOptions) -> Result<Shear
             .and_then(|m| m[k].as_str())
             .map(str::to_string)
     };
-    let d = match (
-        opt.diameter,
-        meta.as_ref().and_then(|m| m["d_large"].as_f64()),
-    ) {
-        (Some(d), _) | (None, Some(d)) => d,
-        (None, None) => {
-            return Err(Error::param(
-                "diameter",
-                format!(
-                    "{file}: no large-grain diameter D in a sidecar ({}); pass --diameter D",
-                    sidecar_path(input).display()
-                ),
-            ));
-        }
-    };
+    let d = diameter(input, &file, meta.as_ref(), opt.diameter)?;
     let rows: Vec<usize> = (0..frame.len())
         .filter(|&i| frame[i] == fa && frame_end[i] == fb)
         .collect();
@@ -201,6 +187,48 @@ pub fn run(input: &Path, output: &Path, opt: &ShearLinesOptions) -> Result<Shear
     let mut df = lines_dataframe(&rep)?;
     write_with_sidecar(output, &sidecar, || write_table(&mut df, output))?;
     Ok(rep)
+}
+
+/// D from `--diameter`, else the kinematics sidecar's `d_large`.
+fn diameter(
+    input: &Path,
+    file: &str,
+    meta: Option<&serde_json::Value>,
+    given: Option<f64>,
+) -> Result<f64> {
+    match (given, meta.and_then(|m| m["d_large"].as_f64())) {
+        (Some(d), _) | (None, Some(d)) => Ok(d),
+        (None, None) => Err(Error::param(
+            "diameter",
+            format!(
+                "{file}: no large-grain diameter D in a sidecar ({}); pass --diameter D",
+                sidecar_path(input).display()
+            ),
+        )),
+    }
+}
+
+/// The lines of every frame pair of the kinematics table at `input` (D from its
+/// sidecar), in frame order: the distributions of Fig. 11 over a run.
+pub fn every_pair(input: &Path, detect: &ShearLineOptions) -> Result<Vec<ShearLine>> {
+    let t = read_kinematics(input)?;
+    let meta: Option<serde_json::Value> = std::fs::read_to_string(sidecar_path(input))
+        .ok()
+        .and_then(|s| serde_json::from_str(&s).ok());
+    let d = diameter(input, &t.file, meta.as_ref(), None)?;
+    let (frame, frame_end) = (t.i64("frame")?, t.i64("frame_end")?);
+    let (x, y, j2) = (t.f64("x")?, t.f64("y")?, t.f64_or_nan("j2")?);
+    let mut rows: BTreeMap<(i64, i64), Vec<usize>> = BTreeMap::new();
+    for i in 0..frame.len() {
+        rows.entry((frame[i], frame_end[i])).or_default().push(i);
+    }
+    let mut out = Vec::new();
+    for r in rows.values() {
+        let pos: Vec<Vec2> = r.iter().map(|&i| Vec2::new(x[i], y[i])).collect();
+        let j: Vec<f64> = r.iter().map(|&i| j2[i]).collect();
+        out.extend(shear_lines(&pos, &j, d, detect)?.lines);
+    }
+    Ok(out)
 }
 
 /// The error for a pair that is not in the table, naming the pairs that are.
