@@ -69,7 +69,7 @@ impl WholeBench {
 }
 
 /// A `.npy` file of one little-endian column (`descr`: `<f8` or `<i8`).
-fn write_npy(
+pub(crate) fn write_npy(
     path: &Path,
     descr: &str,
     bytes: impl Iterator<Item = [u8; 8]>,

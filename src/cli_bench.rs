@@ -41,6 +41,22 @@ pub enum BenchCmd {
         #[arg(long)]
         json: bool,
     },
+    /// g(r) by species of N grains (li-granular-pillars Fig. 2) against freud's
+    /// density.RDF on the same points (`pip install freud-analysis`), compute only,
+    /// alternating rounds, medians.
+    Gofr {
+        #[arg(long, default_value_t = 64_000)]
+        n: usize,
+        #[arg(long, default_value_t = 3)]
+        reps: usize,
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+        /// The Python with freud.
+        #[arg(long, default_value = "python3")]
+        python: String,
+        #[arg(long)]
+        json: bool,
+    },
     /// Ingest of a generated trackpy CSV vs polars' plain CSV read (time, peak memory).
     Ingest {
         #[arg(long, default_value_t = 10_000_000)]
@@ -231,6 +247,45 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                         b.list_builds
                     );
                 }
+            }
+        }
+        BenchCmd::Gofr {
+            n,
+            reps,
+            rounds,
+            python,
+            json,
+        } => {
+            let tmp = std::env::temp_dir().join(format!("pillar-pipe-gofr-{}", std::process::id()));
+            let b = pillar_pipe::bench_gofr::bench_gofr(n, reps, rounds, &tmp, &python);
+            let _ = std::fs::remove_dir_all(&tmp);
+            let b = b?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&b)?);
+                return Ok(());
+            }
+            println!(
+                "gofr  n = {}, periodic box, r_max = {} D, {} bins; {} rounds x {} computes each, alternating, medians",
+                b.n, b.r_max_over_d, b.bins, rounds, reps
+            );
+            println!(
+                "      pillar-pipe g(r) (all, small, large)  {:>8.4} s   peak g = {:.2}",
+                b.ours_median(),
+                b.g_peak_ours
+            );
+            match (&b.freud, b.freud_median()) {
+                (Ok(v), Some(f)) => {
+                    println!(
+                        "      freud {v} density.RDF            {f:>8.4} s   peak g = {:.2}",
+                        b.g_peak_freud
+                    );
+                    println!(
+                        "      freud / pillar-pipe: {:.1}x (issue 20 target: 10x)",
+                        f / b.ours_median()
+                    );
+                }
+                (Err(e), _) => println!("      no same-run reference: {e}"),
+                (Ok(_), None) => println!("      no same-run reference: freud gave no timings"),
             }
         }
         BenchCmd::KinematicsWhole {

@@ -28,5 +28,6 @@ pub mod tracks;
 pub use error::{Error, Result};
 pub mod bench_dem;
 pub mod bench_fit;
+pub mod bench_gofr;
 pub mod bench_whole;
 pub mod dem;
