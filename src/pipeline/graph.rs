@@ -24,6 +24,10 @@ pub struct Dataset {
     /// A sheared-disk grid (`sweep` stage) of the branch.
     #[serde(default)]
     pub sweep: Option<String>,
+    /// The branch's strain-rate ramps (`ramp` stages), in file order: a ramp up and a
+    /// ramp down draw one hysteresis loop (Fig. 31).
+    #[serde(default)]
+    pub ramps: Vec<String>,
 }
 
 /// A validated stage, ready to run.
@@ -126,6 +130,10 @@ pub fn build(
                                     .insert(format!("datasets.{b}.{role}"), n.clone());
                             }
                         }
+                        for n in &d.ramps {
+                            st.upstream
+                                .insert(format!("datasets.{b}.ramp:{n}"), n.clone());
+                        }
                         st.datasets.push(d);
                     }
                 }
@@ -138,6 +146,9 @@ pub fn build(
                 serde_json::from_value(st.params.clone())
                     .map_err(|e| src.err(&st.name, e.to_string()))?;
             crate::stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
+        }
+        if st.kind == Kind::Ramp {
+            check_ramp(src, &st)?;
         }
         if st.kind == Kind::Sweep {
             stages.extend(sweep_points(src, &mut st)?);
@@ -194,7 +205,26 @@ fn dataset(
             .map(|s| s.name.clone()),
         shear: of(&[Kind::Shear], "shear")?.map(|s| s.name.clone()),
         sweep: of(&[Kind::Sweep], "sweep")?.map(|s| s.name.clone()),
+        ramps: raw
+            .iter()
+            .filter(|s| s.branch.as_deref() == Some(b) && s.kind == Kind::Ramp)
+            .map(|s| s.name.clone())
+            .collect(),
     })
+}
+
+/// A ramp's options as the run will check them, at load: the physics at the stage,
+/// the ramp's own faults at the key (its direction against `rate` and `rate_end`, κ̃,
+/// a `dt` that does not divide τ_e).
+fn check_ramp(src: &Source, st: &Stage) -> Result<()> {
+    let p: super::params::RampParams =
+        serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))?;
+    let o = p.options();
+    let sp = crate::stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
+    match crate::stages::shear::ramp_problem(&o, &sp) {
+        Some((key, m)) => Err(src.err(&format!("{}.{key}", st.name), m)),
+        None => Ok(()),
+    }
 }
 
 /// The name of a sweep's grid point stage.

@@ -206,6 +206,12 @@ pub fn params_of(opt: &ShearOptions) -> std::result::Result<ShearParams, String>
     Ok(p)
 }
 
+/// A ramp's options (with `p` from `params_of`) checked as `run` would check them: the
+/// key at fault and why, or None. For pipelines, which check every stage before any runs.
+pub fn ramp_problem(opt: &ShearOptions, p: &ShearParams) -> Option<(&'static str, String)> {
+    crate::stages::shear::ramp::check_ramp(opt, p).err()
+}
+
 pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let t0 = std::time::Instant::now();
     let p = params_of(opt).map_err(|e| Error::param("shear", e))?;

@@ -18,48 +18,62 @@ pub(crate) struct Ramp {
 }
 
 pub(crate) fn ramp_plan(opt: &ShearOptions, p: &ShearParams) -> Result<Option<Ramp>> {
-    let Some(dir) = &opt.ramp else {
-        return Ok(None);
-    };
-    let up = match dir.as_str() {
+    match &opt.ramp {
+        None => Ok(None),
+        Some(_) => check_ramp(opt, p)
+            .map(Some)
+            .map_err(|(key, msg)| Error::param(key, msg)),
+    }
+}
+
+/// A ramp's schedule, or the option at fault and why (the pipeline names the key, the
+/// command line the flag).
+pub(crate) fn check_ramp(
+    opt: &ShearOptions,
+    p: &ShearParams,
+) -> std::result::Result<Ramp, (&'static str, String)> {
+    let dir = opt.ramp.as_deref().unwrap_or_default();
+    let up = match dir {
         "up" => true,
         "down" => false,
-        d => {
-            return Err(Error::param(
-                "ramp",
-                format!("expected up or down, got '{d}'"),
-            ));
-        }
+        d => return Err(("ramp", format!("expected up or down, got '{d}'"))),
     };
     let end = opt
         .rate_end
-        .ok_or_else(|| Error::param("rate_end", "a ramp needs --rate-end"))?;
+        .ok_or(("rate_end", "a ramp needs --rate-end".to_string()))?;
     if !(opt.kappa > 0.0 && opt.kappa < 1.0) {
-        return Err(Error::param(
-            "kappa",
-            format!("κ̃ must be in (0, 1), got {}", opt.kappa),
-        ));
+        return Err(("kappa", format!("κ̃ must be in (0, 1), got {}", opt.kappa)));
     }
     if up != (end > p.rate) || !(end > 0.0 && end <= 1.0) {
-        return Err(Error::param(
+        return Err((
             "rate_end",
             format!("ramping {dir} from γ̇ = {:e} cannot end at {end:e}", p.rate),
         ));
     }
     let steps_per_tau = (1.0 / p.dt).round() as u64;
     if ((steps_per_tau as f64) * p.dt - 1.0).abs() > 1e-9 {
-        return Err(Error::param(
+        return Err((
             "dt",
-            "a ramp changes γ̇ every τ_e: dt must divide 1",
+            "a ramp changes γ̇ every τ_e: dt must divide 1".to_string(),
         ));
     }
     let intervals = ((end / p.rate).log10().abs() / opt.kappa).round() as u64;
+    if intervals == 0 {
+        return Err((
+            "kappa",
+            format!(
+                "κ̃ = {} is more than the ramp's span of {:.3} decades: no change of γ̇",
+                opt.kappa,
+                (end / p.rate).log10().abs()
+            ),
+        ));
+    }
     let factor = 10f64.powf(if up { opt.kappa } else { -opt.kappa });
-    Ok(Some(Ramp {
+    Ok(Ramp {
         factor,
         intervals,
         steps_per_tau,
-    }))
+    })
 }
 
 /// A ramp's outputs: `ramp.parquet` (means over windows of `window` τ_e, as in Fig. 31)

@@ -5,6 +5,7 @@
 //! points missing (a killed one) is shown as far as it goes, naming what is missing.
 
 pub mod classify;
+pub mod ramp;
 
 use crate::error::{Error, Result};
 use crate::io::table::read_table;
