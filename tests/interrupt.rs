@@ -325,3 +325,60 @@ fn sigterm_stops_a_pipeline_which_records_it_and_continues_when_run_again() {
     };
     assert_eq!(tracks(&a), tracks(&b), "same trajectories after the resume");
 }
+
+/// A pipeline's `ramp` stage (Eqs. 38–41) stopped by SIGTERM resumes from its
+/// checkpoint in `runs/cache/.work-ramp-<hash>/` when the pipeline runs again, and ends
+/// with the windowed ramp table of an uninterrupted run: the rates the ramp lands on
+/// after the resume are the same integer powers of 10^κ̃.
+#[test]
+fn sigterm_stops_a_ramp_stage_which_resumes_from_its_work_dir() {
+    let d = tmpdir("sig-ramp");
+    let pipeline = d.join("ramp.toml");
+    std::fs::write(
+        &pipeline,
+        "[cycle.up]\nkind = \"ramp\"\nramp = \"up\"\nn = 1024\nphi = 0.8\nrate = 1e-2\nrate_end = 1e-1\n\
+         kappa = 5e-4\nwindow = 100\ncheckpoint_every = 2000\ncheckpoint_interval = 0\n",
+    )
+    .unwrap();
+    let file = pipeline.to_str().unwrap();
+    let (a, b) = (d.join("runs-a"), d.join("runs-b"));
+    run_ok(&["run", file, "--quiet", "--runs-dir", a.to_str().unwrap()]);
+    let child = spawn(&["run", file, "--quiet", "--runs-dir", b.to_str().unwrap()]);
+    let cache = b.join("cache");
+    let in_work = |prefix: &str| {
+        std::fs::read_dir(&cache)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .find(|e| e.file_name().to_string_lossy().starts_with(prefix))
+            .map(|e| e.path())
+    };
+    let checkpointed = || in_work(".work-ramp-").is_some_and(|w| w.join("checkpoint.bin").exists());
+    wait_for("the ramp's first checkpoint", checkpointed);
+    signal(&child, libc::SIGTERM);
+    let (code, text) = finish(child);
+    assert_eq!(code, Some(143), "{text}");
+    assert!(text.contains("0 of 1 stages finished"), "{text}");
+    assert!(checkpointed(), "the checkpoint survives for the next run");
+    let resume = continue_command(&text);
+    let out = run_ok(&resume.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(out.contains("1 computed"), "{out}");
+    let stage_dir = |runs: &Path| {
+        std::fs::read_dir(runs.join("cache"))
+            .unwrap()
+            .flatten()
+            .find(|e| e.file_name().to_string_lossy().starts_with("ramp-"))
+            .unwrap()
+            .path()
+    };
+    let tables = ["ramp.parquet", "series.parquet", "tracks.parquet"];
+    assert_eq!(
+        bytes_of(&stage_dir(&a), &tables),
+        bytes_of(&stage_dir(&b), &tables),
+        "same ramp after the resume"
+    );
+    assert!(
+        in_work(".work-ramp-").is_none(),
+        "the work directory is gone"
+    );
+}
