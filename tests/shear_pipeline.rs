@@ -254,3 +254,68 @@ fn report_of_a_sweep_with_missing_points() {
     );
     assert!(html.contains("φ_c(Q = 1) between 0.76 and 0.82"), "{html}");
 }
+
+/// A sweep over two Q: P^el, τ_dur/τ_e and ν_coll/γ̇ are drawn against φ (Figs. 15, 22;
+/// 6, 14) and, with more than one Q, against Q (Figs. 1, 10; 6, 14).
+#[test]
+fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
+    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
+    use pillar_pipe::stages::shear::ShearOptions;
+    let d = tmpdir("shear-report-el");
+    let sweep = d.join("sweep");
+    std::fs::create_dir_all(&sweep).unwrap();
+    let q = |m: f64| serde_json::json!({"mean": m, "err": 0.05 * m});
+    let mut grid = Vec::new();
+    let mut points = Vec::new();
+    for phi in [0.78, 0.82] {
+        for qf in [1.0, 10.0] {
+            for rate in [1e-4, 1e-3] {
+                grid.push((phi, qf, rate));
+                let mut s = summary(rate, 1.5);
+                s["p_el"] = q(phi * rate / qf);
+                s["tau_dur"] = q(1.0 + phi);
+                s["nu_coll"] = q(0.3 * rate);
+                points.push(((phi, qf, rate), s));
+            }
+        }
+    }
+    pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &ShearOptions::default())
+        .unwrap();
+    let out = d.join("report");
+    let r = run(
+        &out,
+        &ReportOptions {
+            title: "sweep".into(),
+            datasets: vec![DatasetInputs {
+                label: "flow".into(),
+                sweep: Some(sweep.clone()),
+                ..Default::default()
+            }],
+            map_stages: 1,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(&r.html).unwrap();
+    for fig in [
+        "p_el",
+        "p_el_vs_q",
+        "tau_dur",
+        "tau_dur_vs_q",
+        "nu_coll",
+        "nu_coll_vs_q",
+    ] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("figures/sweep_flow_{fig}.{ext}"));
+            assert!(f.is_file(), "{}", f.display());
+        }
+    }
+    for caption in [
+        "Fig. 22",
+        "Fig. 10",
+        "Figs. 6(a,c), 14(a,c)",
+        "Figs. 6(b,d), 14(b,d)",
+    ] {
+        assert!(html.contains(caption), "{caption}");
+    }
+}

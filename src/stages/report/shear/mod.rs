@@ -1,10 +1,13 @@
 //! The sheared-disk sections of the report (vagberg-sheared-disks): for a sweep, flow
-//! curves, Z beside 2τ_dur ν_coll, μ, rotation and R_v against φ, and the
+//! curves, Z beside 2τ_dur ν_coll, μ, rotation and R_v against φ, P^el, τ_dur/τ_e and
+//! ν_coll/γ̇ against φ and Q (`elastic`), and the
 //! Newtonian/Bagnoldian classification with its phase diagrams; for one run, its
-//! steady-state summary and P(ϑ) at contact making and breaking. A sweep with grid
-//! points missing (a killed one) is shown as far as it goes, naming what is missing.
+//! steady-state summary and P(ϑ) at contact making and breaking; for a branch's
+//! strain-rate ramps, the hysteresis loop (`ramp`). A sweep with grid points missing (a
+//! killed one) is shown as far as it goes, naming what is missing.
 
 pub mod classify;
+mod elastic;
 pub mod ramp;
 
 use crate::error::{Error, Result};
@@ -463,6 +466,7 @@ pub fn sweep_section(
             caption.into(),
         )?;
     }
+    elastic::add_figures(&mut f, &data.rows, &colour_of)?;
     // Classification.
     let c = classify(&data.rows);
     write_classification(out_dir, label, &c)?;
