@@ -18,6 +18,7 @@ pub use crate::stages::shear::stats::MeanErr;
 pub(crate) use crate::stages::shear::stats::block_stats;
 use crate::stages::shear::stats::summarize;
 use crate::stages::shear::steady::Steady;
+pub use crate::stages::shear::steady::{FIELD_RADIUS, FIELD_SNAPSHOTS};
 use crate::stages::shear::tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
 use crate::stages::simulate::tables::{drop_parts_from, merge_parts};
 use crate::tracks::{Provenance, TracksMeta};
