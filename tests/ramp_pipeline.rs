@@ -176,7 +176,7 @@ fn synthetic_ramp(dir: &Path, dir_name: &str, r0: f64, r1: f64, c: f64) {
             col("sigma", &sigma),
             col("p_el", &sigma),
             col("sigma_el", &sigma),
-            col("z", &vec![3.0; 21]),
+            col("z", &[3.0; 21]),
         ],
     )
     .unwrap();
