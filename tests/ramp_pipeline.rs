@@ -9,14 +9,15 @@ use serde_json::Value;
 use std::path::Path;
 
 /// A ramp up and a ramp down of 64 disks between γ̇ τ_e = 1e-2 and 1e-1 at κ̃ = 0.05:
-/// 20 changes of γ̇, 400 steps each way; windows of 4 τ_e.
+/// 20 changes of γ̇, 400 steps each way; windows of 4 τ_e. The ramp down starts where
+/// the ramp up ended (`from`), a cycle as in Fig. 31.
 fn tiny(up_extra: &str, shear_extra: &str) -> String {
     format!(
         "[pipeline]\nname = \"tiny-ramps\"\n\n\
          [hyst.up]\nkind = \"ramp\"\nramp = \"up\"\nphi = 0.8\nn = 64\nrate = 1e-2\nrate_end = 1e-1\n\
          kappa = 0.05\nwindow = 4\nsample_every = 5\n{up_extra}\n\
          [hyst.down]\nkind = \"ramp\"\nramp = \"down\"\nphi = 0.8\nn = 64\nrate = 1e-1\nrate_end = 1e-2\n\
-         kappa = 0.05\nwindow = 4\nsample_every = 5\n\n\
+         kappa = 0.05\nwindow = 4\nsample_every = 5\nfrom = \"up\"\n\n\
          [hyst.shear]\nphi = 0.8\nn = 32\nrate = 1e-2\nstrain = 0.2\n{shear_extra}\n\
          [report]\ndatasets = [\"hyst\"]\n"
     )
@@ -84,9 +85,28 @@ fn ramp_stages_run_are_cached_and_reported() {
     run_ok(&["run", f, "--quiet"], &runs);
     assert!(computed(&latest(&runs)).is_empty());
 
-    // A changed ramp key recomputes that ramp and the report only.
+    // The ramp down continued the ramp up: its clock goes on from the up's last sample
+    // (20 τ_e), at the rate the up ended on.
+    let series = |name: &str| {
+        let st = stage(&m, name);
+        let dir = runs.join(st["dir"].as_str().unwrap());
+        pillar_pipe::io::table::read_table(&dir.join("series.parquet"), &[]).unwrap()
+    };
+    let (up, down) = (series("hyst.up"), series("hyst.down"));
+    let (ut, dt) = (up.f64("time").unwrap(), down.f64("time").unwrap());
+    assert!(
+        (dt[0] - ut.last().unwrap()).abs() < 1e-9,
+        "{} vs {}",
+        dt[0],
+        ut.last().unwrap()
+    );
+    assert!((down.f64("rate").unwrap()[0] / 1e-1 - 1.0).abs() < 1e-12);
+    assert!(stage(&m, "hyst.up")["outputs"]["state"].is_string(), "{m}");
+
+    // A changed key of the ramp up recomputes it, the ramp down that continues it, and
+    // the report.
     run_ok(&["run", f, "--quiet", "--set", "hyst.up.seed=2"], &runs);
-    assert_eq!(computed(&latest(&runs)), ["hyst.up", "report"]);
+    assert_eq!(computed(&latest(&runs)), ["hyst.up", "hyst.down", "report"]);
 }
 
 #[test]
@@ -143,6 +163,24 @@ fn ramp_keys_are_validated_at_load() {
     refuse(
         &tiny("dt = 0.03\n", ""),
         &["hyst.up.dt", "dt must divide 1"],
+    );
+    // A cycle continues the same disks only, and only from a ramp.
+    let text = tiny("", "").replacen(
+        "phi = 0.8\nn = 64\nrate = 1e-1",
+        "phi = 0.81\nn = 64\nrate = 1e-1",
+        1,
+    );
+    refuse(
+        &text,
+        &[
+            &format!("line {}", line_of(&text, "from = ")),
+            "hyst.down.from",
+            "phi = 0.8 there, 0.81 here",
+        ],
+    );
+    refuse(
+        &tiny("", "").replace("from = \"up\"", "from = \"shear\""),
+        &["hyst.down.from", "shear_run", "shear_ramp"],
     );
     // A ramp in a shear stage points at the ramp kind.
     let text = tiny("", "ramp = \"up\"\n");

@@ -189,6 +189,9 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let p: RampParams = typed(&s.name, &s.params)?;
             let mut o = p.options();
             o.quiet = q;
+            if p.from.is_some() {
+                o.from_state = Some(ctx.input(s, "from", "state")?);
+            }
             let summary = shear_resumable(out, ctx.dir, &mut o)?;
             Ok(Produced {
                 outputs: tables_in(out)?,
@@ -287,9 +290,9 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
     }
 }
 
-/// A sheared-disk run's outputs by name: each table (`series`, `ramp`, `tracks`, …) and
-/// each JSON record (`summary`, `manifest`) in `out`; sidecars (`x.meta.json`) go with
-/// their tables.
+/// A sheared-disk run's outputs by name: each table (`series`, `ramp`, `tracks`, …),
+/// each JSON record (`summary`, `manifest`) in `out`, and a ramp's final `state`;
+/// sidecars (`x.meta.json`) go with their tables.
 fn tables_in(out: &Path) -> Result<BTreeMap<String, String>> {
     let mut outs = BTreeMap::new();
     for e in std::fs::read_dir(out)
@@ -299,7 +302,8 @@ fn tables_in(out: &Path) -> Result<BTreeMap<String, String>> {
         let name = e.file_name().to_string_lossy().into_owned();
         let key = name
             .strip_suffix(".parquet")
-            .or_else(|| name.strip_suffix(".json").filter(|n| !n.contains('.')));
+            .or_else(|| name.strip_suffix(".json").filter(|n| !n.contains('.')))
+            .or_else(|| (name == stages::shear::STATE).then_some("state"));
         if let Some(k) = key {
             outs.insert(k.to_string(), name.clone());
         }

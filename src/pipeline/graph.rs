@@ -157,6 +157,7 @@ pub fn build(
     }
     check_cycles(src, &stages)?;
     check_types(src, schema, &stages)?;
+    check_ramp_sources(src, &stages)?;
     Ok(order(stages))
 }
 
@@ -225,6 +226,43 @@ fn check_ramp(src: &Source, st: &Stage) -> Result<()> {
         Some((key, m)) => Err(src.err(&format!("{}.{key}", st.name), m)),
         None => Ok(()),
     }
+}
+
+/// A ramp that starts `from` another's final state needs the same disks: N, φ, Q, model
+/// and Δt as the ramp it continues (its rate may differ: velocities are rescaled).
+fn check_ramp_sources(src: &Source, stages: &[Stage]) -> Result<()> {
+    for s in stages.iter().filter(|s| s.kind == Kind::Ramp) {
+        let Some(up) = s.upstream.get("from") else {
+            continue;
+        };
+        let u = stages.iter().find(|x| &x.name == up).expect("resolved");
+        // dt left out means the default for the stage's Q.
+        let value = |p: &Json, k: &str| match (k, p[k].as_f64(), p["q"].as_f64()) {
+            ("dt", None, Some(q)) => Json::from(crate::dem::shear::ShearParams::default_dt(q)),
+            _ => p[k].clone(),
+        };
+        let differ: Vec<String> = ["n", "phi", "q", "model", "dt"]
+            .into_iter()
+            .filter(|k| value(&s.params, k) != value(&u.params, k))
+            .map(|k| {
+                format!(
+                    "{k} = {} there, {} here",
+                    value(&u.params, k),
+                    value(&s.params, k)
+                )
+            })
+            .collect();
+        if !differ.is_empty() {
+            return Err(src.err(
+                &format!("{}.from", s.name),
+                format!(
+                    "'{up}' ran other disks: {}; a ramp continues only the same system",
+                    differ.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The name of a sweep's grid point stage.

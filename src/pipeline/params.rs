@@ -297,6 +297,9 @@ pub struct RampParams {
     pub kappa: f64,
     /// Averaging window of `ramp.parquet` (τ_e; the paper: 10³).
     pub window: f64,
+    /// A `ramp` stage whose final state this ramp starts from (a cycle), else random
+    /// positions.
+    pub from: Option<String>,
     pub n: usize,
     pub phi: f64,
     pub q: f64,
@@ -319,6 +322,7 @@ impl Default for RampParams {
             rate_end: 0.0,
             kappa: d.kappa,
             window: d.window,
+            from: None,
             n: d.n,
             phi: d.phi,
             q: d.q,

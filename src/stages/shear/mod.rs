@@ -13,7 +13,8 @@ use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
 use crate::io::{atomic_write_str, sidecar_path};
-use crate::stages::shear::ramp::{finish_ramp, ramp_plan};
+pub use crate::stages::shear::ramp::STATE;
+use crate::stages::shear::ramp::{finish_ramp, ramp_plan, start_from};
 pub use crate::stages::shear::stats::MeanErr;
 pub(crate) use crate::stages::shear::stats::block_stats;
 use crate::stages::shear::stats::summarize;
@@ -69,6 +70,10 @@ pub struct ShearOptions {
     /// Testing aid: fail right after the first checkpoint at or past this step.
     #[serde(skip)]
     pub halt_after: Option<u64>,
+    /// A ramp's start: the `state.bin` another ramp left (a pipeline's `from` key, whose
+    /// stage key enters this one's), instead of random positions.
+    #[serde(skip)]
+    pub from_state: Option<PathBuf>,
 }
 
 impl Default for ShearOptions {
@@ -95,6 +100,7 @@ impl Default for ShearOptions {
             resume: false,
             quiet: false,
             halt_after: None,
+            from_state: None,
         }
     }
 }
@@ -229,6 +235,18 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let mut tracks = empty_tracks();
     let (mut frame, mut parts) = (0i64, 0u64);
     let mut steady = Steady::default();
+    let origin = match &opt.from_state {
+        Some(_) if opt.ramp.is_none() => {
+            return Err(Error::param(
+                "from",
+                "only a ramp starts from another run's state",
+            ));
+        }
+        Some(f) => Some(start_from(f, &p)?),
+        None => None,
+    };
+    // Steps and strain are counted on from a state's; the ramp's schedule starts at it.
+    let (step0, strain0) = origin.as_ref().map_or((0, 0.0), |s| (s.step, s.strain()));
     let mut sim = if opt.resume {
         let r = read_checkpoint(&ckpt)?;
         if r.physics != physics {
@@ -264,13 +282,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             ));
         }
         let _ = std::fs::remove_dir_all(&parts_dir);
-        ShearSim::new(p.clone())
+        origin.unwrap_or_else(|| ShearSim::new(p.clone()))
     };
     let ramp = ramp_plan(opt, &p)?;
-    let total = match &ramp {
-        Some(r) => r.intervals * r.steps_per_tau,
-        None => (opt.strain / (p.rate * p.dt)).ceil() as u64,
-    };
+    let total = step0
+        + match &ramp {
+            Some(r) => r.intervals * r.steps_per_tau,
+            None => (opt.strain / (p.rate * p.dt)).ceil() as u64,
+        };
     let out_every = opt.output_every.unwrap_or(match &ramp {
         Some(_) => ((opt.window / p.dt).round() as u64).max(1),
         None => ((0.05 / (p.rate * p.dt)).round() as u64).max(1),
@@ -282,13 +301,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let field_every = ((steady_samples / crate::stages::shear::steady::FIELD_SNAPSHOTS as f64)
         .floor() as u64)
         .max(1);
-    let bar = crate::stages::progress(total, "shear", opt.quiet);
+    let bar = crate::stages::progress(total - step0, "shear", opt.quiet);
     let mut clock =
         crate::interrupt::CheckpointClock::new(opt.checkpoint_every, opt.checkpoint_interval);
     // A resumed run's current step was recorded and checkpointed before the stop.
     let mut fresh = !opt.resume;
     loop {
-        if fresh && sim.step.is_multiple_of(opt.sample_every) {
+        let rel = sim.step - step0;
+        if fresh && rel.is_multiple_of(opt.sample_every) {
             if ramp.is_none() && sim.strain() >= opt.transient * opt.strain {
                 if sim.coll.window_start.is_infinite() {
                     // The duration cohort: contacts begun from here on.
@@ -330,14 +350,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 c.push(v);
             }
         }
-        if fresh && (sim.step.is_multiple_of(out_every) || sim.step == total) {
+        if fresh && (rel.is_multiple_of(out_every) || sim.step == total) {
             push_frame(&mut tracks, &sim, frame);
             frame += 1;
-            bar.set_position(sim.step);
+            bar.set_position(rel);
         }
         // The clock and the signal flag are read every 64 steps (a step is ~20 µs).
         if fresh
-            && sim.step > 0
+            && sim.step > step0
             && sim.step < total
             && (clock.due_by_steps(sim.step) || (sim.step.is_multiple_of(64) && clock.due_now()))
         {
@@ -377,11 +397,11 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         }
         sim.step();
         if let Some(r) = &ramp
-            && sim.step.is_multiple_of(r.steps_per_tau)
+            && (sim.step - step0).is_multiple_of(r.steps_per_tau)
         {
             // Eq. 38 in steps of τ_e; the initial rate times an integer power, so a
             // resumed ramp lands on the same rates.
-            let k = (sim.step / r.steps_per_tau) as f64;
+            let k = ((sim.step - step0) / r.steps_per_tau) as f64;
             sim.set_rate(p.rate * r.factor.powf(k));
         }
     }
@@ -422,7 +442,19 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         &serde_json::to_string_pretty(&tracks.meta).expect("json"),
     )?;
     if let Some(r) = &ramp {
-        return finish_ramp(out, opt, &p, r, &cols, &sim, frame, series, tracks_path, t0);
+        return finish_ramp(
+            out,
+            opt,
+            &p,
+            r,
+            &cols,
+            &sim,
+            frame,
+            series,
+            tracks_path,
+            t0,
+            (step0, strain0),
+        );
     }
     let cohort = crate::stages::shear::stats::Cohort::of(&sim);
     let summary = summarize(&cols, &p, sim.g.len(), opt, &cohort)?;

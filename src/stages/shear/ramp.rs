@@ -76,6 +76,48 @@ pub(crate) fn check_ramp(
     })
 }
 
+/// The state a finished ramp leaves (positions, velocities, spins, contact history at
+/// its last step), which the next ramp of a cycle starts from.
+pub const STATE: &str = "state.bin";
+
+/// The run in `state` (a ramp's `STATE`) as the start of a ramp with parameters `p`: the
+/// same disks, φ, Q, model and Δt, its velocities and spins rescaled to `p.rate` (Eqs.
+/// 40–41), so that a ramp down continues where the ramp up ended, as in the paper's
+/// cycles (Fig. 31). Its step and time go on from there.
+pub(crate) fn start_from(state: &Path, p: &ShearParams) -> Result<ShearSim> {
+    let bytes = std::fs::read(state).map_err(|e| Error::input(state.display(), e.to_string()))?;
+    let (mut sim, _) = ShearSim::load(&bytes).map_err(|e| Error::input(state.display(), e))?;
+    let q = &sim.p;
+    let same = q.n == p.n
+        && q.phi == p.phi
+        && q.q == p.q
+        && q.model == p.model
+        && q.alpha == p.alpha
+        && q.dt == p.dt;
+    if !same {
+        return Err(Error::param(
+            "from",
+            format!(
+                "{} holds N = {}, φ = {}, Q = {}, {:?}, dt = {}; this ramp has N = {}, φ = {}, Q = {}, {:?}, dt = {}",
+                state.display(),
+                q.n,
+                q.phi,
+                q.q,
+                q.model,
+                q.dt,
+                p.n,
+                p.phi,
+                p.q,
+                p.model,
+                p.dt
+            ),
+        ));
+    }
+    sim.set_rate(p.rate);
+    sim.p.seed = p.seed;
+    Ok(sim)
+}
+
 /// A ramp's outputs: `ramp.parquet` (means over windows of `window` τ_e, as in Fig. 31)
 /// and summary.json describing the ramp, then the manifest.
 #[allow(clippy::too_many_arguments)]
@@ -90,6 +132,7 @@ pub(crate) fn finish_ramp(
     series: PathBuf,
     tracks: PathBuf,
     t0: std::time::Instant,
+    (step0, strain0): (u64, f64),
 ) -> Result<ShearReport> {
     let col = |name: &str| {
         &cols[SERIES
@@ -126,18 +169,20 @@ pub(crate) fn finish_ramp(
     .map_err(|e| Error::polars("building the ramp table", e))?;
     let table = out.join("ramp.parquet");
     write_table(&mut df, &table)?;
+    crate::io::atomic_write_bytes(&out.join(STATE), &sim.save(&[]))?;
     let elapsed = t0.elapsed().as_secs_f64();
     let summary = serde_json::json!({
         "ramp": opt.ramp, "kappa_tilde": opt.kappa, "rate_start": p.rate, "rate_end": sim.p.rate,
         "rate_changes": r.intervals, "window_tau_e": opt.window, "windows": win[0].len(),
-        "strain": sim.strain(), "steps": sim.step, "params": p,
+        "strain": sim.strain() - strain0, "steps": sim.step - step0, "params": p,
+        "started_from": opt.from_state.as_ref().map(|f| f.display().to_string()),
     });
     atomic_write_str(
         &out.join("summary.json"),
         &serde_json::to_string_pretty(&summary).expect("json"),
     )?;
     let body = serde_json::json!({
-        "params": p, "tables": {"series": series, "ramp": table, "tracks": tracks},
+        "params": p, "tables": {"series": series, "ramp": table, "tracks": tracks, "state": out.join(STATE)},
         "elapsed_s": elapsed,
     });
     crate::stages::manifest::write(out, "simulate shear --ramp", opt, body)?;
@@ -145,7 +190,7 @@ pub(crate) fn finish_ramp(
     let _ = std::fs::remove_dir_all(out.join(".parts"));
     Ok(ShearReport {
         out: out.to_path_buf(),
-        steps: sim.step,
+        steps: sim.step - step0,
         frames: frames as usize,
         summary: BTreeMap::new(),
         elapsed_s: elapsed,
