@@ -77,6 +77,10 @@ fn ramp_stages_run_are_cached_and_reported() {
         html.contains("Fig. 31") && html.contains("Σ down / Σ up"),
         "{html}"
     );
+    assert!(
+        html.contains("<td>random positions</td>") && html.contains("<td>where a ramp ended</td>"),
+        "the ramp up starts afresh, the ramp down continues it"
+    );
     // Both directions drawn: the legend names them.
     let svg = std::fs::read_to_string(rep_dir.join("figures/ramp_hyst_sigma.svg")).unwrap();
     assert!(svg.contains("up, κ̃ = 5e-2") && svg.contains("down, κ̃ = 5e-2"));

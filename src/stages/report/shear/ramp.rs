@@ -30,6 +30,8 @@ pub struct RampData {
     pub phi: Option<f64>,
     pub q: Option<f64>,
     pub model: String,
+    /// Whether the ramp continued another's final state (else random positions).
+    pub continued: bool,
     /// Window means (γ̇ τ_e, Σ, P), in time order.
     pub points: Vec<(f64, f64, f64)>,
 }
@@ -89,6 +91,7 @@ pub fn read_ramp(dir: &Path) -> Result<RampData> {
         phi: pa["phi"].as_f64(),
         q: pa["q"].as_f64(),
         model: pa["model"].as_str().unwrap_or("?").to_string(),
+        continued: v["started_from"].is_string(),
         points: (0..rate.len()).map(|i| (rate[i], sigma[i], p[i])).collect(),
     })
 }
@@ -166,6 +169,7 @@ pub fn ramp_section(
             "φ",
             "Q",
             "model",
+            "start",
         ]
         .map(String::from)
         .to_vec(),
@@ -183,6 +187,11 @@ pub fn ramp_section(
                     opt(r.phi),
                     opt(r.q),
                     r.model.to_uppercase(),
+                    if r.continued {
+                        "where a ramp ended".into()
+                    } else {
+                        "random positions".into()
+                    },
                 ]
             })
             .collect(),
