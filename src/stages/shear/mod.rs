@@ -224,17 +224,6 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let p = params_of(opt).map_err(|e| Error::param("shear", e))?;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let (ckpt, parts_dir) = (out.join("checkpoint.bin"), out.join(".parts"));
-    let physics = {
-        let mut v = serde_json::to_value(opt).expect("json");
-        for k in crate::stages::simulate::RUN_ONLY {
-            v.as_object_mut().expect("object").remove(k);
-        }
-        v.to_string()
-    };
-    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
-    let mut tracks = empty_tracks();
-    let (mut frame, mut parts) = (0i64, 0u64);
-    let mut steady = Steady::default();
     let origin = match &opt.from_state {
         Some(_) if opt.ramp.is_none() => {
             return Err(Error::param(
@@ -247,6 +236,23 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     };
     // Steps and strain are counted on from a state's; the ramp's schedule starts at it.
     let (step0, strain0) = origin.as_ref().map_or((0, 0.0), |s| (s.step, s.strain()));
+    let physics = {
+        let mut v = serde_json::to_value(opt).expect("json");
+        for k in crate::stages::simulate::RUN_ONLY {
+            v.as_object_mut().expect("object").remove(k);
+        }
+        // A continued ramp's schedule counts from the state's step: a resume must
+        // start from the same one (a run from random positions records nothing, so
+        // its older checkpoints still resume).
+        if opt.from_state.is_some() {
+            v["from_step"] = serde_json::json!(step0);
+        }
+        v.to_string()
+    };
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
+    let mut tracks = empty_tracks();
+    let (mut frame, mut parts) = (0i64, 0u64);
+    let mut steady = Steady::default();
     let mut sim = if opt.resume {
         let r = read_checkpoint(&ckpt)?;
         if r.physics != physics {
