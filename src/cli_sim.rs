@@ -152,6 +152,10 @@ pub struct ShearArgs {
     /// Ramp averaging window (τ_e).
     #[arg(long, default_value_t = 1000.0)]
     window: f64,
+    /// Start the ramp where the ramp in DIR ended (its state.bin: same N, φ, Q, model,
+    /// Δt; velocities rescaled to --rate), as the paper's cycles do; else random positions.
+    #[arg(long, value_name = "DIR", requires = "ramp")]
+    from: Option<PathBuf>,
     /// Steps between checkpoints (0: none).
     #[arg(long, default_value_t = 0)]
     checkpoint_every: u64,
@@ -237,8 +241,13 @@ fn shear(a: ShearArgs) -> Result<()> {
     for (k, v) in &rep.summary {
         println!("  {k:30} {:>12.5e} ± {:.2e}", v.mean, v.err);
     }
+    let tables = if opt.ramp.is_some() {
+        "{ramp, series, tracks}.parquet, state.bin"
+    } else {
+        "{series, tracks, profile, fields, collision_angles, contact_velocities}.parquet"
+    };
     println!(
-        "wrote       {}/{{series, tracks, profile, fields, collision_angles, contact_velocities}}.parquet, summary.json, manifest.json",
+        "wrote       {}/{tables}, summary.json, manifest.json",
         out.display()
     );
     Ok(())
@@ -275,6 +284,7 @@ fn shear_options(a: ShearArgs) -> Result<(PathBuf, pillar_pipe::stages::shear::S
         resume,
         quiet: a.quiet,
         halt_after: a.halt_after,
+        from_state: a.from.map(|d| d.join(pillar_pipe::stages::shear::STATE)),
     };
     Ok((out, opt))
 }

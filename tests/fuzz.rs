@@ -986,12 +986,15 @@ fn fuzz_pipeline_file() {
     std::fs::create_dir_all(dir.join("data/sample")).unwrap();
     std::fs::create_dir_all(dir.join("pipelines")).unwrap();
     std::fs::write(dir.join("data/sample/tracks.csv"), trackpy_seed()).unwrap();
-    let seeds: Vec<String> = ["quickstart", "experiment-only", "paper-n1000"]
-        .iter()
-        .map(|n| {
-            std::fs::read_to_string(Path::new(ROOT).join(format!("pipelines/{n}.toml"))).unwrap()
-        })
-        .collect();
+    let seeds: Vec<String> = [
+        "quickstart",
+        "experiment-only",
+        "paper-n1000",
+        "shear-ramps",
+    ]
+    .iter()
+    .map(|n| std::fs::read_to_string(Path::new(ROOT).join(format!("pipelines/{n}.toml"))).unwrap())
+    .collect();
     let file = dir.join("pipelines/case.toml");
     for s in &seeds {
         std::fs::write(&file, s).unwrap();

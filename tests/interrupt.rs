@@ -325,3 +325,76 @@ fn sigterm_stops_a_pipeline_which_records_it_and_continues_when_run_again() {
     };
     assert_eq!(tracks(&a), tracks(&b), "same trajectories after the resume");
 }
+
+/// A pipeline's `ramp` stage (Eqs. 38–41), here the ramp down of a cycle that starts
+/// where a short ramp up ended, stopped by SIGTERM resumes from its checkpoint in
+/// `runs/cache/.work-ramp-<hash>/` when the pipeline runs again, and ends with the
+/// tables of an uninterrupted run: the rates the ramp lands on after the resume are the
+/// same integer powers of 10^κ̃, counted from the step it started at.
+#[test]
+fn sigterm_stops_a_ramp_stage_which_resumes_from_its_work_dir() {
+    let d = tmpdir("sig-ramp");
+    let pipeline = d.join("ramp.toml");
+    std::fs::write(
+        &pipeline,
+        "[cycle.up]\nkind = \"ramp\"\nramp = \"up\"\nn = 1024\nphi = 0.8\nrate = 1e-2\nrate_end = 1e-1\n\
+         kappa = 0.05\nwindow = 5\n\n\
+         [cycle.down]\nkind = \"ramp\"\nramp = \"down\"\nfrom = \"up\"\nn = 1024\nphi = 0.8\nrate = 1e-1\n\
+         rate_end = 1e-2\nkappa = 5e-4\nwindow = 100\ncheckpoint_every = 2000\ncheckpoint_interval = 0\n",
+    )
+    .unwrap();
+    let file = pipeline.to_str().unwrap();
+    let (a, b) = (d.join("runs-a"), d.join("runs-b"));
+    run_ok(&["run", file, "--quiet", "--runs-dir", a.to_str().unwrap()]);
+    let child = spawn(&["run", file, "--quiet", "--runs-dir", b.to_str().unwrap()]);
+    let cache = b.join("cache");
+    let in_work = |prefix: &str| {
+        std::fs::read_dir(&cache)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .find(|e| e.file_name().to_string_lossy().starts_with(prefix))
+            .map(|e| e.path())
+    };
+    let checkpointed = || in_work(".work-ramp-").is_some_and(|w| w.join("checkpoint.bin").exists());
+    wait_for("the ramp's first checkpoint", checkpointed);
+    signal(&child, libc::SIGTERM);
+    let (code, text) = finish(child);
+    assert_eq!(code, Some(143), "{text}");
+    assert!(text.contains("1 of 2 stages finished"), "{text}");
+    assert!(checkpointed(), "the checkpoint survives for the next run");
+    let resume = continue_command(&text);
+    let out = run_ok(&resume.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(out.contains("1 computed, 1 cached"), "{out}");
+    // Both ramps, by cache key: the same names in both runs directories.
+    let stage_dirs = |runs: &Path| {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(runs.join("cache"))
+            .unwrap()
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with("ramp-"))
+            .map(|e| e.path())
+            .collect();
+        v.sort();
+        v
+    };
+    let tables = [
+        "ramp.parquet",
+        "series.parquet",
+        "tracks.parquet",
+        "state.bin",
+    ];
+    let (da, db) = (stage_dirs(&a), stage_dirs(&b));
+    assert_eq!(da.len(), 2);
+    for (x, y) in da.iter().zip(&db) {
+        assert_eq!(x.file_name(), y.file_name());
+        assert_eq!(
+            bytes_of(x, &tables),
+            bytes_of(y, &tables),
+            "same ramp after the resume"
+        );
+    }
+    assert!(
+        in_work(".work-ramp-").is_none(),
+        "the work directory is gone"
+    );
+}

@@ -208,16 +208,22 @@ fn quickstart_pipeline_runs_both_branches() {
 #[test]
 fn bundled_pipelines_validate() {
     let d = tmpdir("bundled");
-    for name in [
-        "quickstart",
-        "paper-n1000",
-        "experiment-only",
-        "shear-flow-curves",
-        "shear-phase-diagram",
-        "paper-sizes",
-    ] {
+    // Every file under pipelines/, so that a new one is covered the day it is added.
+    let mut names: Vec<String> = std::fs::read_dir(Path::new(ROOT).join("pipelines"))
+        .unwrap()
+        .flatten()
+        .filter_map(|e| {
+            let n = e.file_name().to_string_lossy().into_owned();
+            n.strip_suffix(".toml").map(str::to_string)
+        })
+        .collect();
+    names.sort();
+    for must in ["quickstart", "shear-flow-curves", "shear-ramps", "paper-sizes"] {
+        assert!(names.iter().any(|n| n == must), "{must}: {names:?}");
+    }
+    for name in &names {
         let out = run_ok(&["run", &bundled(name), "--dry-run"], &d.join("runs"));
-        assert!(out.contains("is valid"), "{out}");
+        assert!(out.contains("is valid"), "{name}: {out}");
     }
     assert!(!d.join("runs").exists(), "--dry-run writes nothing");
 }

@@ -283,7 +283,6 @@ fn cli_acceptance_outputs_and_kinematics_on_sheared_tracks() {
         (mean / frame_strain - 1.0).abs() < 0.3,
         "mean J12 {mean} vs γ per frame {frame_strain}"
     );
-    // Ramps are not built yet and say so.
     let o = Command::new(bin)
         .args([
             "simulate",

@@ -254,3 +254,134 @@ fn report_of_a_sweep_with_missing_points() {
     );
     assert!(html.contains("φ_c(Q = 1) between 0.76 and 0.82"), "{html}");
 }
+
+/// A sweep over two Q: P^el, τ_dur/τ_e and ν_coll/γ̇ are drawn against φ (Figs. 15, 22;
+/// 6, 14) and, with more than one Q, against Q (Figs. 1, 10; 6, 14).
+#[test]
+fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
+    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
+    use pillar_pipe::stages::shear::ShearOptions;
+    let d = tmpdir("shear-report-el");
+    let sweep = d.join("sweep");
+    std::fs::create_dir_all(&sweep).unwrap();
+    let q = |m: f64| serde_json::json!({"mean": m, "err": 0.05 * m});
+    let mut grid = Vec::new();
+    let mut points = Vec::new();
+    for phi in [0.78, 0.82] {
+        for qf in [1.0, 10.0] {
+            for rate in [1e-4, 1e-3] {
+                grid.push((phi, qf, rate));
+                let mut s = summary(rate, 1.5);
+                s["p_el"] = q(phi * rate / qf);
+                s["tau_dur"] = q(1.0 + phi);
+                s["nu_coll"] = q(0.3 * rate);
+                points.push(((phi, qf, rate), s));
+            }
+        }
+    }
+    pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &ShearOptions::default())
+        .unwrap();
+    let out = d.join("report");
+    let r = run(
+        &out,
+        &ReportOptions {
+            title: "sweep".into(),
+            datasets: vec![DatasetInputs {
+                label: "flow".into(),
+                sweep: Some(sweep.clone()),
+                ..Default::default()
+            }],
+            map_stages: 1,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(&r.html).unwrap();
+    for fig in [
+        "p_el",
+        "p_el_vs_q",
+        "tau_dur",
+        "tau_dur_vs_q",
+        "nu_coll",
+        "nu_coll_vs_q",
+    ] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("figures/sweep_flow_{fig}.{ext}"));
+            assert!(f.is_file(), "{}", f.display());
+        }
+    }
+    for caption in [
+        "Fig. 22",
+        "Fig. 10",
+        "Figs. 6(a,c), 14(a,c)",
+        "Figs. 6(b,d), 14(b,d)",
+    ] {
+        assert!(html.contains(caption), "{caption}");
+    }
+}
+
+/// One run's section draws the contact velocities (Fig. 21), the profiles (Fig. 28) and
+/// the local fields (Fig. 27); the moments tabulated come from the run's table, where
+/// V^C_T = V_T + V^R contact by contact (Eq. 33), so their means add up.
+#[test]
+fn report_of_one_run_draws_contacts_profiles_and_fields() {
+    use pillar_pipe::stages::report::shear::run_figures::contact_moments;
+    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
+    use pillar_pipe::stages::shear::ShearOptions;
+    let d = tmpdir("shear-report-run");
+    let sim = d.join("run");
+    let opt = ShearOptions {
+        n: 128,
+        phi: 0.8,
+        rate: 1e-2,
+        strain: 0.5,
+        quiet: true,
+        ..Default::default()
+    };
+    pillar_pipe::stages::shear::run(&sim, &opt).unwrap();
+    let m = contact_moments(&sim.join("contact_velocities.parquet")).unwrap();
+    assert_eq!(m.len(), 3, "{m:?}");
+    let (vt_vr, vct_vr) = (&m[0].1, &m[1].1);
+    assert!(vt_vr.n > 100, "{m:?}");
+    let sum = vt_vr.mean.0 + vt_vr.mean.1;
+    assert!(
+        (vct_vr.mean.0 - sum).abs() <= 1e-9 * sum.abs().max(1.0),
+        "mean V^C_T {} vs mean V_T + V^R {sum}",
+        vct_vr.mean.0
+    );
+    let out = d.join("report");
+    let r = run(
+        &out,
+        &ReportOptions {
+            title: "run".into(),
+            datasets: vec![DatasetInputs {
+                label: "one".into(),
+                shear: Some(sim.clone()),
+                ..Default::default()
+            }],
+            map_stages: 1,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(&r.html).unwrap();
+    for fig in [
+        "contacts_vt_vr",
+        "contacts_vct_vr",
+        "contacts_vct_vn",
+        "profile_vx",
+        "profile_gamma_dot",
+        "profile_phi",
+        "field_phi",
+        "field_gamma_dot",
+    ] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("figures/shear_one_{fig}.{ext}"));
+            assert!(f.is_file(), "{}", f.display());
+        }
+    }
+    for caption in ["Fig. 21(a, b)", "Fig. 21(e, f)", "Fig. 28", "Fig. 27"] {
+        assert!(html.contains(caption), "{caption}");
+    }
+    assert!(html.contains("<th>correlation r</th>"), "the moments table");
+}

@@ -4,7 +4,8 @@
 
 use super::cache::StageRecord;
 use super::params::{
-    CompareParams, FitParams, IngestParams, KinematicsParams, ReportParams, SweepParams, typed,
+    CompareParams, FitParams, IngestParams, KinematicsParams, RampParams, ReportParams,
+    SweepParams, typed,
 };
 use super::{Kind, Pipeline, Stage};
 use crate::error::{Error, Result};
@@ -174,25 +175,30 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let mut o: stages::shear::ShearOptions = typed(&s.name, &s.params)?;
             o.quiet = q;
             let summary = shear_resumable(out, ctx.dir, &mut o)?;
-            let mut outs = BTreeMap::new();
-            for e in std::fs::read_dir(out)
-                .map_err(|e| Error::io(out, e))?
-                .flatten()
-            {
-                let name = e.file_name().to_string_lossy().into_owned();
-                let key = name
-                    .strip_suffix(".parquet")
-                    .or_else(|| name.strip_suffix(".json").filter(|n| !n.contains('.')));
-                if let Some(k) = key {
-                    outs.insert(k.to_string(), name.clone());
-                }
-            }
             let mean = |k: &str| summary.get(k).and_then(|v| v.get("mean")).cloned();
             Ok(Produced {
-                outputs: outs,
+                outputs: tables_in(out)?,
                 metrics: json!({
                     "n": o.n, "phi": o.phi, "q": o.q, "rate": o.rate, "model": o.model,
                     "p": mean("p"), "z": mean("z"), "mu": mean("mu"),
+                }),
+                summary: json!({"summary": "summary.json"}),
+            })
+        }
+        Kind::Ramp => {
+            let p: RampParams = typed(&s.name, &s.params)?;
+            let mut o = p.options();
+            o.quiet = q;
+            if p.from.is_some() {
+                o.from_state = Some(ctx.input(s, "from", "state")?);
+            }
+            let summary = shear_resumable(out, ctx.dir, &mut o)?;
+            Ok(Produced {
+                outputs: tables_in(out)?,
+                metrics: json!({
+                    "n": p.n, "phi": p.phi, "q": p.q, "model": p.model, "ramp": p.ramp,
+                    "kappa_tilde": p.kappa, "rate_start": p.rate, "rate_end": summary.get("rate_end"),
+                    "windows": summary.get("windows"), "strain": summary.get("strain"),
                 }),
                 summary: json!({"summary": "summary.json"}),
             })
@@ -249,6 +255,12 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                         .as_ref()
                         .and_then(|n| ctx.done.get(n))
                         .map(|d| d.dir.clone()),
+                    ramps: d
+                        .ramps
+                        .iter()
+                        .filter_map(|n| ctx.done.get(n))
+                        .map(|d| d.dir.clone())
+                        .collect(),
                 })
                 .collect();
             let opt = stages::report::ReportOptions {
@@ -277,6 +289,27 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             })
         }
     }
+}
+
+/// A sheared-disk run's outputs by name: each table (`series`, `ramp`, `tracks`, …),
+/// each JSON record (`summary`, `manifest`) in `out`, and a ramp's final `state`;
+/// sidecars (`x.meta.json`) go with their tables.
+fn tables_in(out: &Path) -> Result<BTreeMap<String, String>> {
+    let mut outs = BTreeMap::new();
+    for e in std::fs::read_dir(out)
+        .map_err(|e| Error::io(out, e))?
+        .flatten()
+    {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let key = name
+            .strip_suffix(".parquet")
+            .or_else(|| name.strip_suffix(".json").filter(|n| !n.contains('.')))
+            .or_else(|| (name == stages::shear::STATE).then_some("state"));
+        if let Some(k) = key {
+            outs.insert(k.to_string(), name.clone());
+        }
+    }
+    Ok(outs)
 }
 
 /// What the report prints under "Provenance": the stages it depends on with their
@@ -311,10 +344,10 @@ fn sum<T: serde::Serialize>(r: &T) -> Json {
     serde_json::to_value(r).unwrap_or(Json::Null)
 }
 
-/// A `shear` stage's run, resumable like a simulate stage's (`simulate_resumable`):
-/// it works in `.work-shear-<hash>/` beside the cache, from its checkpoint when one
-/// is there; the files then move into `out`. Returns the summary's quantities
-/// (empty for a ramp, which has none).
+/// A `shear` or `ramp` stage's run, resumable like a simulate stage's
+/// (`simulate_resumable`): it works in `.work-shear-<hash>/` (`.work-ramp-<hash>/`)
+/// beside the cache, from its checkpoint when one is there; the files then move into
+/// `out`. Returns `summary.json`'s top level (a ramp's: its rates, windows, strain).
 fn shear_resumable(
     out: &Path,
     stage_dir: &Path,

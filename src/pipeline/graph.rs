@@ -24,6 +24,10 @@ pub struct Dataset {
     /// A sheared-disk grid (`sweep` stage) of the branch.
     #[serde(default)]
     pub sweep: Option<String>,
+    /// The branch's strain-rate ramps (`ramp` stages), in file order: a ramp up and a
+    /// ramp down draw one hysteresis loop (Fig. 31).
+    #[serde(default)]
+    pub ramps: Vec<String>,
 }
 
 /// A validated stage, ready to run.
@@ -126,6 +130,10 @@ pub fn build(
                                     .insert(format!("datasets.{b}.{role}"), n.clone());
                             }
                         }
+                        for n in &d.ramps {
+                            st.upstream
+                                .insert(format!("datasets.{b}.ramp:{n}"), n.clone());
+                        }
                         st.datasets.push(d);
                     }
                 }
@@ -139,6 +147,9 @@ pub fn build(
                     .map_err(|e| src.err(&st.name, e.to_string()))?;
             crate::stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
         }
+        if st.kind == Kind::Ramp {
+            check_ramp(src, &st)?;
+        }
         if st.kind == Kind::Sweep {
             stages.extend(sweep_points(src, &mut st)?);
         }
@@ -146,6 +157,7 @@ pub fn build(
     }
     check_cycles(src, &stages)?;
     check_types(src, schema, &stages)?;
+    check_ramp_sources(src, &stages)?;
     Ok(order(stages))
 }
 
@@ -194,7 +206,63 @@ fn dataset(
             .map(|s| s.name.clone()),
         shear: of(&[Kind::Shear], "shear")?.map(|s| s.name.clone()),
         sweep: of(&[Kind::Sweep], "sweep")?.map(|s| s.name.clone()),
+        ramps: raw
+            .iter()
+            .filter(|s| s.branch.as_deref() == Some(b) && s.kind == Kind::Ramp)
+            .map(|s| s.name.clone())
+            .collect(),
     })
+}
+
+/// A ramp's options as the run will check them, at load: the physics at the stage,
+/// the ramp's own faults at the key (its direction against `rate` and `rate_end`, κ̃,
+/// a `dt` that does not divide τ_e).
+fn check_ramp(src: &Source, st: &Stage) -> Result<()> {
+    let p: super::params::RampParams =
+        serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))?;
+    let o = p.options();
+    let sp = crate::stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
+    match crate::stages::shear::ramp_problem(&o, &sp) {
+        Some((key, m)) => Err(src.err(&format!("{}.{key}", st.name), m)),
+        None => Ok(()),
+    }
+}
+
+/// A ramp that starts `from` another's final state needs the same disks: N, φ, Q, model
+/// and Δt as the ramp it continues (its rate may differ: velocities are rescaled).
+fn check_ramp_sources(src: &Source, stages: &[Stage]) -> Result<()> {
+    for s in stages.iter().filter(|s| s.kind == Kind::Ramp) {
+        let Some(up) = s.upstream.get("from") else {
+            continue;
+        };
+        let u = stages.iter().find(|x| &x.name == up).expect("resolved");
+        // dt left out means the default for the stage's Q.
+        let value = |p: &Json, k: &str| match (k, p[k].as_f64(), p["q"].as_f64()) {
+            ("dt", None, Some(q)) => Json::from(crate::dem::shear::ShearParams::default_dt(q)),
+            _ => p[k].clone(),
+        };
+        let differ: Vec<String> = ["n", "phi", "q", "model", "dt"]
+            .into_iter()
+            .filter(|k| value(&s.params, k) != value(&u.params, k))
+            .map(|k| {
+                format!(
+                    "{k} = {} there, {} here",
+                    value(&u.params, k),
+                    value(&s.params, k)
+                )
+            })
+            .collect();
+        if !differ.is_empty() {
+            return Err(src.err(
+                &format!("{}.from", s.name),
+                format!(
+                    "'{up}' ran other disks: {}; a ramp continues only the same system",
+                    differ.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The name of a sweep's grid point stage.

@@ -281,6 +281,91 @@ impl SweepParams {
     }
 }
 
+/// A `ramp` stage: one strain-rate ramp (vagberg-sheared-disks Eqs. 38–41), γ̇ τ_e from
+/// `rate` to `rate_end` by 10^{±κ̃} every τ_e. `ShearOptions` less what only a steady
+/// run reads (its strain, transient and blocks: a ramp's length is set by its rates
+/// and κ̃, and it has no steady window), the ramp keys required where the command
+/// line has them optional.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RampParams {
+    /// `up` or `down` (the command's `--ramp`).
+    pub ramp: String,
+    /// Final γ̇ τ_e (`--rate-end`).
+    pub rate_end: f64,
+    /// κ̃ = κ τ_e / ln 10 (Eq. 39).
+    pub kappa: f64,
+    /// Averaging window of `ramp.parquet` (τ_e; the paper: 10³).
+    pub window: f64,
+    /// A `ramp` stage whose final state this ramp starts from (a cycle), else random
+    /// positions.
+    pub from: Option<String>,
+    pub n: usize,
+    pub phi: f64,
+    pub q: f64,
+    /// Initial γ̇ τ_e.
+    pub rate: f64,
+    pub model: crate::dem::shear::Dissipation,
+    pub dt: Option<f64>,
+    pub seed: u64,
+    pub output_every: Option<u64>,
+    pub sample_every: u64,
+    pub checkpoint_every: u64,
+    pub checkpoint_interval: f64,
+}
+
+impl Default for RampParams {
+    fn default() -> Self {
+        let d = ShearOptions::default();
+        RampParams {
+            ramp: String::new(),
+            rate_end: 0.0,
+            kappa: d.kappa,
+            window: d.window,
+            from: None,
+            n: d.n,
+            phi: d.phi,
+            q: d.q,
+            rate: d.rate,
+            model: d.model,
+            dt: d.dt,
+            seed: d.seed,
+            output_every: d.output_every,
+            sample_every: d.sample_every,
+            checkpoint_every: d.checkpoint_every,
+            checkpoint_interval: d.checkpoint_interval,
+        }
+    }
+}
+
+impl RampParams {
+    /// The options `simulate shear --ramp` runs with.
+    pub fn options(&self) -> ShearOptions {
+        ShearOptions {
+            n: self.n,
+            phi: self.phi,
+            q: self.q,
+            rate: self.rate,
+            model: self.model,
+            dt: self.dt,
+            seed: self.seed,
+            output_every: self.output_every,
+            sample_every: self.sample_every,
+            ramp: Some(self.ramp.clone()),
+            kappa: self.kappa,
+            rate_end: Some(self.rate_end),
+            window: self.window,
+            checkpoint_every: self.checkpoint_every,
+            checkpoint_interval: self.checkpoint_interval,
+            ..ShearOptions::default()
+        }
+    }
+}
+
+/// Options of `ShearOptions` that only a ramp reads: a `shear` stage is a steady run,
+/// a ramp is a `ramp` stage.
+pub const RAMP_ONLY: [&str; 4] = ["ramp", "kappa", "rate_end", "window"];
+
 /// How a run behaves, not what it computes: `--quiet`, and resuming (a pipeline stage
 /// always starts in a fresh directory).
 const SIMULATE_RUN_ONLY: [&str; 2] = ["quiet", "resume"];
@@ -301,7 +386,15 @@ pub fn resolve(kind: Kind, given: Json) -> std::result::Result<Json, String> {
         Kind::Report => round_trip::<ReportParams>(given),
         Kind::Shear => round_trip::<ShearOptions>(given),
         Kind::Sweep => round_trip::<SweepParams>(given),
+        Kind::Ramp => round_trip::<RampParams>(given),
     }?;
+    if kind == Kind::Shear
+        && let Some(o) = v.as_object_mut()
+    {
+        for k in RAMP_ONLY {
+            o.remove(k);
+        }
+    }
     if matches!(kind, Kind::Simulate | Kind::Shear)
         && let Some(o) = v.as_object_mut()
     {

@@ -123,7 +123,7 @@ pub fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
             // How often a simulation checkpoints changes none of its numbers.
             if matches!(
                 s.kind,
-                super::Kind::Simulate | super::Kind::Shear | super::Kind::Sweep
+                super::Kind::Simulate | super::Kind::Shear | super::Kind::Sweep | super::Kind::Ramp
             ) {
                 for k in crate::stages::simulate::RUN_ONLY {
                     o.remove(k);

@@ -21,10 +21,12 @@ pub enum Kind {
     Shear,
     /// A grid of sheared-disk runs, each grid point a `Shear` stage of its own.
     Sweep,
+    /// One sheared-disk strain-rate ramp (vagberg-sheared-disks Eqs. 38–41, Fig. 31).
+    Ramp,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 8] = [
+    pub const ALL: [Kind; 9] = [
         Kind::Ingest,
         Kind::Simulate,
         Kind::Kinematics,
@@ -33,6 +35,7 @@ impl Kind {
         Kind::Report,
         Kind::Shear,
         Kind::Sweep,
+        Kind::Ramp,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -44,6 +47,7 @@ impl Kind {
             Kind::Report => "report",
             Kind::Shear => "shear",
             Kind::Sweep => "sweep",
+            Kind::Ramp => "ramp",
         }
     }
     pub fn from_name(s: &str) -> Option<Kind> {

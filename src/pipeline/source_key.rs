@@ -71,9 +71,9 @@ fn kinematics(p: &str) -> bool {
 /// Code that only some kinds run: (is a file in this group, the kinds that run it).
 type Group = (fn(&str) -> bool, &'static [Kind]);
 const GROUPS: &[Group] = &[
-    (simulator_core, &[Kind::Simulate, Kind::Shear]),
+    (simulator_core, &[Kind::Simulate, Kind::Shear, Kind::Ramp]),
     (pillar_simulator, &[Kind::Simulate]),
-    (shear_simulator, &[Kind::Shear]),
+    (shear_simulator, &[Kind::Shear, Kind::Ramp]),
     (sweep, &[Kind::Sweep]),
     (report, &[Kind::Report]),
     // Eq. 19 and the Sec. IV protocol; compare reads fit types, the report draws the model.
@@ -164,7 +164,7 @@ mod tests {
         );
         assert_eq!(
             changed(&base, &keys(&sim_tree("p1", "s2", "w1"))),
-            ["shear"]
+            ["shear", "ramp"]
         );
         assert_eq!(
             changed(&base, &keys(&sim_tree("p1", "s1", "w2"))),
@@ -172,7 +172,7 @@ mod tests {
         );
         let mut t = sim_tree("p1", "s1", "w1");
         t[6].1 = "law2".into();
-        assert_eq!(changed(&base, &keys(&t)), ["simulate", "shear"]);
+        assert_eq!(changed(&base, &keys(&t)), ["simulate", "shear", "ramp"]);
     }
 
     fn keys(t: &[(&'static str, String)]) -> Vec<String> {
@@ -203,7 +203,7 @@ mod tests {
         // The analysis stages downstream of a simulation are recomputed through their
         // upstream key (the simulation's), not through their own code; the tree's
         // files are shared code and both simulators' stages.
-        assert_eq!(changed(&base, &edited), ["simulate", "shear"]);
+        assert_eq!(changed(&base, &edited), ["simulate", "shear", "ramp"]);
     }
 
     #[test]

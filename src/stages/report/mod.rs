@@ -43,6 +43,10 @@ pub struct DatasetInputs {
     /// A sweep's directory (`sweep.parquet`, `sweep.json`).
     #[serde(default)]
     pub sweep: Option<PathBuf>,
+    /// Strain-rate ramps' directories (`summary.json`, `ramp.parquet`), drawn together
+    /// as one hysteresis loop (vagberg-sheared-disks Fig. 31).
+    #[serde(default)]
+    pub ramps: Vec<PathBuf>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -217,6 +221,19 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
                 &mut figures,
             )?);
         }
+        if !d.ramps.is_empty() {
+            let data = d
+                .ramps
+                .iter()
+                .map(|r| shear::ramp::read_ramp(r))
+                .collect::<Result<Vec<_>>>()?;
+            sections.push(shear::ramp::ramp_section(
+                &d.label,
+                &data,
+                &figdir,
+                &mut figures,
+            )?);
+        }
     }
 
     // Provenance.
@@ -249,6 +266,14 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
                     crate::io::sha256_file(p)?,
                 ]);
             }
+        }
+        for r in &d.ramps {
+            rows.push(vec![
+                d.label.clone(),
+                "ramp".into(),
+                r.display().to_string(),
+                "(directory)".into(),
+            ]);
         }
     }
     sections.push(Section {

@@ -13,11 +13,13 @@ use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
 use crate::io::{atomic_write_str, sidecar_path};
-use crate::stages::shear::ramp::{finish_ramp, ramp_plan};
+pub use crate::stages::shear::ramp::STATE;
+use crate::stages::shear::ramp::{finish_ramp, ramp_plan, start_from};
 pub use crate::stages::shear::stats::MeanErr;
 pub(crate) use crate::stages::shear::stats::block_stats;
 use crate::stages::shear::stats::summarize;
 use crate::stages::shear::steady::Steady;
+pub use crate::stages::shear::steady::{FIELD_RADIUS, FIELD_SNAPSHOTS};
 use crate::stages::shear::tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
 use crate::stages::simulate::tables::{drop_parts_from, merge_parts};
 use crate::tracks::{Provenance, TracksMeta};
@@ -68,6 +70,10 @@ pub struct ShearOptions {
     /// Testing aid: fail right after the first checkpoint at or past this step.
     #[serde(skip)]
     pub halt_after: Option<u64>,
+    /// A ramp's start: the `state.bin` another ramp left (a pipeline's `from` key, whose
+    /// stage key enters this one's), instead of random positions.
+    #[serde(skip)]
+    pub from_state: Option<PathBuf>,
 }
 
 impl Default for ShearOptions {
@@ -94,6 +100,7 @@ impl Default for ShearOptions {
             resume: false,
             quiet: false,
             halt_after: None,
+            from_state: None,
         }
     }
 }
@@ -206,15 +213,39 @@ pub fn params_of(opt: &ShearOptions) -> std::result::Result<ShearParams, String>
     Ok(p)
 }
 
+/// A ramp's options (with `p` from `params_of`) checked as `run` would check them: the
+/// key at fault and why, or None. For pipelines, which check every stage before any runs.
+pub fn ramp_problem(opt: &ShearOptions, p: &ShearParams) -> Option<(&'static str, String)> {
+    crate::stages::shear::ramp::check_ramp(opt, p).err()
+}
+
 pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let t0 = std::time::Instant::now();
     let p = params_of(opt).map_err(|e| Error::param("shear", e))?;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let (ckpt, parts_dir) = (out.join("checkpoint.bin"), out.join(".parts"));
+    let origin = match &opt.from_state {
+        Some(_) if opt.ramp.is_none() => {
+            return Err(Error::param(
+                "from",
+                "only a ramp starts from another run's state",
+            ));
+        }
+        Some(f) => Some(start_from(f, &p)?),
+        None => None,
+    };
+    // Steps and strain are counted on from a state's; the ramp's schedule starts at it.
+    let (step0, strain0) = origin.as_ref().map_or((0, 0.0), |s| (s.step, s.strain()));
     let physics = {
         let mut v = serde_json::to_value(opt).expect("json");
         for k in crate::stages::simulate::RUN_ONLY {
             v.as_object_mut().expect("object").remove(k);
+        }
+        // A continued ramp's schedule counts from the state's step: a resume must
+        // start from the same one (a run from random positions records nothing, so
+        // its older checkpoints still resume).
+        if opt.from_state.is_some() {
+            v["from_step"] = serde_json::json!(step0);
         }
         v.to_string()
     };
@@ -257,13 +288,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             ));
         }
         let _ = std::fs::remove_dir_all(&parts_dir);
-        ShearSim::new(p.clone())
+        origin.unwrap_or_else(|| ShearSim::new(p.clone()))
     };
     let ramp = ramp_plan(opt, &p)?;
-    let total = match &ramp {
-        Some(r) => r.intervals * r.steps_per_tau,
-        None => (opt.strain / (p.rate * p.dt)).ceil() as u64,
-    };
+    let total = step0
+        + match &ramp {
+            Some(r) => r.intervals * r.steps_per_tau,
+            None => (opt.strain / (p.rate * p.dt)).ceil() as u64,
+        };
     let out_every = opt.output_every.unwrap_or(match &ramp {
         Some(_) => ((opt.window / p.dt).round() as u64).max(1),
         None => ((0.05 / (p.rate * p.dt)).round() as u64).max(1),
@@ -275,13 +307,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let field_every = ((steady_samples / crate::stages::shear::steady::FIELD_SNAPSHOTS as f64)
         .floor() as u64)
         .max(1);
-    let bar = crate::stages::progress(total, "shear", opt.quiet);
+    let bar = crate::stages::progress(total - step0, "shear", opt.quiet);
     let mut clock =
         crate::interrupt::CheckpointClock::new(opt.checkpoint_every, opt.checkpoint_interval);
     // A resumed run's current step was recorded and checkpointed before the stop.
     let mut fresh = !opt.resume;
     loop {
-        if fresh && sim.step.is_multiple_of(opt.sample_every) {
+        let rel = sim.step - step0;
+        if fresh && rel.is_multiple_of(opt.sample_every) {
             if ramp.is_none() && sim.strain() >= opt.transient * opt.strain {
                 if sim.coll.window_start.is_infinite() {
                     // The duration cohort: contacts begun from here on.
@@ -323,14 +356,14 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                 c.push(v);
             }
         }
-        if fresh && (sim.step.is_multiple_of(out_every) || sim.step == total) {
+        if fresh && (rel.is_multiple_of(out_every) || sim.step == total) {
             push_frame(&mut tracks, &sim, frame);
             frame += 1;
-            bar.set_position(sim.step);
+            bar.set_position(rel);
         }
         // The clock and the signal flag are read every 64 steps (a step is ~20 µs).
         if fresh
-            && sim.step > 0
+            && sim.step > step0
             && sim.step < total
             && (clock.due_by_steps(sim.step) || (sim.step.is_multiple_of(64) && clock.due_now()))
         {
@@ -370,11 +403,11 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         }
         sim.step();
         if let Some(r) = &ramp
-            && sim.step.is_multiple_of(r.steps_per_tau)
+            && (sim.step - step0).is_multiple_of(r.steps_per_tau)
         {
             // Eq. 38 in steps of τ_e; the initial rate times an integer power, so a
             // resumed ramp lands on the same rates.
-            let k = (sim.step / r.steps_per_tau) as f64;
+            let k = ((sim.step - step0) / r.steps_per_tau) as f64;
             sim.set_rate(p.rate * r.factor.powf(k));
         }
     }
@@ -415,7 +448,19 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         &serde_json::to_string_pretty(&tracks.meta).expect("json"),
     )?;
     if let Some(r) = &ramp {
-        return finish_ramp(out, opt, &p, r, &cols, &sim, frame, series, tracks_path, t0);
+        return finish_ramp(
+            out,
+            opt,
+            &p,
+            r,
+            &cols,
+            &sim,
+            frame,
+            series,
+            tracks_path,
+            t0,
+            (step0, strain0),
+        );
     }
     let cohort = crate::stages::shear::stats::Cohort::of(&sim);
     let summary = summarize(&cols, &p, sim.g.len(), opt, &cohort)?;

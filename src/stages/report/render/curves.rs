@@ -85,7 +85,8 @@ fn label(v: f64, log: bool) -> String {
             format!("{p:.1e}")
         }
     } else {
-        format!("{v:.3}")
+        // Three significant digits, so that ticks 0.0005 apart stay distinct.
+        super::map::tick_label(v)
     }
 }
 

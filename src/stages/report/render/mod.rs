@@ -6,6 +6,7 @@ pub mod curves;
 pub mod figures;
 pub mod html;
 pub mod map;
+pub mod scatter;
 
 use crate::error::{Error, Result};
 use plotters::coord::Shift;

@@ -1,10 +1,16 @@
 //! The sheared-disk sections of the report (vagberg-sheared-disks): for a sweep, flow
-//! curves, Z beside 2τ_dur ν_coll, μ, rotation and R_v against φ, and the
+//! curves, Z beside 2τ_dur ν_coll, μ, rotation and R_v against φ, P^el, τ_dur/τ_e and
+//! ν_coll/γ̇ against φ and Q (`elastic`), and the
 //! Newtonian/Bagnoldian classification with its phase diagrams; for one run, its
-//! steady-state summary and P(ϑ) at contact making and breaking. A sweep with grid
-//! points missing (a killed one) is shown as far as it goes, naming what is missing.
+//! steady-state summary, P(ϑ) at contact making and breaking, contact velocities and
+//! shear-band profiles and fields (`run_figures`); for a branch's
+//! strain-rate ramps, the hysteresis loop (`ramp`). A sweep with grid points missing (a
+//! killed one) is shown as far as it goes, naming what is missing.
 
 pub mod classify;
+mod elastic;
+pub mod ramp;
+pub mod run_figures;
 
 use crate::error::{Error, Result};
 use crate::io::table::read_table;
@@ -435,6 +441,7 @@ pub fn sweep_section(
             caption.into(),
         )?;
     }
+    elastic::add_figures(&mut f, &data.rows, &colour_of)?;
     // Classification.
     let c = classify(&data.rows);
     write_classification(out_dir, label, &c)?;
@@ -586,7 +593,8 @@ fn write_classification(out_dir: &Path, label: &str, c: &Classification) -> Resu
     )
 }
 
-/// One run's section: the steady-state summary and P(ϑ) at contact making and breaking.
+/// One run's section: the steady-state summary, P(ϑ) at contact making and breaking,
+/// the contact velocities (Fig. 21), the profiles (Fig. 28) and local fields (Fig. 27).
 pub fn shear_section(
     label: &str,
     dir: &Path,
@@ -600,11 +608,13 @@ pub fn shear_section(
         blocks: Vec::new(),
     };
     let sf = dir.join("summary.json");
+    let mut rate = None;
     if sf.exists() {
         let text = std::fs::read_to_string(&sf).map_err(|e| Error::io(&sf, e))?;
         let v: serde_json::Value =
             serde_json::from_str(&text).map_err(|e| Error::input(sf.display(), e.to_string()))?;
         let p = &v["params"];
+        rate = p["rate"].as_f64();
         f.blocks.push(Block::Paragraph(format!(
             "{label}: N = {}, φ = {}, Q = {}, γ̇ τ_e = {}, {}, strain {}; means over the steady window with errors from {} blocks.",
             p["n"], p["phi"], p["q"], p["rate"], p["model"].as_str().unwrap_or("?").to_uppercase(), v["strain"], v["blocks"]
@@ -648,6 +658,7 @@ pub fn shear_section(
             "Distribution of the contact direction ϑ of r_ij when contacts form and when they break over the steady window: forming near 135° (the compressive axis), breaking near 45° (vagberg-sheared-disks Figs. 8, 18).".into(),
         )?;
     }
+    run_figures::add(&mut f, dir, rate)?;
     Ok(Section {
         id: format!("shear-{}", slug(label)),
         title: format!("Sheared disks {label}"),

@@ -1,0 +1,159 @@
+//! A sweep's elastic pressure and collision figures (vagberg-sheared-disks): P^el against
+//! φ (Figs. 15, 22) and against Q (Figs. 1, 10), and τ_dur/τ_e and ν_coll/γ̇ against φ and
+//! against Q (Figs. 6, 14). Units d_s = m = τ_e = 1, so P^el = (τ_e²/m) p^el (Eq. 18) is
+//! the run's `p_el`, τ_dur/τ_e its `tau_dur` and ν_coll/γ̇ its `nu_coll` (contacts begun
+//! per particle per τ_e) over γ̇ τ_e.
+
+use super::{Figures, Row, key, versus_phi};
+use crate::error::Result;
+use crate::stages::report::render::curves::{XyFigure, XySeries};
+use std::collections::BTreeMap;
+
+/// The rows with ν_coll/γ̇ added (error scaled alike), as `nu_coll_over_rate`.
+fn with_rate_normalised(rows: &[Row]) -> Vec<Row> {
+    rows.iter()
+        .cloned()
+        .map(|mut r| {
+            if let Some((m, e)) = r.get("nu_coll") {
+                r.v.insert("nu_coll_over_rate".into(), (m / r.rate, e / r.rate));
+            }
+            r
+        })
+        .collect()
+}
+
+/// Series of `quantity` against Q, one per (φ, γ̇).
+fn versus_q(rows: &[Row], quantity: &str) -> Vec<XySeries> {
+    let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        by.entry((key(r.phi), key(r.rate))).or_default().push(r);
+    }
+    by.into_values()
+        .enumerate()
+        .filter_map(|(k, mut rs)| {
+            rs.sort_by(|a, b| a.q.total_cmp(&b.q));
+            let points: Vec<(f64, f64, f64)> = rs
+                .iter()
+                .filter_map(|r| r.get(quantity).map(|(m, e)| (r.q, m, e)))
+                .collect();
+            (!points.is_empty()).then(|| XySeries {
+                label: format!("φ = {}, rate {:.0e}", rs[0].phi, rs[0].rate),
+                points,
+                markers_only: false,
+                colour: k,
+            })
+        })
+        .collect()
+}
+
+/// What each figure shows: (quantity, file, title, y axis, y log, caption against φ,
+/// caption against Q).
+const QUANTITIES: [(&str, &str, &str, &str, bool, &str, &str); 3] = [
+    (
+        "p_el",
+        "p_el",
+        "Elastic pressure P^el",
+        "P^el = p_el τ_e² / m",
+        true,
+        "The elastic part of the dimensionless pressure P^el against φ for each (Q, γ̇): at small γ̇ a jump in P^el signals the transition at φ_c from Bagnoldian to Newtonian rheology, broadening as γ̇ grows (vagberg-sheared-disks Fig. 15 for CDrot at several Q, Fig. 22 at several γ̇ for Q = 1).",
+        "P^el against Q for each (φ, γ̇): falling roughly as 1/Q, a sharp drop at Q_c(φ) from Newtonian (below) to Bagnoldian rheology (above), then rising roughly linearly in Q (vagberg-sheared-disks Fig. 1 for CD, Fig. 10 for CDrot).",
+    ),
+    (
+        "tau_dur",
+        "tau_dur",
+        "Contact duration τ_dur / τ_e",
+        "τ_dur / τ_e",
+        true,
+        "The mean duration of a contact (the contacts begun in the steady window followed to its end, those still open censored) in units of τ_e against φ for each (Q, γ̇): of order 1 and independent of γ̇ at small γ̇ where the flow is Bagnoldian, growing by orders of magnitude where it is Newtonian at dense φ (vagberg-sheared-disks Figs. 6(a,c), 14(a,c), there against Q).",
+        "τ_dur/τ_e against Q for each (φ, γ̇) (vagberg-sheared-disks Figs. 6(a,c) for CD, 14(a,c) for CDrot).",
+    ),
+    (
+        "nu_coll_over_rate",
+        "nu_coll",
+        "Collision rate ν_coll / (dγ/dt)",
+        "ν_coll / (dγ/dt)",
+        true,
+        "Contacts begun per particle per unit strain, ν_coll/γ̇, against φ for each (Q, γ̇): independent of γ̇ at small γ̇ where the flow is Bagnoldian, so that Z = 2 τ_dur ν_coll vanishes as γ̇ τ_e (vagberg-sheared-disks Figs. 6(b,d), 14(b,d), there against Q).",
+        "ν_coll/γ̇ against Q for each (φ, γ̇) (vagberg-sheared-disks Figs. 6(b,d) for CD, 14(b,d) for CDrot).",
+    ),
+];
+
+/// Add P^el, τ_dur/τ_e and ν_coll/γ̇ against φ, and against Q when the grid has several
+/// Q (the paper's axis for Figs. 1, 6, 10, 14); quantities no run has are left out.
+pub(super) fn add_figures(
+    f: &mut Figures,
+    rows: &[Row],
+    colour_of: &BTreeMap<(i64, i64), usize>,
+) -> Result<()> {
+    let rows = with_rate_normalised(rows);
+    let qs = {
+        let mut v: Vec<i64> = rows.iter().map(|r| key(r.q)).collect();
+        v.sort();
+        v.dedup();
+        v.len()
+    };
+    for (quantity, file, title, y, log, cap_phi, cap_q) in QUANTITIES {
+        let series = versus_phi(&rows, quantity, "", false, colour_of);
+        if series.is_empty() {
+            continue;
+        }
+        f.add(
+            &XyFigure {
+                title: format!("{title} against φ"),
+                x_desc: "φ".into(),
+                y_desc: y.into(),
+                x_log: false,
+                y_log: log,
+                series,
+            },
+            file,
+            cap_phi.into(),
+        )?;
+        if qs > 1 {
+            f.add(
+                &XyFigure {
+                    title: format!("{title} against Q"),
+                    x_desc: "Q".into(),
+                    y_desc: y.into(),
+                    x_log: true,
+                    y_log: log,
+                    series: versus_q(&rows, quantity),
+                },
+                &format!("{file}_vs_q"),
+                cap_q.into(),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(phi: f64, q: f64, rate: f64, nu: f64) -> Row {
+        Row {
+            phi,
+            q,
+            rate,
+            v: [("nu_coll".to_string(), (nu, 0.1 * nu))].into(),
+        }
+    }
+
+    #[test]
+    fn collision_rate_per_strain_and_series_against_q() {
+        let rows: Vec<Row> = [(0.8, 1.0), (0.8, 10.0), (0.8, 3.0), (0.76, 1.0)]
+            .into_iter()
+            .map(|(phi, q)| row(phi, q, 1e-2, 0.2 * q))
+            .collect();
+        let rows = with_rate_normalised(&rows);
+        let (m, e) = rows[0].v["nu_coll_over_rate"];
+        assert!((m - 20.0).abs() < 1e-12 && (e - 2.0).abs() < 1e-12);
+        let s = versus_q(&rows, "nu_coll_over_rate");
+        assert_eq!(s.len(), 2, "one series per (φ, γ̇)");
+        let at_08 = s.iter().find(|x| x.label.starts_with("φ = 0.8,")).unwrap();
+        let qs: Vec<f64> = at_08.points.iter().map(|p| p.0).collect();
+        assert_eq!(qs, [1.0, 3.0, 10.0], "sorted by Q");
+        assert!((at_08.points[2].1 - 200.0).abs() < 1e-9);
+    }
+}
