@@ -218,7 +218,12 @@ fn bundled_pipelines_validate() {
         })
         .collect();
     names.sort();
-    for must in ["quickstart", "shear-flow-curves", "shear-ramps", "paper-sizes"] {
+    for must in [
+        "quickstart",
+        "shear-flow-curves",
+        "shear-ramps",
+        "paper-sizes",
+    ] {
         assert!(names.iter().any(|n| n == must), "{must}: {names:?}");
     }
     for name in &names {

@@ -4,9 +4,9 @@
 //! the run's `p_el`, τ_dur/τ_e its `tau_dur` and ν_coll/γ̇ its `nu_coll` (contacts begun
 //! per particle per τ_e) over γ̇ τ_e.
 
-use super::{Figures, Row, key, versus_phi};
+use super::{Figures, Row, key, versus_phi, versus_q};
 use crate::error::Result;
-use crate::stages::report::render::curves::{XyFigure, XySeries};
+use crate::stages::report::render::curves::XyFigure;
 use std::collections::BTreeMap;
 
 /// The rows with ν_coll/γ̇ added (error scaled alike), as `nu_coll_over_rate`.
@@ -18,30 +18,6 @@ fn with_rate_normalised(rows: &[Row]) -> Vec<Row> {
                 r.v.insert("nu_coll_over_rate".into(), (m / r.rate, e / r.rate));
             }
             r
-        })
-        .collect()
-}
-
-/// Series of `quantity` against Q, one per (φ, γ̇).
-fn versus_q(rows: &[Row], quantity: &str) -> Vec<XySeries> {
-    let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
-    for r in rows {
-        by.entry((key(r.phi), key(r.rate))).or_default().push(r);
-    }
-    by.into_values()
-        .enumerate()
-        .filter_map(|(k, mut rs)| {
-            rs.sort_by(|a, b| a.q.total_cmp(&b.q));
-            let points: Vec<(f64, f64, f64)> = rs
-                .iter()
-                .filter_map(|r| r.get(quantity).map(|(m, e)| (r.q, m, e)))
-                .collect();
-            (!points.is_empty()).then(|| XySeries {
-                label: format!("φ = {}, rate {:.0e}", rs[0].phi, rs[0].rate),
-                points,
-                markers_only: false,
-                colour: k,
-            })
         })
         .collect()
 }

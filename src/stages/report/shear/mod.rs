@@ -243,6 +243,58 @@ fn slug(s: &str) -> String {
         .collect()
 }
 
+/// The grid axis a series runs along; the other two group and label it.
+#[derive(Debug, Clone, Copy)]
+enum Along {
+    Phi,
+    Q,
+    Rate,
+}
+
+/// Series of `quantity` against one grid axis, one per value of the other two (in their
+/// order), labelled by them after `label`; colours from `colour_of` by group, else one
+/// per series in order.
+fn series_along(
+    rows: &[Row],
+    along: Along,
+    quantity: &str,
+    label: &str,
+    markers_only: bool,
+    colour_of: Option<&BTreeMap<(i64, i64), usize>>,
+) -> Vec<XySeries> {
+    let (x, group): (fn(&Row) -> f64, fn(&Row) -> (i64, i64)) = match along {
+        Along::Phi => (|r| r.phi, |r| (key(r.q), key(r.rate))),
+        Along::Q => (|r| r.q, |r| (key(r.phi), key(r.rate))),
+        Along::Rate => (|r| r.rate, |r| (key(r.phi), key(r.q))),
+    };
+    let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        by.entry(group(r)).or_default().push(r);
+    }
+    by.into_iter()
+        .enumerate()
+        .filter_map(|(k, (g, mut rs))| {
+            rs.sort_by(|a, b| x(a).total_cmp(&x(b)));
+            let points: Vec<(f64, f64, f64)> = rs
+                .iter()
+                .filter_map(|r| r.get(quantity).map(|(m, e)| (x(r), m, e)))
+                .collect();
+            let r0 = rs[0];
+            let name = match along {
+                Along::Phi => format!("{label}Q = {}, rate {:.0e}", r0.q, r0.rate),
+                Along::Q => format!("{label}φ = {}, rate {:.0e}", r0.phi, r0.rate),
+                Along::Rate => format!("{label}φ = {}, Q = {}", r0.phi, r0.q),
+            };
+            (!points.is_empty()).then(|| XySeries {
+                label: name,
+                points,
+                markers_only,
+                colour: colour_of.map_or(k, |c| c.get(&g).copied().unwrap_or(0)),
+            })
+        })
+        .collect()
+}
+
 /// Series of `quantity` against φ, one per (Q, γ̇).
 fn versus_phi(
     rows: &[Row],
@@ -251,25 +303,19 @@ fn versus_phi(
     markers_only: bool,
     colour_of: &BTreeMap<(i64, i64), usize>,
 ) -> Vec<XySeries> {
-    let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
-    for r in rows {
-        by.entry((key(r.q), key(r.rate))).or_default().push(r);
-    }
-    by.into_iter()
-        .filter_map(|(k, mut rs)| {
-            rs.sort_by(|a, b| a.phi.total_cmp(&b.phi));
-            let points: Vec<(f64, f64, f64)> = rs
-                .iter()
-                .filter_map(|r| r.get(quantity).map(|(m, e)| (r.phi, m, e)))
-                .collect();
-            (!points.is_empty()).then(|| XySeries {
-                label: format!("{label}Q = {}, rate {:.0e}", rs[0].q, rs[0].rate),
-                points,
-                markers_only,
-                colour: colour_of.get(&k).copied().unwrap_or(0),
-            })
-        })
-        .collect()
+    series_along(
+        rows,
+        Along::Phi,
+        quantity,
+        label,
+        markers_only,
+        Some(colour_of),
+    )
+}
+
+/// Series of `quantity` against Q, one per (φ, γ̇).
+fn versus_q(rows: &[Row], quantity: &str) -> Vec<XySeries> {
+    series_along(rows, Along::Q, quantity, "", false, None)
 }
 
 /// The sweep's section: what exists, the flow curves and φ dependences, the
@@ -324,30 +370,7 @@ pub fn sweep_section(
         });
     }
     // Flow curves: one series per (φ, Q) against γ̇.
-    let mut by_phi_q: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
-    for r in &data.rows {
-        by_phi_q.entry((key(r.phi), key(r.q))).or_default().push(r);
-    }
-    let flow = |quantity: &str| -> Vec<XySeries> {
-        by_phi_q
-            .values()
-            .enumerate()
-            .filter_map(|(k, rs)| {
-                let mut rs = rs.clone();
-                rs.sort_by(|a, b| a.rate.total_cmp(&b.rate));
-                let points: Vec<(f64, f64, f64)> = rs
-                    .iter()
-                    .filter_map(|r| r.get(quantity).map(|(m, e)| (r.rate, m, e)))
-                    .collect();
-                (!points.is_empty()).then(|| XySeries {
-                    label: format!("φ = {}, Q = {}", rs[0].phi, rs[0].q),
-                    points,
-                    markers_only: false,
-                    colour: k,
-                })
-            })
-            .collect()
-    };
+    let flow = |quantity: &str| series_along(&data.rows, Along::Rate, quantity, "", false, None);
     f.add(
         &XyFigure {
             title: "Flow curves: η_p = p/(k_d dγ/dt) (Figs. 2, 11, 16)".into(),
