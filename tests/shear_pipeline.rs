@@ -17,6 +17,29 @@ fn tiny(phi: &str, extra: &str) -> String {
     )
 }
 
+/// A report of one data set in `out`; its HTML.
+fn report_of(out: &Path, d: pillar_pipe::stages::report::DatasetInputs) -> String {
+    let r = pillar_pipe::stages::report::run(
+        out,
+        &pillar_pipe::stages::report::ReportOptions {
+            title: d.label.clone(),
+            datasets: vec![d],
+            map_stages: 1,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    std::fs::read_to_string(&r.html).unwrap()
+}
+
+/// The figure `stem` exists in `out/figures` as PNG and SVG.
+fn assert_figure(out: &Path, stem: &str) {
+    for ext in ["png", "svg"] {
+        let f = out.join(format!("figures/{stem}.{ext}"));
+        assert!(f.is_file(), "{}", f.display());
+    }
+}
+
 fn table_rows(p: &Path) -> usize {
     let t = pillar_pipe::io::table::read_table(p, &[]).unwrap();
     t.f64("phi").unwrap().len()
@@ -167,7 +190,7 @@ fn summary(rate: f64, exp: f64) -> Value {
 /// Bagnoldian, φ = 0.82 with p ∝ γ̇ Newtonian, and φ_c is bracketed between them.
 #[test]
 fn report_of_a_sweep_with_missing_points() {
-    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
+    use pillar_pipe::stages::report::DatasetInputs;
     use pillar_pipe::stages::shear::ShearOptions;
     let d = tmpdir("shear-report");
     let sweep = d.join("sweep");
@@ -187,21 +210,14 @@ fn report_of_a_sweep_with_missing_points() {
     pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &ShearOptions::default())
         .unwrap();
     let out = d.join("report");
-    let r = run(
+    let html = report_of(
         &out,
-        &ReportOptions {
-            title: "sweep".into(),
-            datasets: vec![DatasetInputs {
-                label: "flow".into(),
-                sweep: Some(sweep.clone()),
-                ..Default::default()
-            }],
-            map_stages: 1,
-            provenance: serde_json::json!({}),
+        DatasetInputs {
+            label: "flow".into(),
+            sweep: Some(sweep.clone()),
+            ..Default::default()
         },
-    )
-    .unwrap();
-    let html = std::fs::read_to_string(&r.html).unwrap();
+    );
     assert!(html.contains("7 of 9 grid points finished"), "{html}");
     assert!(
         html.contains("Missing (2 grid points")
@@ -217,11 +233,10 @@ fn report_of_a_sweep_with_missing_points() {
         "rotation",
         "r_v",
         "phase_phi_rate_q1",
-    ] {
-        for ext in ["png", "svg"] {
-            let f = out.join(format!("figures/sweep_flow_{fig}.{ext}"));
-            assert!(f.is_file(), "{}", f.display());
-        }
+    ]
+    .map(|fig| format!("sweep_flow_{fig}"))
+    {
+        assert_figure(&out, &fig);
     }
     assert!(
         html.contains("Figs. 2, 11, 16") && html.contains("Fig. 23") && html.contains("Fig. 24")
@@ -259,7 +274,7 @@ fn report_of_a_sweep_with_missing_points() {
 /// 6, 14) and, with more than one Q, against Q (Figs. 1, 10; 6, 14).
 #[test]
 fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
-    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
+    use pillar_pipe::stages::report::DatasetInputs;
     use pillar_pipe::stages::shear::ShearOptions;
     let d = tmpdir("shear-report-el");
     let sweep = d.join("sweep");
@@ -282,21 +297,14 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
     pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &ShearOptions::default())
         .unwrap();
     let out = d.join("report");
-    let r = run(
+    let html = report_of(
         &out,
-        &ReportOptions {
-            title: "sweep".into(),
-            datasets: vec![DatasetInputs {
-                label: "flow".into(),
-                sweep: Some(sweep.clone()),
-                ..Default::default()
-            }],
-            map_stages: 1,
-            provenance: serde_json::json!({}),
+        DatasetInputs {
+            label: "flow".into(),
+            sweep: Some(sweep.clone()),
+            ..Default::default()
         },
-    )
-    .unwrap();
-    let html = std::fs::read_to_string(&r.html).unwrap();
+    );
     for fig in [
         "p_el",
         "p_el_vs_q",
@@ -304,11 +312,10 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
         "tau_dur_vs_q",
         "nu_coll",
         "nu_coll_vs_q",
-    ] {
-        for ext in ["png", "svg"] {
-            let f = out.join(format!("figures/sweep_flow_{fig}.{ext}"));
-            assert!(f.is_file(), "{}", f.display());
-        }
+    ]
+    .map(|fig| format!("sweep_flow_{fig}"))
+    {
+        assert_figure(&out, &fig);
     }
     for caption in [
         "Fig. 22",
@@ -325,8 +332,8 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
 /// V^C_T = V_T + V^R contact by contact (Eq. 33), so their means add up.
 #[test]
 fn report_of_one_run_draws_contacts_profiles_and_fields() {
+    use pillar_pipe::stages::report::DatasetInputs;
     use pillar_pipe::stages::report::shear::run_figures::contact_moments;
-    use pillar_pipe::stages::report::{DatasetInputs, ReportOptions, run};
     use pillar_pipe::stages::shear::ShearOptions;
     let d = tmpdir("shear-report-run");
     let sim = d.join("run");
@@ -350,21 +357,14 @@ fn report_of_one_run_draws_contacts_profiles_and_fields() {
         vct_vr.mean.0
     );
     let out = d.join("report");
-    let r = run(
+    let html = report_of(
         &out,
-        &ReportOptions {
-            title: "run".into(),
-            datasets: vec![DatasetInputs {
-                label: "one".into(),
-                shear: Some(sim.clone()),
-                ..Default::default()
-            }],
-            map_stages: 1,
-            provenance: serde_json::json!({}),
+        DatasetInputs {
+            label: "one".into(),
+            shear: Some(sim.clone()),
+            ..Default::default()
         },
-    )
-    .unwrap();
-    let html = std::fs::read_to_string(&r.html).unwrap();
+    );
     for fig in [
         "contacts_vt_vr",
         "contacts_vct_vr",
@@ -374,11 +374,10 @@ fn report_of_one_run_draws_contacts_profiles_and_fields() {
         "profile_phi",
         "field_phi",
         "field_gamma_dot",
-    ] {
-        for ext in ["png", "svg"] {
-            let f = out.join(format!("figures/shear_one_{fig}.{ext}"));
-            assert!(f.is_file(), "{}", f.display());
-        }
+    ]
+    .map(|fig| format!("shear_one_{fig}"))
+    {
+        assert_figure(&out, &fig);
     }
     for caption in ["Fig. 21(a, b)", "Fig. 21(e, f)", "Fig. 28", "Fig. 27"] {
         assert!(html.contains(caption), "{caption}");
