@@ -17,6 +17,7 @@ use crate::stages::report::render::html::{Block, Section};
 use crate::stages::report::sections::Figures;
 use crate::stages::sizes::{CHI_AT, SizeOutputs, SizeScan};
 use crate::structure::shape_distance;
+use crate::tracks::Tracks;
 use std::path::{Path, PathBuf};
 
 /// g(r) out to this many D, in bins of D/25.
@@ -97,8 +98,17 @@ pub fn size_section(
     f.blocks.push(checks_table(&scan));
     curves(&mut f, &scan, &names)?;
     shear_lines(&mut f, datasets, &scan, &names)?;
-    outlines(&mut f, &scan, &names)?;
-    gofr(&mut f, datasets, &scan, &names)?;
+    // Each run's tracks, read once for its outlines and its g(r).
+    let tracks = scan
+        .rows
+        .iter()
+        .map(|r| {
+            let path = r.run.join("tracks.parquet");
+            read_tracks(&path).map(|(t, _)| (path.display().to_string(), t))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    outlines(&mut f, &scan, &names, &tracks)?;
+    gofr(&mut f, datasets, &names, &tracks)?;
     Ok(Some(section(f.blocks)))
 }
 
@@ -463,22 +473,21 @@ fn frame_at_strain(run: &Path, eps: f64) -> Result<Option<i64>> {
 
 /// Fig. 9: each run's outline at ε = 0.1 and 0.2 rescaled by its W0, overlaid, and the
 /// rms distance of each to the largest run's.
-fn outlines(f: &mut Figures, scan: &SizeScan, names: &[String]) -> Result<()> {
+fn outlines(
+    f: &mut Figures,
+    scan: &SizeScan,
+    names: &[String],
+    tracks: &[(String, Tracks)],
+) -> Result<()> {
     let mut rows = Vec::new();
     for eps in CHI_AT {
         let mut series = Vec::new();
         let mut got = Vec::new();
-        for (c, (r, name)) in scan.rows.iter().zip(names).enumerate() {
+        for (c, ((r, name), (source, t))) in scan.rows.iter().zip(names).zip(tracks).enumerate() {
             let Some(frame) = frame_at_strain(&r.run, eps)? else {
                 continue;
             };
-            let tracks = r.run.join("tracks.parquet");
-            let (t, _) = read_tracks(&tracks)?;
-            let o = crate::stages::outline::outline_of_tracks(
-                &t,
-                &tracks.display().to_string(),
-                Some(frame),
-            )?;
+            let o = crate::stages::outline::outline_of_tracks(t, source, Some(frame))?;
             let mut pts: Vec<(f64, f64)> = o
                 .outline
                 .polygon()
@@ -535,32 +544,30 @@ fn outlines(f: &mut Figures, scan: &SizeScan, names: &[String]) -> Result<()> {
 fn gofr(
     f: &mut Figures,
     datasets: &[DatasetInputs],
-    scan: &SizeScan,
     names: &[String],
+    runs: &[(String, Tracks)],
 ) -> Result<()> {
-    let mut sources: Vec<(String, PathBuf)> = scan
-        .rows
+    // The runs' tracks as read, then each experiment's (data sets with tracks and no
+    // simulation).
+    let mut experiments = Vec::new();
+    for d in datasets
         .iter()
-        .zip(names)
-        .map(|(r, n)| (n.clone(), r.run.join("tracks.parquet")))
+        .filter(|d| d.stress.is_none() && d.shear.is_none() && d.sweep.is_none())
+    {
+        if let Some(p) = &d.tracks {
+            experiments.push((d.label.clone(), p.display().to_string(), read_tracks(p)?.0));
+        }
+    }
+    let sources: Vec<(&String, &String, &Tracks)> = names
+        .iter()
+        .zip(runs)
+        .map(|(n, (p, t))| (n, p, t))
+        .chain(experiments.iter().map(|(n, p, t)| (n, p, t)))
         .collect();
-    sources.extend(
-        datasets
-            .iter()
-            .filter(|d| d.stress.is_none() && d.shear.is_none() && d.sweep.is_none())
-            .filter_map(|d| Some((d.label.clone(), d.tracks.clone()?))),
-    );
     let (mut small, mut large) = (Vec::new(), Vec::new());
-    for (c, (name, path)) in sources.iter().enumerate() {
-        let (t, _) = read_tracks(path)?;
-        let (g, _, d) = crate::stages::gofr::of_tracks(
-            &t,
-            &path.display().to_string(),
-            None,
-            GOFR_R_MAX,
-            GOFR_BINS,
-        )
-        .map_err(|e| Error::Other(format!("g(r) of {name}: {e}")))?;
+    for (c, (name, path, t)) in sources.into_iter().enumerate() {
+        let (g, _, d) = crate::stages::gofr::of_tracks(t, path, None, GOFR_R_MAX, GOFR_BINS)
+            .map_err(|e| Error::Other(format!("g(r) of {name}: {e}")))?;
         let pts = |v: &[f64]| g.r.iter().map(|r| r / d).zip(v.iter().copied()).collect();
         small.push(line(name.clone(), c, pts(&g.g_small)));
         large.push(line(name.clone(), c, pts(&g.g_large)));
