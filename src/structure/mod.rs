@@ -259,6 +259,15 @@ mod tests {
                 }
             }
         }
+        // A stray grain a million diameters away does not make a grid of 10^11 cells:
+        // the layout is left to the queries, and g(r) is still computed.
+        let mut far = pos.clone();
+        far.push(Vec2::new(1e6, -1e6));
+        let (mut sm, mut ct) = (small.clone(), counted.clone());
+        sm.push(false);
+        ct.push(false);
+        assert!(pair_counts::count_pairs(&far, &sm, &ct, 4.0, 80, None).is_none());
+        assert!(pair_distribution(&far, &sm, 4.0, 80, None).is_ok());
         // A sheared box is left to the queries.
         let mut sheared = b;
         sheared.xy = 3.0;

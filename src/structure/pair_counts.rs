@@ -7,6 +7,9 @@
 use crate::geom::{SimBox, Vec2};
 use rayon::prelude::*;
 
+/// More cells than this per grain and the layout is left to the caller.
+const MAX_CELLS_PER_GRAIN: usize = 16;
+
 /// Cells reached on each side: cells are at least r_max/2 wide.
 const REACH: isize = 2;
 
@@ -71,6 +74,11 @@ pub(super) fn count_pairs(
     let cells_along = |l: f64| ((l / half).floor() as usize).max(1);
     let (nx, ny) = (cells_along(extent.x), cells_along(extent.y));
     if period.is_some() && (nx < 5 || ny < 5) {
+        return None;
+    }
+    // A stray grain far from the rest would make the grid huge and empty: leave such
+    // layouts to the queries, whose cell list copes with them.
+    if nx.saturating_mul(ny) > MAX_CELLS_PER_GRAIN * pts.len() + 1024 {
         return None;
     }
     // Cells at least r_max/2 wide (exactly L/n in a periodic box, so they tile it).
