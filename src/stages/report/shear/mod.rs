@@ -262,10 +262,15 @@ fn series_along(
     markers_only: bool,
     colour_of: Option<&BTreeMap<(i64, i64), usize>>,
 ) -> Vec<XySeries> {
-    let (x, group): (fn(&Row) -> f64, fn(&Row) -> (i64, i64)) = match along {
-        Along::Phi => (|r| r.phi, |r| (key(r.q), key(r.rate))),
-        Along::Q => (|r| r.q, |r| (key(r.phi), key(r.rate))),
-        Along::Rate => (|r| r.rate, |r| (key(r.phi), key(r.q))),
+    let x = |r: &Row| match along {
+        Along::Phi => r.phi,
+        Along::Q => r.q,
+        Along::Rate => r.rate,
+    };
+    let group = |r: &Row| match along {
+        Along::Phi => (key(r.q), key(r.rate)),
+        Along::Q => (key(r.phi), key(r.rate)),
+        Along::Rate => (key(r.phi), key(r.q)),
     };
     let mut by: BTreeMap<(i64, i64), Vec<&Row>> = BTreeMap::new();
     for r in rows {
