@@ -208,24 +208,45 @@ fn killed_run_resumes_from_completed_stages() {
     let d = tmpdir("kill");
     let runs = d.join("runs");
     let exp = bundled("experiment-only");
-    let args = ["run", &exp, "--set", "fit.bootstrap=150", "--quiet"];
+    // Enough replicates that the fit outlasts the moment the kinematics stage completes
+    // (a fixed sleep raced the fit once it got fast).
+    let args = ["run", &exp, "--set", "fit.bootstrap=20000", "--quiet"];
     let mut child = Command::new(BIN)
         .args(args)
         .arg("--runs-dir")
         .arg(&runs)
         .spawn()
         .unwrap();
-    // Long enough for ingest and kinematics, short of the fit (SIGKILL: no clean-up runs).
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // Kill (SIGKILL: no clean-up runs) as soon as ingest and kinematics are complete,
+    // while the fit computes.
+    let kinematics_done = || {
+        std::fs::read_dir(runs.join("cache")).is_ok_and(|rd| {
+            rd.flatten().any(|e| {
+                e.file_name().to_string_lossy().starts_with("kinematics-")
+                    && e.path().join(".complete").is_file()
+            })
+        })
+    };
+    let t0 = std::time::Instant::now();
+    while !kinematics_done() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before its kinematics stage completed"
+        );
+        assert!(t0.elapsed().as_secs() < 120, "kinematics never completed");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the run finished before it could be killed: the fit is too short for this test"
+    );
     let _ = child.kill();
     let _ = child.wait();
-    if runs.exists() {
-        assert_eq!(
-            latest(&runs)["status"],
-            "incomplete",
-            "a killed run is listed as such"
-        );
-    }
+    assert_eq!(
+        latest(&runs)["status"],
+        "incomplete",
+        "a killed run is listed as such"
+    );
     let complete: Vec<String> = final_dirs(&runs)
         .iter()
         .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
