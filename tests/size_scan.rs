@@ -62,6 +62,7 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "sizes_gofr_large",
         "sizes_line_angles",
         "sizes_line_widths",
+        "sizes_j2_lines",
     ] {
         for ext in ["png", "svg"] {
             let p = run_dir.join("figures").join(format!("{fig}.{ext}"));

@@ -209,8 +209,8 @@ fn diameter(
 }
 
 /// The lines of every frame pair of the kinematics table at `input` (D from its
-/// sidecar), in frame order: the distributions of Fig. 11 over a run.
-pub fn every_pair(input: &Path, detect: &ShearLineOptions) -> Result<Vec<ShearLine>> {
+/// sidecar), by start frame in frame order: the distributions of Fig. 11 over a run.
+pub fn every_pair(input: &Path, detect: &ShearLineOptions) -> Result<Vec<(i64, Vec<ShearLine>)>> {
     let t = read_kinematics(input)?;
     let meta: Option<serde_json::Value> = std::fs::read_to_string(sidecar_path(input))
         .ok()
@@ -223,10 +223,10 @@ pub fn every_pair(input: &Path, detect: &ShearLineOptions) -> Result<Vec<ShearLi
         rows.entry((frame[i], frame_end[i])).or_default().push(i);
     }
     let mut out = Vec::new();
-    for r in rows.values() {
+    for (&(start, _), r) in &rows {
         let pos: Vec<Vec2> = r.iter().map(|&i| Vec2::new(x[i], y[i])).collect();
         let j: Vec<f64> = r.iter().map(|&i| j2[i]).collect();
-        out.extend(shear_lines(&pos, &j, d, detect)?.lines);
+        out.push((start, shear_lines(&pos, &j, d, detect)?.lines));
     }
     Ok(out)
 }

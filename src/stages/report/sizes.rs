@@ -13,10 +13,11 @@ use crate::io::table::read_table;
 use crate::stages::report::DatasetInputs;
 use crate::stages::report::render::SavedFigure;
 use crate::stages::report::render::curves::{XyFigure, XySeries};
+use crate::stages::report::render::figures::{MapFigure, MapPanel};
 use crate::stages::report::render::html::{Block, Section};
 use crate::stages::report::sections::Figures;
 use crate::stages::sizes::{CHI_AT, SizeOutputs, SizeScan};
-use crate::structure::shape_distance;
+use crate::structure::{ShearLine, shape_distance};
 use crate::tracks::Tracks;
 use std::path::{Path, PathBuf};
 
@@ -349,6 +350,8 @@ fn shear_lines(
     let mut rows = Vec::new();
     let (mut angles, mut widths) = (Vec::new(), Vec::new());
     let mut bulk_width_medians = Vec::new();
+    // Per run: (index, name, start frame, its longest line) for the J2 maps.
+    let mut shown: Vec<(usize, String, i64, ShearLine)> = Vec::new();
     for (c, (r, name)) in scan.rows.iter().zip(names).enumerate() {
         let Some(kin) = datasets
             .iter()
@@ -357,11 +360,23 @@ fn shear_lines(
         else {
             continue;
         };
-        let lines = crate::stages::shear_lines::every_pair(&kin, &Default::default())?;
-        let bulk: Vec<_> = lines
+        let by_frame = crate::stages::shear_lines::every_pair(&kin, &Default::default())?;
+        let is_bulk = |l: &&ShearLine| l.angle_deg < BAR_LAYER_DEG;
+        // The frame pair with the most lines away from the bar layer, and its longest.
+        if let Some((frame, line)) = by_frame
             .iter()
-            .filter(|l| l.angle_deg < BAR_LAYER_DEG)
-            .collect();
+            .max_by_key(|(_, ls)| ls.iter().filter(is_bulk).count())
+            .and_then(|(f, ls)| {
+                ls.iter()
+                    .filter(is_bulk)
+                    .max_by(|a, b| a.length_d.total_cmp(&b.length_d))
+                    .map(|l| (*f, l.clone()))
+            })
+        {
+            shown.push((c, name.clone(), frame, line));
+        }
+        let lines: Vec<ShearLine> = by_frame.into_iter().flat_map(|(_, ls)| ls).collect();
+        let bulk: Vec<_> = lines.iter().filter(is_bulk).collect();
         let [a, a1, a3] = quartiles(&mut bulk.iter().map(|l| l.angle_deg).collect::<Vec<_>>());
         let [w, w1, w3] = quartiles(&mut bulk.iter().map(|l| l.width_d).collect::<Vec<_>>());
         rows.push(vec![
@@ -424,6 +439,7 @@ fn shear_lines(
             if lo >= 1.5 && hi <= 3.0 { "holds" } else { "does not hold" }
         )));
     }
+    j2_maps(f, datasets, scan, &shown)?;
     for (series, file, title, x, caption) in [
         (
             angles,
@@ -454,6 +470,68 @@ fn shear_lines(
         )?;
     }
     Ok(())
+}
+
+/// Fig. 11: for each run, the J2 map of the frame pair with the most shear lines and a
+/// zoom around its longest line (a square 12 D across, or 1.2 line lengths), on one
+/// log colour scale.
+fn j2_maps(
+    f: &mut Figures,
+    datasets: &[DatasetInputs],
+    scan: &SizeScan,
+    shown: &[(usize, String, i64, ShearLine)],
+) -> Result<()> {
+    let mut panels = Vec::new();
+    for (c, _, frame, line) in shown {
+        let Some(d) = datasets
+            .iter()
+            .find(|d| pillar_run(d).as_deref() == Some(scan.rows[*c].run.as_path()))
+        else {
+            continue;
+        };
+        let loaded = super::data::Loaded::read(d)?;
+        let Some(dd) = loaded.tracks.as_ref().and_then(|t| t.large_diameter()) else {
+            continue;
+        };
+        let Some(p) = loaded.map_panels(&[*frame]).into_iter().next() else {
+            continue;
+        };
+        let grains: Vec<(f64, f64, f64, f64)> = p
+            .grains
+            .iter()
+            .map(|&(x, y, r, v)| (x, y, r, v[1]))
+            .collect();
+        let half = (6.0f64).max(0.6 * line.length_d) * dd;
+        let zoom: Vec<(f64, f64, f64, f64)> = grains
+            .iter()
+            .copied()
+            .filter(|g| (g.0 - line.x).abs() <= half && (g.1 - line.y).abs() <= half)
+            .collect();
+        panels.push(MapPanel {
+            title: format!("N = {}, {}", scan.rows[*c].n, p.title),
+            grains,
+        });
+        panels.push(MapPanel {
+            title: format!(
+                "zoom: line at {:.0}°, {:.1} D wide, {:.0} D long",
+                line.angle_deg, line.width_d, line.length_d
+            ),
+            grains: zoom,
+        });
+    }
+    if panels.is_empty() {
+        return Ok(());
+    }
+    f.add(
+        &MapFigure {
+            quantity: "J2 = η^s/Δt in v_c/R (Eq. 18)".into(),
+            log: true,
+            columns: 2,
+            panels,
+        },
+        "j2_lines",
+        "J2 at Δt of each run's kinematics stage (8/15 R/v_c in paper-sizes) for the frame pair with the most shear lines, and a zoom around its longest line: the transient shear lines of li-granular-pillars Fig. 11, about 45° to the compression axis and a few grains wide at every size.".into(),
+    )
 }
 
 /// The strain of each frame of a run (its stress table).
