@@ -8,6 +8,11 @@ use std::path::PathBuf;
 
 #[derive(Subcommand)]
 pub enum BenchCmd {
+    /// The figures a user feels, one after another with their defaults: the whole
+    /// `kinematics` command against OVITO's whole process (kinematics-whole), the
+    /// N = 1000 pillar on one and two threads (dem --k 1), the fit at 4 M samples (fit),
+    /// g(r) against freud (gofr). About two minutes.
+    User,
     /// One frame pair of the kinematics kernel, 1 and 2 threads.
     Kinematics {
         #[arg(long, value_delimiter = ',', default_value = "64000,1000000")]
@@ -134,9 +139,36 @@ pub enum BenchCmd {
     },
 }
 
+/// What `bench user` runs, in order.
+const USER_BENCHES: [&[&str]; 4] = [
+    &["kinematics-whole"],
+    &["dem", "--k", "1"],
+    &["fit"],
+    &["gofr"],
+];
+
+/// A sub-benchmark with its command-line defaults.
+fn with_defaults(args: &[&str]) -> BenchCmd {
+    #[derive(clap::Parser)]
+    struct One {
+        #[command(subcommand)]
+        cmd: BenchCmd,
+    }
+    let argv = std::iter::once("bench").chain(args.iter().copied());
+    <One as clap::Parser>::try_parse_from(argv)
+        .expect("the bench's own arguments parse")
+        .cmd
+}
+
 pub fn bench(what: BenchCmd) -> Result<()> {
     use pillar_pipe::bench;
     match what {
+        BenchCmd::User => {
+            for args in USER_BENCHES {
+                println!("== pillar-pipe bench {}", args.join(" "));
+                self::bench(with_defaults(args))?;
+            }
+        }
         BenchCmd::Fit {
             samples,
             starts,
@@ -466,4 +498,22 @@ pub fn bench(what: BenchCmd) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `bench user`'s list parses into the benches it names, with their defaults.
+    #[test]
+    fn user_benches_parse_with_their_defaults() {
+        let cmds: Vec<BenchCmd> = USER_BENCHES.iter().map(|a| with_defaults(a)).collect();
+        assert!(matches!(
+            cmds[0],
+            BenchCmd::KinematicsWhole { n: 1_000_000, .. }
+        ));
+        assert!(matches!(&cmds[1], BenchCmd::Dem { k, .. } if k == &vec![1]));
+        assert!(matches!(cmds[2], BenchCmd::Fit { .. }));
+        assert!(matches!(cmds[3], BenchCmd::Gofr { n: 64_000, .. }));
+    }
 }
