@@ -118,16 +118,7 @@ fn ramp_keys_are_validated_at_load() {
     let d = tmpdir("ramp-bad");
     let runs = d.join("runs");
     let file = d.join("bad.toml");
-    let f = file.to_str().unwrap();
-    let refuse = |text: &str, needles: &[&str]| {
-        std::fs::write(&file, text).unwrap();
-        let (ok, out, err) = pp(&["run", f, "--quiet"], &runs);
-        assert!(!ok, "{out}");
-        for n in needles {
-            assert!(err.contains(n), "missing '{n}' in: {err}");
-        }
-        assert!(err.contains("bad.toml"), "{err}");
-    };
+    let refuse = |text: &str, needles: &[&str]| refused(&file, &runs, text, needles);
     let text = tiny("", "").replace("ramp = \"up\"", "ramp = \"sideways\"");
     refuse(
         &text,

@@ -137,16 +137,7 @@ fn sweep_and_shear_keys_are_validated_before_anything_runs() {
     let d = tmpdir("shear-bad");
     let runs = d.join("runs");
     let file = d.join("bad.toml");
-    let f = file.to_str().unwrap();
-    let refuse = |text: &str, needles: &[&str]| {
-        std::fs::write(&file, text).unwrap();
-        let (ok, out, err) = pp(&["run", f, "--quiet"], &runs);
-        assert!(!ok, "{out}");
-        for n in needles {
-            assert!(err.contains(n), "missing '{n}' in: {err}");
-        }
-        assert!(err.contains("bad.toml"), "{err}");
-    };
+    let refuse = |text: &str, needles: &[&str]| refused(&file, &runs, text, needles);
     let text = tiny("[0.78, 2.0]", "");
     refuse(
         &text,

@@ -178,3 +178,16 @@ pub fn cannot_check(what: &str) {
     }
     eprintln!("SKIP: {what}");
 }
+
+/// Write `text` to the pipeline file `file` and run it: the run must be refused before
+/// anything runs, its error naming the file and containing every one of `needles`.
+pub fn refused(file: &Path, runs: &Path, text: &str, needles: &[&str]) {
+    std::fs::write(file, text).unwrap();
+    let (ok, out, err) = pp(&["run", file.to_str().unwrap(), "--quiet"], runs);
+    assert!(!ok, "{out}");
+    for n in needles {
+        assert!(err.contains(n), "missing '{n}' in: {err}");
+    }
+    let name = file.file_name().unwrap().to_string_lossy();
+    assert!(err.contains(name.as_ref()), "{err}");
+}
