@@ -3,7 +3,7 @@
 //! a machine busy with other work, where spinning would steal the time the others need.
 
 use std::sync::OnceLock;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::thread::Thread;
 
 /// A barrier for a fixed number of threads: waiters spin for a while (tens of
@@ -14,6 +14,10 @@ pub struct SpinBarrier {
     pub threads: usize,
     count: AtomicUsize,
     generation: AtomicUsize,
+    /// Waiters that have gone to sleep (in the same cache line as `count`, which the
+    /// last to arrive has just written): it wakes them only if there are any, since
+    /// waking a thread that is spinning still costs a cache line from its core.
+    sleeping: AtomicUsize,
     /// Every participant, set before the first wait by the thread that spawns them.
     pub handles: OnceLock<Vec<Thread>>,
     /// Set when a participant panics, so the others stop waiting for it.
@@ -42,6 +46,7 @@ impl SpinBarrier {
             threads,
             count: AtomicUsize::new(0),
             generation: AtomicUsize::new(0),
+            sleeping: AtomicUsize::new(0),
             handles: OnceLock::new(),
             poisoned: AtomicBool::new(false),
             long_waits: AtomicUsize::new(0),
@@ -58,9 +63,12 @@ impl SpinBarrier {
         let g = self.generation.load(Ordering::Acquire);
         if self.count.fetch_add(1, Ordering::AcqRel) + 1 == self.threads {
             self.count.store(0, Ordering::Relaxed);
-            self.generation.store(g + 1, Ordering::Release);
-            if let Some(hs) = self.handles.get() {
-                // Cheap (no system call) for a thread that is still spinning.
+            // SeqCst with the sleepers' count (a waiter raises it, then looks at the
+            // generation): either it sees the new generation or this sees it asleep.
+            self.generation.store(g + 1, Ordering::SeqCst);
+            if self.sleeping.load(Ordering::SeqCst) > 0
+                && let Some(hs) = self.handles.get()
+            {
                 hs.iter()
                     .enumerate()
                     .filter(|&(t, _)| t != me)
@@ -79,8 +87,12 @@ impl SpinBarrier {
                 std::hint::spin_loop();
             } else {
                 slept.get_or_insert_with(std::time::Instant::now);
-                // Timed, so a wake-up that raced ahead is never waited for long.
-                std::thread::park_timeout(std::time::Duration::from_micros(500));
+                self.sleeping.fetch_add(1, Ordering::SeqCst);
+                if self.generation.load(Ordering::SeqCst) == g {
+                    // Timed, so a wake-up that raced ahead is never waited for long.
+                    std::thread::park_timeout(std::time::Duration::from_micros(500));
+                }
+                self.sleeping.fetch_sub(1, Ordering::SeqCst);
             }
         }
         // Sleeping was right only if the others were long in coming (descheduled on a
@@ -95,6 +107,32 @@ impl SpinBarrier {
         } else {
             (*spin * 2).min(MAX_SPIN)
         };
+    }
+}
+
+impl SpinBarrier {
+    /// Wait until `flag` (another thread's progress, a step count it raises) reaches
+    /// `target`: spinning as [`SpinBarrier::wait`] does, then yielding the core, since
+    /// nobody wakes this waiter. Long waits count towards the fallback as there.
+    pub fn wait_for(&self, flag: &AtomicU64, target: u64, spin: &mut u32) {
+        let mut spins = 0u32;
+        let mut slept: Option<std::time::Instant> = None;
+        while flag.load(Ordering::Acquire) < target {
+            if self.poisoned.load(Ordering::Acquire) {
+                panic!("another pillar thread panicked");
+            }
+            if spins < *spin {
+                spins += 1;
+                std::hint::spin_loop();
+            } else {
+                slept.get_or_insert_with(std::time::Instant::now);
+                std::thread::yield_now();
+            }
+        }
+        if slept.is_some_and(|t| t.elapsed() > LONG_WAIT) {
+            self.long_waits.fetch_add(1, Ordering::Relaxed);
+            *spin = (*spin / 2).max(MIN_SPIN);
+        }
     }
 }
 

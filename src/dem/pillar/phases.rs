@@ -459,15 +459,14 @@ pub struct StepBuffers {
     pub moved2: Vec<f64>,
     pub skipped: Vec<u64>,
     pub frozen_count: Vec<usize>,
-    /// Thread t works on grains bounds[t]..bounds[t + 1] (chunk multiples) in the
-    /// grain phases, and on the pair slots of grains pair_bounds[t]..pair_bounds[t + 1]:
-    /// two splits, since pair work gathers where grains move while grain work is
-    /// nearly even.
+    /// Thread t works on grains bounds[t]..bounds[t + 1] (chunk multiples) and on
+    /// the pair slots they own. One split for every phase: a grain's data then stays
+    /// in one core's cache, and the threads meet once a step (see the thread plumbing).
     pub bounds: Vec<usize>,
-    pub pair_bounds: Vec<usize>,
-    /// Seconds each thread spent working (not waiting) in the kick and grain phases
-    /// since the last rebalance.
+    /// Per thread: the first of its grains with a partner in a later thread's range
+    /// (its range's end if none). The slots from there on are computed first, so the
+    /// later threads' terms are ready early (see the thread plumbing).
+    pub export_from: Vec<usize>,
+    /// Seconds each thread spent working (not waiting) since the last rebalance.
     pub busy: Vec<f64>,
-    /// The same for the pair phase.
-    pub busy_pairs: Vec<f64>,
 }

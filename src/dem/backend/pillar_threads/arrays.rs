@@ -107,7 +107,6 @@ pub(crate) struct Arrays {
     skipped: P<u64>,
     frozen_count: P<usize>,
     pub(crate) busy: P<f64>,
-    pub(crate) busy_pairs: P<f64>,
     inv_mass: P<f64>,
     inv_inertia: P<f64>,
     f_max: P<f64>,
@@ -116,7 +115,7 @@ pub(crate) struct Arrays {
     xi_omega: P<f64>,
     rev: *const Reverse,
     bounds: *const Vec<usize>,
-    pair_bounds: *const Vec<usize>,
+    export_from: *const Vec<usize>,
     /// This step: slots between resting grains skipped; force snapshot wanted;
     /// second kick.
     freeze: bool,
@@ -235,6 +234,18 @@ impl PillarSim {
     /// Raw views of every array, and this step's switches (frozen skip, force
     /// snapshot, second kick).
     pub(crate) fn arrays(&mut self, kick: bool) -> Arrays {
+        let listed = self.list.start.len() == self.grains.len() + 1;
+        self.scratch.buffers.export_from = if listed {
+            export_points(&self.scratch.buffers.bounds, &self.list.start, &self.list.j)
+        } else {
+            self.scratch
+                .buffers
+                .bounds
+                .iter()
+                .skip(1)
+                .copied()
+                .collect()
+        };
         let freeze = self.frozen_skip_allowed() && self.scratch.buffers.slots_valid && kick;
         let record = self.record.is_some();
         let mark = freeze && self.scratch.marking.now;
@@ -284,7 +295,6 @@ impl PillarSim {
             skipped: P::of(&mut b.skipped),
             frozen_count: P::of(&mut b.frozen_count),
             busy: P::of(&mut b.busy),
-            busy_pairs: P::of(&mut b.busy_pairs),
             inv_mass: P::of(&mut c.inv_mass),
             inv_inertia: P::of(&mut c.inv_inertia),
             f_max: P::of(&mut c.f_max),
@@ -293,7 +303,7 @@ impl PillarSim {
             xi_omega: P::of(&mut c.xi_omega),
             rev: &b.reverse,
             bounds: &b.bounds,
-            pair_bounds: &b.pair_bounds,
+            export_from: &b.export_from,
             freeze,
             mark,
             record,
@@ -351,16 +361,46 @@ unsafe fn range(a: &Arrays, t: usize) -> Range<usize> {
     b[t]..b[t + 1]
 }
 
-/// The grains whose pair slots thread t computes.
+/// Which of a thread's pair slots a call computes: those of its grains from
+/// `export_from` on (which reach later threads' grains, computed first so that those
+/// threads wait little for their terms), or those before.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Slots {
+    Exports,
+    Rest,
+}
+
+/// The grains whose pair slots thread t computes in the `part` call.
 ///
 /// # Safety
 /// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
 /// step's serial section, and the caller is thread `t` of the team running the phases
 /// in order with a barrier between them, so that no other thread writes what this
 /// one reads or writes (each writes only its own grains or pair slots).
-unsafe fn pair_range(a: &Arrays, t: usize) -> Range<usize> {
-    let b = unsafe { &*a.pair_bounds };
-    b[t]..b[t + 1]
+unsafe fn pair_range(a: &Arrays, t: usize, part: Slots) -> Range<usize> {
+    let r = unsafe { range(a, t) };
+    let split = unsafe { (&*a.export_from)[t] }.clamp(r.start, r.end);
+    match part {
+        Slots::Exports => split..r.end,
+        Slots::Rest => r.start..split,
+    }
+}
+
+/// Per thread, the first grain of its range (`bounds`) that has a partner in a later
+/// thread's range (the range's end if none): partners follow their owner in index
+/// order (`PairList::build`), so only earlier threads write terms of a thread's grains.
+pub(crate) fn export_points(bounds: &[usize], start: &[u32], js: &[u32]) -> Vec<usize> {
+    bounds
+        .windows(2)
+        .map(|w| {
+            (w[0]..w[1])
+                .find(|&i| {
+                    let (a, b) = (start[i] as usize, start[i + 1] as usize);
+                    b > a && js[b - 1] as usize >= w[1]
+                })
+                .unwrap_or(w[1])
+        })
+        .collect()
 }
 
 /// Phase 1: kick and drift of thread t's grains, packed for the pair kernel; their
@@ -458,16 +498,23 @@ unsafe fn phase_frozen(a: &Arrays, t: usize, laws: &StepLaws, bars: &Bars, parit
     }
 }
 
-/// Phase 2: the pair slots of the grains `pair_bounds[t]..pair_bounds[t + 1]`.
+/// Phase 2: the `part` of the pair slots of thread t's grains (the slots skipped are
+/// added to this step's count).
 ///
 /// # Safety
 /// `a` is this step's view of the simulation (`PillarSim::arrays`), unchanged since the
 /// step's serial section, and the caller is thread `t` of the team running the phases
 /// in order with a barrier between them, so that no other thread writes what this
 /// one reads or writes (each writes only its own grains or pair slots).
-pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: usize) {
+pub(crate) unsafe fn phase_pairs(
+    a: &Arrays,
+    t: usize,
+    laws: &StepLaws,
+    parity: usize,
+    part: Slots,
+) {
     unsafe {
-        let r = pair_range(a, t);
+        let r = pair_range(a, t, part);
         let start = a.start.all();
         let slots = start[r.start] as usize..start[r.end] as usize;
         let g = GrainState {
@@ -509,7 +556,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
             assert!(rest.is_none_or(|f| f.len() == n));
             // SAFETY: AVX2 present; indices and lengths checked (above and at the list's
             // check); the kick (or `phase_pack`) packed this state.
-            skipped[0] = pair_slots_avx2(
+            skipped[0] += pair_slots_avx2(
                 slots.clone(),
                 g,
                 packed,
@@ -521,7 +568,7 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
             );
             return;
         }
-        skipped[0] = pair_slots(
+        skipped[0] += pair_slots(
             r,
             g,
             (start, a.js.all()),
@@ -547,9 +594,12 @@ pub(crate) unsafe fn phase_pairs(a: &Arrays, t: usize, laws: &StepLaws, parity: 
 /// one reads or writes (each writes only its own grains or pair slots).
 pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u64, parity: usize) {
     unsafe {
+        let r = range(a, t);
+        if r.is_empty() {
+            return;
+        }
         let bars = laws.bars_at(step);
         phase_frozen(a, t, laws, &bars, parity);
-        let r = range(a, t);
         let frozen: &[bool] = a.frozen.part(r.clone());
         let fz = a.mark.then_some(frozen);
         let (fx, fy, tq) = (
@@ -625,5 +675,23 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u
             },
             a.power.part(chunks),
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::export_points;
+
+    #[test]
+    fn export_points_find_the_first_grain_reaching_a_later_range() {
+        // Grains 0..6 in two ranges, 0..3 and 3..6; partners follow their owners.
+        // 0: [1]; 1: [2, 4] (reaches range 1); 2: [3] (reaches it too); 3: [5]; 4: []; 5: [].
+        let start = [0u32, 1, 3, 4, 5, 5, 5];
+        let js = [1u32, 2, 4, 3, 5];
+        assert_eq!(export_points(&[0, 3, 6], &start, &js), vec![1, 6]);
+        // No grain of range 0 reaches past 2 when it ends at 5.
+        assert_eq!(export_points(&[0, 5, 6], &start, &js), vec![3, 6]);
+        // One range: nothing to export.
+        assert_eq!(export_points(&[0, 6], &start, &js), vec![6]);
     }
 }

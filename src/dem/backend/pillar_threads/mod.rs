@@ -13,7 +13,8 @@ use crate::dem::pillar::PillarSim;
 pub mod arrays;
 
 use crate::dem::backend::pillar_threads::arrays::{
-    SendPtr, Shared, StepLaws, parity_half, phase_grains, phase_kick, phase_pack, phase_pairs,
+    SendPtr, Shared, Slots, StepLaws, parity_half, phase_grains, phase_kick, phase_pack,
+    phase_pairs,
 };
 use crate::dem::pillar::phases::{CHUNK, Reverse};
 use std::cell::UnsafeCell;
@@ -75,21 +76,30 @@ impl PillarSim {
         // busy with other work each barrier can cost a scheduler time slice.
         let done = AtomicU64::new(0);
         let fall_back = Line(AtomicBool::new(false));
-        // This step's frozen marking, decided by thread 0 during a fast step's pairs.
-        // Each in a cache line of its own: thread 0 writes this every fast step, and
-        // `fall_back` is read by every thread every step (a shared line would cross
-        // cores twice a step).
+        // This step's frozen marking, decided by thread 0 at the start of a fast step's
+        // pairs and published with its `exported` flag. Each in a cache line of its
+        // own: thread 0 writes this every fast step, and `fall_back` is read by every
+        // thread every step (a shared line would cross cores twice a step).
         let mark_now = Line(AtomicBool::new(false));
+        // Per thread: the last step whose slots reaching later threads' grains it has
+        // computed (`Slots::Exports`).
+        let exported: Vec<Line<AtomicU64>> =
+            (0..threads).map(|_| Line(AtomicU64::new(0))).collect();
         // SAFETY: read before any thread starts.
         let first = unsafe { (*sim.get()).step };
-        // A step: the kick; a barrier; the pair slots; a barrier; the grain phase (a
-        // thread's grain phase and its next kick touch only its own grains and the next
-        // step's half of the rest flags, so they need none). Every thread decides from
-        // the same numbers whether a step is *slow*: the first, one that rebalances or
-        // whose list must be rebuilt, or any with a force snapshot. A slow step has a
-        // serial part on thread 0 (last step's totals, the rebuild, the shares, this
-        // step's views) between two barriers; on the others thread 0 folds last step's
-        // totals in while the rest start on the pairs, so three barriers become two.
+        // A step: the kick; a barrier; the pair slots; the grain phase. Threads meet
+        // once a step. Every thread decides from the same numbers (after the barrier)
+        // whether a step is *slow*: the first, one that rebalances or whose list must
+        // be rebuilt, or any with a force snapshot. A slow step has a serial part on
+        // thread 0 (last step's totals, the rebuild, the shares, this step's views)
+        // and a second barrier; on the others thread 0 folds last step's totals in at
+        // the start of its pairs. No barrier follows the pairs: partners follow their
+        // owner in index order, so a thread's grains get terms only from its own slots
+        // and from earlier threads' `Exports` slots, which those compute first and
+        // flag; a thread then waits only for the earlier threads' flags (thread 0 for
+        // none), and a thread's grain phase and next kick touch only its own grains,
+        // which no later slot of this step reads (a thread's `Rest` slots reach only
+        // its own grains).
         let body = |t: usize| {
             let _poison = PoisonOnPanic(&barrier);
             let mut spin = MAX_SPIN;
@@ -147,19 +157,24 @@ impl PillarSim {
                         a = a.with_flags(freeze, false);
                     }
                     let clock = timed.then(Instant::now);
-                    if !slow && t == 0 {
-                        mark_now.0.store(
-                            fast_bookkeeping(sim.get(), freeze, 1 - parity),
-                            Ordering::Relaxed,
-                        );
-                    }
-                    phase_pairs(&a, t, &laws, parity);
+                    let own_mark = (!slow && t == 0).then(|| {
+                        let m = fast_bookkeeping(sim.get(), freeze, 1 - parity);
+                        mark_now.0.store(m, Ordering::Relaxed);
+                        m
+                    });
+                    phase_pairs(&a, t, &laws, parity, Slots::Exports);
+                    exported[t].0.store(step, Ordering::Release);
+                    phase_pairs(&a, t, &laws, parity, Slots::Rest);
                     if let Some(c) = clock {
-                        a.busy_pairs.part(t..t + 1)[0] += c.elapsed().as_secs_f64();
+                        work += c.elapsed().as_secs_f64();
                     }
-                    barrier.wait(t, &mut spin);
+                    for e in &exported[..t] {
+                        barrier.wait_for(&e.0, step, &mut spin);
+                    }
                     if !slow {
-                        a = a.with_flags(freeze, mark_now.0.load(Ordering::Relaxed));
+                        // Published by thread 0's flag, which this thread has seen.
+                        let mark = own_mark.unwrap_or_else(|| mark_now.0.load(Ordering::Relaxed));
+                        a = a.with_flags(freeze, mark);
                     }
                     let clock = timed.then(Instant::now);
                     phase_grains(&a, t, &laws, step, parity);
@@ -210,7 +225,8 @@ impl PillarSim {
         // SAFETY: one thread; the arrays outlive the calls.
         unsafe {
             phase_pack(&a);
-            phase_pairs(&a, 0, &laws, parity);
+            phase_pairs(&a, 0, &laws, parity, Slots::Exports);
+            phase_pairs(&a, 0, &laws, parity, Slots::Rest);
             phase_grains(&a, 0, &laws, self.step, parity);
         }
         self.serial_after(false, parity);
@@ -236,7 +252,6 @@ impl PillarSim {
         b.skipped = vec![0; 2 * threads];
         b.frozen_count = vec![0; 2 * threads];
         b.busy = vec![0.0; threads];
-        b.busy_pairs = vec![0.0; threads];
         b.pow_t.resize(n, 0.0);
         b.pow_r.resize(n, 0.0);
         b.packed_state.resize(n, Quad::default());
@@ -250,7 +265,7 @@ impl PillarSim {
                 && v.last() == Some(&n)
                 && v.windows(2).all(|w| w[0] <= w[1])
         };
-        if !fits(&b.bounds) || !fits(&b.pair_bounds) {
+        if !fits(&b.bounds) {
             self.balance(threads);
         }
     }
@@ -264,18 +279,15 @@ impl PillarSim {
         b.bounds = (0..=threads)
             .map(|t| (chunks * t / threads * CHUNK).min(n))
             .collect();
-        b.pair_bounds = b.bounds.clone();
     }
 
     /// Move each boundary between two threads one chunk towards the one that worked
-    /// less since the last call, for the grain phases and the pair phase apart (frozen
-    /// grains cost little and gather at the bottom, so equal shares of grains are
-    /// unequal shares of work).
+    /// less since the last call (frozen grains cost little and gather at the bottom,
+    /// so equal shares of grains are unequal shares of work).
     fn rebalance(&mut self) {
         let n = self.grains.len();
         let b = &mut self.scratch.buffers;
         shift_bounds(&mut b.bounds, &mut b.busy, n);
-        shift_bounds(&mut b.pair_bounds, &mut b.busy_pairs, n);
     }
 
     /// Per-slot buffers and the reverse index for the current list.
