@@ -552,6 +552,48 @@ fn each_grain_sums_exactly_its_own_contacts() {
 /// step's totals in while the pairs run); a lone `step` is always slow (the first of
 /// its call). The two must agree on everything, bookkeeping included: the interval
 /// sums, the bar forces, the skip counters and the frozen marking.
+/// Chunks of grains far from both bars skip the bar contacts until the list's next
+/// rebuild, which the top bar's travel forces: a bar that starts two diameters above a
+/// pillar at rest (nothing else rebuilds the list) and comes down onto it gives the
+/// same run, bit for bit, as one that tests every chunk.
+#[test]
+fn skipping_chunks_far_from_the_bars_changes_nothing() {
+    let mut p = PillarParams::fast();
+    p.bar_speed *= 100.0;
+    let d = p.d_large;
+    let mut start = packed_pillar(300, 4, p);
+    start.top_y0 += 2.0 * d;
+    let steps = 5_000;
+    let mut every = start.clone();
+    every.scratch.all_bar_chunks = true;
+    every.advance_with(steps, 1);
+    assert!(every.top_force > 0.0, "the bar reached the pillar");
+    for threads in [1, 2] {
+        let mut run = start.clone();
+        run.scratch.no_fallback = true;
+        let mut skipped = false;
+        for _ in 0..50 {
+            run.advance_with(steps / 50, threads);
+            skipped |= run.scratch.buffers.near_bar.iter().any(|&near| !near);
+        }
+        assert!(skipped, "some chunks skipped the bars ({threads} threads)");
+        assert!(
+            run.grains == every.grains,
+            "{threads} threads: the grains differ"
+        );
+        assert_eq!(run.top_shear, every.top_shear);
+        assert_eq!(run.bottom_shear, every.bottom_shear);
+        assert_eq!(
+            (run.top_force, run.bottom_force, run.bar_shear_force),
+            (every.top_force, every.bottom_force, every.bar_shear_force)
+        );
+        assert!(
+            run.list.builds > start.list.builds + 1,
+            "the bar's travel rebuilt the list"
+        );
+    }
+}
+
 #[test]
 fn fast_steps_keep_the_books_as_serial_steps_do() {
     let mut p = PillarParams::fast();

@@ -81,6 +81,9 @@ pub struct PillarSim {
 pub struct Scratch {
     /// Skip frozen grains (default on; off for comparison runs).
     pub skip_frozen: bool,
+    /// Test every chunk of grains against the bars, not only those that may touch
+    /// one before the list's next rebuild (off by default; on for comparison runs).
+    pub all_bar_chunks: bool,
     pub resting: Vec<bool>,
     pub frozen: Vec<bool>,
     /// Whether frozen grains are being marked (see [`Marking`]).

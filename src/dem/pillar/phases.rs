@@ -448,6 +448,16 @@ pub struct StepBuffers {
     pub rec_touch: Vec<bool>,
     /// Per grain: the top bar's normal force (N), filled on force-snapshot steps.
     pub rec_bar: Vec<f64>,
+    /// Per chunk: whether a grain of it may touch a bar before the list's next
+    /// rebuild (`PillarSim::mark_near_bars`); chunks that may not skip the bar
+    /// contacts, which would only write the zeros their grains' bar springs hold.
+    pub near_bar: Vec<bool>,
+    /// The first step whose forces the marking in `near_bar` no longer covers (the
+    /// top bar will have travelled half the list's skin since it was made): the list
+    /// is rebuilt then (`u64::MAX`: never, or `near_bar` marks every chunk).
+    pub near_bar_until: u64,
+    /// What `near_bar` was made for: the list build and the bars' parameters (bits).
+    pub near_bar_key: Option<(u64, [u64; 4])>,
     /// Per chunk: Σ F_n top, Σ F_n bottom, Σ bar shear (N); substrate power (W).
     pub bar_sums: Vec<[f64; 3]>,
     pub power: Vec<[f64; 2]>,

@@ -100,6 +100,7 @@ pub(crate) struct Arrays {
     rec_touch: P<bool>,
     rec_bar: P<f64>,
     bar_sums: P<[f64; 3]>,
+    near_bar: P<bool>,
     power: P<[f64; 2]>,
     pow_t: P<f64>,
     pow_r: P<f64>,
@@ -127,6 +128,8 @@ pub(crate) struct Arrays {
     /// The list's skin (m): the rebuild test of every thread uses the skin the list
     /// was built with, which a rebuild may change (`adapt_skin`).
     pub(crate) skin: f64,
+    /// `StepBuffers::near_bar_until`: every thread rebuilds from that step on.
+    pub(crate) near_bar_until: u64,
 }
 // SAFETY: every field is a `P` of `Send + Sync` numbers or a pointer to state the
 // serial sections alone write; the phase functions' contracts keep writes disjoint.
@@ -288,6 +291,7 @@ impl PillarSim {
             rec_touch: P::of(&mut b.rec_touch),
             rec_bar: P::of(&mut b.rec_bar),
             bar_sums: P::of(&mut b.bar_sums),
+            near_bar: P::of(&mut b.near_bar),
             power: P::of(&mut b.power),
             pow_t: P::of(&mut b.pow_t),
             pow_r: P::of(&mut b.pow_r),
@@ -309,6 +313,7 @@ impl PillarSim {
             record,
             kick,
             skin: l.skin,
+            near_bar_until: b.near_bar_until,
         }
     }
 }
@@ -621,7 +626,13 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u
             (a.top_shear.part(r.clone()), a.bottom_shear.part(r.clone()));
         let top_fn: Option<&mut [f64]> = a.record.then(|| a.rec_bar.part(r.clone()));
         let mut top_fn = top_fn;
+        let near_bar = a.near_bar.view(chunks.clone());
         for (k, ch) in chunks.clone().enumerate() {
+            if !near_bar[k] {
+                // What `bar_contacts` gives a chunk clear of both bars.
+                sums[k] = [0.0; 3];
+                continue;
+            }
             let cr = ch * CHUNK..((ch + 1) * CHUNK).min(r.end);
             let local = cr.start - r.start..cr.end - r.start;
             sums[k] = bar_contacts(

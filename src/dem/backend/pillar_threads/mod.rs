@@ -9,7 +9,7 @@
 use crate::dem::backend::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
 use crate::dem::backend::simd::{Pos, Quad};
 use crate::dem::base::verlet::Boundary;
-use crate::dem::pillar::PillarSim;
+use crate::dem::pillar::{PillarSim, top_y_at};
 pub mod arrays;
 
 use crate::dem::backend::pillar_threads::arrays::{
@@ -130,7 +130,8 @@ impl PillarSim {
                     let slow = k == 0
                         || record
                         || step.is_multiple_of(REBALANCE_EVERY)
-                        || strayed(a.moved2.view(0..threads), a.skin);
+                        || strayed(a.moved2.view(0..threads), a.skin)
+                        || step >= a.near_bar_until;
                     if slow {
                         if t == 0 {
                             let s = &mut *sim.get();
@@ -246,6 +247,7 @@ impl PillarSim {
         let b = &mut sc.buffers;
         let chunks = n.div_ceil(CHUNK);
         b.bar_sums.resize(chunks, [0.0; 3]);
+        b.near_bar.resize(chunks, true);
         b.power.resize(chunks, [0.0; 2]);
         b.moved2 = vec![0.0; threads];
         // One half per step parity (see `fast_bookkeeping`).
@@ -268,6 +270,59 @@ impl PillarSim {
         if !fits(&b.bounds) {
             self.balance(threads);
         }
+        // Kept from the list's build while the list and the bars are the ones it was
+        // made for, so the rebuilds come at the same steps however a run is split
+        // into calls.
+        if self.scratch.buffers.near_bar_key != Some(self.near_bar_key()) {
+            self.mark_near_bars(self.step + 1);
+        }
+    }
+
+    fn near_bar_key(&self) -> (u64, [u64; 4]) {
+        let p = &self.params;
+        (
+            self.list.builds,
+            [self.top_y0, self.bottom_y, p.bar_speed, p.dt].map(f64::to_bits),
+        )
+    }
+
+    /// Which chunks hold a grain that may touch a bar from the forces of step `from`
+    /// until the list's next rebuild, and the step at which that rebuild must come
+    /// (`StepBuffers::near_bar`, `near_bar_until`). A grain moves at most half the
+    /// list's skin from where the list was built before the list is rebuilt, and the
+    /// top bar is allowed half the skin of travel from `from`: a grain further than
+    /// its radius and the whole skin (with room to spare) from both bars cannot touch
+    /// either. Without a built list every chunk is near.
+    fn mark_near_bars(&mut self, from: u64) {
+        let n = self.grains.len();
+        let (top, bottom) = (
+            top_y_at(self.top_y0, self.params.bar_speed, self.params.dt, from),
+            self.bottom_y,
+        );
+        let key = self.near_bar_key();
+        let l = &self.list;
+        let b = &mut self.scratch.buffers;
+        b.near_bar_key = Some(key);
+        b.near_bar.resize(n.div_ceil(CHUNK), true);
+        if l.y_ref.len() != n || self.scratch.all_bar_chunks {
+            b.near_bar.fill(true);
+            b.near_bar_until = u64::MAX;
+            return;
+        }
+        let reach = 1.5 * l.skin;
+        let r = &self.grains.radius;
+        for (c, near) in b.near_bar.iter_mut().enumerate() {
+            let grains = c * CHUNK..((c + 1) * CHUNK).min(n);
+            *near = grains
+                .into_iter()
+                .any(|i| top - l.y_ref[i] < r[i] + reach || l.y_ref[i] - bottom < r[i] + reach);
+        }
+        let travel = self.params.bar_speed.abs() * self.params.dt;
+        b.near_bar_until = if travel > 0.0 {
+            from.saturating_add(((0.5 * l.skin / travel) as u64).max(1))
+        } else {
+            u64::MAX
+        };
     }
 
     /// Split the grains into `threads` runs of whole chunks, equal in number (any split
@@ -344,6 +399,7 @@ impl PillarSim {
     fn serial_before(&mut self) {
         if strayed(&self.scratch.buffers.moved2, self.list.skin)
             || self.list.x_ref.len() != self.grains.len()
+            || self.step + 1 >= self.scratch.buffers.near_bar_until
         {
             if self.list.x_ref.len() == self.grains.len() {
                 let moved2 = self
@@ -366,6 +422,7 @@ impl PillarSim {
             self.list.build(&g.x, &g.y, &g.radius, Boundary::Open);
             self.scratch.buffers.slots_valid = false;
             self.sync_list_buffers();
+            self.mark_near_bars(self.step + 1);
         }
         self.step += 1;
     }
