@@ -594,6 +594,44 @@ fn skipping_chunks_far_from_the_bars_changes_nothing() {
     }
 }
 
+/// With one barrier a step a thread may run a step ahead of one that was descheduled
+/// after the barrier (here: each thread in turn pauses there). The one behind must
+/// still decide the step from this step's numbers (the list's rebuild test reads the
+/// threads' moves, which the one ahead rewrites in its next kick), or the threads
+/// take different paths: a hang or other numbers. Run on a thread of its own, so a
+/// hang fails the test instead of stalling it.
+#[test]
+fn a_thread_running_a_step_ahead_changes_nothing() {
+    // A pillar squeezed by 1 % about its centre: every grain pushes out at once, so
+    // the grains of either thread can be the ones that force a rebuild.
+    let mut start = packed_pillar(300, 4, PillarParams::fast());
+    let g = &mut start.grains;
+    let n = g.x.len() as f64;
+    let (cx, cy) = (g.x.iter().sum::<f64>() / n, g.y.iter().sum::<f64>() / n);
+    g.x.iter_mut().for_each(|x| *x = cx + 0.99 * (*x - cx));
+    g.y.iter_mut().for_each(|y| *y = cy + 0.99 * (*y - cy));
+    let steps = 3_000;
+    let mut one = start.clone();
+    one.advance_with(steps, 1);
+    assert!(
+        one.list.builds > start.list.builds + 2,
+        "the list was rebuilt"
+    );
+    let (tx, rx) = std::sync::mpsc::channel();
+    let mut two = start.clone();
+    std::thread::spawn(move || {
+        two.scratch.pause_after_barrier_us = 100;
+        two.scratch.no_fallback = true;
+        two.advance_with(steps, 2);
+        let _ = tx.send(two);
+    });
+    let two = rx
+        .recv_timeout(std::time::Duration::from_secs(120))
+        .expect("two threads finished (a hang means they took different paths)");
+    assert!(two.grains == one.grains, "two threads gave other numbers");
+    assert_eq!(two.list.builds, one.list.builds);
+}
+
 #[test]
 fn fast_steps_keep_the_books_as_serial_steps_do() {
     let mut p = PillarParams::fast();

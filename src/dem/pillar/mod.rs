@@ -102,6 +102,10 @@ pub struct Scratch {
     pub no_fallback: bool,
     /// `advance` calls that finished on one thread because waits kept being long.
     pub fallbacks: u64,
+    /// Tests: microseconds the last thread sleeps after each step's barrier in
+    /// `advance`, so that the others run ahead as past a descheduled thread.
+    #[cfg(test)]
+    pub pause_after_barrier_us: u64,
     /// Step of the last pair-list build in this session (for [`adapt_skin`]).
     pub last_build: Option<u64>,
     /// The largest move since its build (m) that any list saw at its rebuild, over

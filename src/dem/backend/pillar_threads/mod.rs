@@ -70,6 +70,8 @@ impl PillarSim {
         let freeze = self.frozen_skip_allowed();
         let record = self.record.is_some();
         let no_fallback = threads == 1 || self.scratch.no_fallback;
+        #[cfg(test)]
+        let pause_us = self.scratch.pause_after_barrier_us;
         let sim: *mut PillarSim = self;
         let sim = SendPtr(sim);
         // Steps done, and a request (from thread 0) to finish on one thread: on a machine
@@ -124,13 +126,22 @@ impl PillarSim {
                 unsafe {
                     let clock = timed.then(Instant::now);
                     let m = phase_kick(&a, t, laws.dt, parity);
-                    a.moved2.part(t..t + 1)[0] = m;
+                    // This step's half: with one barrier a step, a thread may kick the
+                    // next step (writing the other half) while another still decides
+                    // this one from these numbers.
+                    let moves = parity_half(threads, parity);
+                    a.moved2.part(moves.start + t..moves.start + t + 1)[0] = m;
                     let mut work = clock.map_or(0.0, |c| c.elapsed().as_secs_f64());
                     barrier.wait(t, &mut spin);
+                    // Tests: the last thread pauses here, as if descheduled.
+                    #[cfg(test)]
+                    if pause_us > 0 && t + 1 == threads {
+                        std::thread::sleep(std::time::Duration::from_micros(pause_us));
+                    }
                     let slow = k == 0
                         || record
                         || step.is_multiple_of(REBALANCE_EVERY)
-                        || strayed(a.moved2.view(0..threads), a.skin)
+                        || strayed(a.moved2.view(moves), a.skin)
                         || step >= a.near_bar_until;
                     if slow {
                         if t == 0 {
@@ -146,7 +157,7 @@ impl PillarSim {
                                     }
                                 }
                             }
-                            s.serial_before();
+                            s.serial_before(parity);
                             if s.step.is_multiple_of(REBALANCE_EVERY) {
                                 s.rebalance();
                             }
@@ -249,7 +260,8 @@ impl PillarSim {
         b.bar_sums.resize(chunks, [0.0; 3]);
         b.near_bar.resize(chunks, true);
         b.power.resize(chunks, [0.0; 2]);
-        b.moved2 = vec![0.0; threads];
+        // One half per step parity (see `advance_with`).
+        b.moved2 = vec![0.0; 2 * threads];
         // One half per step parity (see `fast_bookkeeping`).
         b.skipped = vec![0; 2 * threads];
         b.frozen_count = vec![0; 2 * threads];
@@ -394,20 +406,17 @@ impl PillarSim {
         b.rec_bar.resize(if rec { n } else { 0 }, 0.0);
     }
 
-    /// Thread 0 between the kick and the forces: the list's rebuild test and rebuild,
-    /// the step count.
-    fn serial_before(&mut self) {
-        if strayed(&self.scratch.buffers.moved2, self.list.skin)
+    /// Thread 0 between the kick and the forces: the list's rebuild test (on the
+    /// threads' moves in the `parity` half) and rebuild, the step count.
+    fn serial_before(&mut self, parity: usize) {
+        let threads = self.scratch.buffers.moved2.len() / 2;
+        let moved2 = &self.scratch.buffers.moved2[parity_half(threads, parity)];
+        let moved2 = moved2.iter().fold(0.0, |a: f64, &b| a.max(b));
+        if strayed(&[moved2], self.list.skin)
             || self.list.x_ref.len() != self.grains.len()
             || self.step + 1 >= self.scratch.buffers.near_bar_until
         {
             if self.list.x_ref.len() == self.grains.len() {
-                let moved2 = self
-                    .scratch
-                    .buffers
-                    .moved2
-                    .iter()
-                    .fold(0.0, |a: f64, &b| a.max(b));
                 let ratio = moved2.sqrt() / (0.5 * self.list.skin);
                 self.scratch.rebuild_overshoot = self.scratch.rebuild_overshoot.max(ratio);
             }
