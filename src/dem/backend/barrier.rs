@@ -76,25 +76,18 @@ impl SpinBarrier {
             }
             return;
         }
-        let mut spins = 0u32;
-        let mut slept: Option<std::time::Instant> = None;
-        while self.generation.load(Ordering::Acquire) == g {
-            if self.poisoned.load(Ordering::Acquire) {
-                panic!("another pillar thread panicked");
-            }
-            if spins < *spin {
-                spins += 1;
-                std::hint::spin_loop();
-            } else {
-                slept.get_or_insert_with(std::time::Instant::now);
+        let slept = self.spin_then(
+            || self.generation.load(Ordering::Acquire) != g,
+            *spin,
+            || {
                 self.sleeping.fetch_add(1, Ordering::SeqCst);
                 if self.generation.load(Ordering::SeqCst) == g {
                     // Timed, so a wake-up that raced ahead is never waited for long.
                     std::thread::park_timeout(std::time::Duration::from_micros(500));
                 }
                 self.sleeping.fetch_sub(1, Ordering::SeqCst);
-            }
-        }
+            },
+        );
         // Sleeping was right only if the others were long in coming (descheduled on a
         // busy machine, for a time slice of milliseconds); a shorter sleep means spinning
         // a little longer would have won. (A 200 µs threshold misfired on an idle VM,
@@ -115,24 +108,40 @@ impl SpinBarrier {
     /// `target`: spinning as [`SpinBarrier::wait`] does, then yielding the core, since
     /// nobody wakes this waiter. Long waits count towards the fallback as there.
     pub fn wait_for(&self, flag: &AtomicU64, target: u64, spin: &mut u32) {
-        let mut spins = 0u32;
-        let mut slept: Option<std::time::Instant> = None;
-        while flag.load(Ordering::Acquire) < target {
-            if self.poisoned.load(Ordering::Acquire) {
-                panic!("another pillar thread panicked");
-            }
-            if spins < *spin {
-                spins += 1;
-                std::hint::spin_loop();
-            } else {
-                slept.get_or_insert_with(std::time::Instant::now);
-                std::thread::yield_now();
-            }
-        }
+        let slept = self.spin_then(
+            || flag.load(Ordering::Acquire) >= target,
+            *spin,
+            std::thread::yield_now,
+        );
         if slept.is_some_and(|t| t.elapsed() > LONG_WAIT) {
             self.long_waits.fetch_add(1, Ordering::Relaxed);
             *spin = (*spin / 2).max(MIN_SPIN);
         }
+    }
+
+    /// Until `done`: spin `spin` times, then `sleep` between checks; panics if another
+    /// thread did. Returns when it first slept, if it did.
+    fn spin_then(
+        &self,
+        done: impl Fn() -> bool,
+        spin: u32,
+        mut sleep: impl FnMut(),
+    ) -> Option<std::time::Instant> {
+        let mut spins = 0u32;
+        let mut slept = None;
+        while !done() {
+            if self.poisoned.load(Ordering::Acquire) {
+                panic!("another pillar thread panicked");
+            }
+            if spins < spin {
+                spins += 1;
+                std::hint::spin_loop();
+            } else {
+                slept.get_or_insert_with(std::time::Instant::now);
+                sleep();
+            }
+        }
+        slept
     }
 }
 
