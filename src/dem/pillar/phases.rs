@@ -464,8 +464,8 @@ pub struct StepBuffers {
     /// Per grain: |f·v| and |T_μ ω| (W), summed per chunk into `power`.
     pub pow_t: Vec<f64>,
     pub pow_r: Vec<f64>,
-    /// Per thread: largest squared move since the list build (m²); per step parity
-    /// and thread (`parity_half` of the thread plumbing): slots skipped, frozen grains.
+    /// Per step parity and thread (`parity_half` of the thread plumbing): largest
+    /// squared move since the list build (m²), slots skipped, frozen grains.
     pub moved2: Vec<f64>,
     pub skipped: Vec<u64>,
     pub frozen_count: Vec<usize>,
