@@ -233,13 +233,11 @@ pub fn bench_kinematics_whole(
         .map(|a| {
             a.iter()
                 .filter_map(|p| {
-                    let name: &'static str = match p["name"].as_str()? {
-                        "read + hash" => "read + hash",
-                        "compute" => "compute",
-                        "assemble" => "assemble",
-                        "write" => "write",
-                        _ => "other",
-                    };
+                    let name = p["name"].as_str()?;
+                    let name = crate::stages::kinematics::PHASES
+                        .into_iter()
+                        .find(|&n| n == name)
+                        .unwrap_or("other");
                     Some(Phase {
                         name,
                         seconds: p["seconds"].as_f64()?,

@@ -379,3 +379,110 @@ fn failed_kinematics_write_leaves_no_sidecar_and_states_the_cause_once() {
         assert!(out.is_file() && dir.join(format!("{name}.meta.json")).is_file());
     }
 }
+
+/// A frame pair of more rows than one block of the command (65,536 rows, one Parquet
+/// row group each), with particles missing from either frame and isolated ones (too
+/// few neighbours): the table the command writes in blocks, overlapping the writing of
+/// one with the computing of the next, is the library's one-pass result bit for bit,
+/// in as many row groups as blocks, with the same counts.
+#[test]
+fn a_pair_larger_than_a_block_is_the_one_pass_result() {
+    use pillar_pipe::kinematics::{Convention, F64_COLUMNS, KinematicsParams, frame_pair_columns};
+    use polars::prelude::*;
+    let dir = tmpdir("blocks");
+    let p = bidisperse_packing(140_000, 1.0, 0.1, 4);
+    let t = two_frame_tracks(&p, Mat2::new(1.0, 0.02, 0.0, 0.99), 0.01, 2);
+    let n = p.pos.len();
+    let keep: Vec<usize> = (0..t.len())
+        .filter(|&r| {
+            let (frame, id) = (t.frame[r], t.particle[r]);
+            !(frame == 1 && id % 5000 == 1 || frame == 0 && id % 7000 == 2)
+        })
+        .collect();
+    let pick = |v: &[f64]| keep.iter().map(|&r| v[r]).collect::<Vec<f64>>();
+    let mut u = t.clone();
+    u.frame = keep.iter().map(|&r| t.frame[r]).collect();
+    u.particle = keep.iter().map(|&r| t.particle[r]).collect();
+    u.x = pick(&t.x);
+    u.y = pick(&t.y);
+    u.radius = pick(&t.radius);
+    u.time = t.time.as_deref().map(pick);
+    u.species = t
+        .species
+        .as_ref()
+        .map(|s| keep.iter().map(|&r| s[r]).collect());
+    // Three particles far from the rest in frame 0: no neighbours.
+    for id in [10, 70_000, n as i64 - 3] {
+        let r = (0..u.len())
+            .find(|&r| u.frame[r] == 0 && u.particle[r] == id)
+            .unwrap();
+        u.x[r] += 1e6 * (1.0 + id as f64);
+    }
+    let tp = dir.join("big.parquet");
+    write_tracks(&u, &tp).unwrap();
+    let out = dir.join("k.parquet");
+    let (ok, text) = run(&[
+        "kinematics",
+        tp.to_str().unwrap(),
+        "--lag",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
+
+    let (tracks, _) = pillar_pipe::io::read_tracks(&tp).unwrap();
+    let fr = tracks.frame_ranges();
+    let a = tracks.view(fr[0].0, fr[0].1.clone());
+    let b = tracks.view(fr[1].0, fr[1].1.clone());
+    let params = KinematicsParams {
+        rc: 1.25,
+        convention: Convention::Paper,
+    };
+    let (want, counts) = frame_pair_columns(&a, &b, 1.0, &params).unwrap();
+    assert!(
+        want.len() > 2 * 65_536,
+        "{} rows: more than two blocks",
+        want.len()
+    );
+    assert!(counts.invalid_few_neighbors >= 3, "{counts:?}");
+    assert!(counts.missing_at_end > 0 && counts.missing_at_start > 0);
+    assert_eq!(
+        report["counts"],
+        serde_json::to_value(counts).unwrap(),
+        "counts summed over the blocks"
+    );
+
+    let mut reader = ParquetReader::new(std::fs::File::open(&out).unwrap());
+    let groups = reader.get_metadata().unwrap().row_groups.len();
+    assert_eq!(
+        groups,
+        want.len().div_ceil(65_536),
+        "one row group per block"
+    );
+    let got = reader.finish().unwrap();
+    assert_eq!(got.height(), want.len());
+    let ids: Vec<i64> = got["particle"].i64().unwrap().into_no_null_iter().collect();
+    assert_eq!(ids, want.particle);
+    for (name, col) in F64_COLUMNS.iter().zip(&want.f64s) {
+        let v: Vec<u64> = got[*name]
+            .f64()
+            .unwrap()
+            .into_no_null_iter()
+            .map(f64::to_bits)
+            .collect();
+        let w: Vec<u64> = col.iter().map(|x| x.to_bits()).collect();
+        assert!(v == w, "column {name} differs from the one-pass result");
+    }
+    let status: Vec<String> = got["status"]
+        .str()
+        .unwrap()
+        .iter()
+        .map(|s| s.unwrap_or("").to_string())
+        .collect();
+    let want_status: Vec<&str> = want.status.iter().map(|s| s.name()).collect();
+    assert_eq!(status, want_status);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -73,13 +73,14 @@ impl KinematicsColumns {
         self.particle.is_empty()
     }
 
-    /// Rows `0..n` from `row(n, buf)` (`buf`: a neighbour buffer reused within a
-    /// thread). Each row is computed once, by one thread, into its own place, so the
-    /// columns are the same whatever the thread count.
-    pub(crate) fn fill<F>(n: usize, row: F) -> Self
+    /// Rows `rows` from `row(n, buf)` (`buf`: a neighbour buffer reused within a
+    /// thread), at `0..rows.len()` here. Each row is computed once, by one thread, into
+    /// its own place, so the columns are the same whatever the thread count.
+    pub(crate) fn fill<F>(rows: std::ops::Range<usize>, row: F) -> Self
     where
         F: Fn(usize, &mut Vec<(Vec2, Vec2)>) -> ParticleKinematics + Sync,
     {
+        let (first, n) = (rows.start, rows.len());
         let mut c = KinematicsColumns {
             particle: vec![0; n],
             species: vec![0; n],
@@ -116,7 +117,7 @@ impl KinematicsColumns {
             .into_par_iter()
             .for_each_init(Vec::new, |buf, mut b| {
                 for r in 0..b.particle.len() {
-                    let k = row(b.start + r, buf);
+                    let k = row(first + b.start + r, buf);
                     b.particle[r] = k.particle;
                     b.species[r] = k.species;
                     b.n_neighbors[r] = k.n_neighbors as i32;

@@ -181,12 +181,76 @@ pub fn frame_pair_columns(
     dt: f64,
     p: &KinematicsParams,
 ) -> Result<(KinematicsColumns, PairCounts)> {
-    let setup = PairSetup::new(a, b, p)?;
-    let cols = KinematicsColumns::fill(setup.len(), |n, buf| {
-        setup.particle(n, a, buf, dt, p.convention)
-    });
-    let counts = setup.counts(cols.status.iter().copied());
+    let pair = FramePair::new(*a, b, dt, p)?;
+    let cols = pair.columns(0..pair.len());
+    let mut counts = pair.pairing_counts();
+    counts.add(&FramePair::block_counts(&cols));
     Ok((cols, counts))
+}
+
+/// A frame pair ready to compute in blocks of rows: the pairing, the displacements and
+/// the cell list built once, then [`FramePair::columns`] for any range of rows. The
+/// `kinematics` command computes and writes one Parquet row group at a time, so a
+/// million-particle pair never holds all its output columns at once (fewer fresh pages
+/// to fault in, and the writing of one block overlaps the computing of the next).
+pub struct FramePair<'a> {
+    setup: PairSetup,
+    a: FrameView<'a>,
+    dt: f64,
+    conv: Convention,
+}
+
+impl<'a> FramePair<'a> {
+    /// Pairs frames `a` (time t) and `b` (t + `dt`); see [`frame_pair`].
+    pub fn new(a: FrameView<'a>, b: &FrameView, dt: f64, p: &KinematicsParams) -> Result<Self> {
+        Ok(FramePair {
+            setup: PairSetup::new(&a, b, p)?,
+            a,
+            dt,
+            conv: p.convention,
+        })
+    }
+
+    /// Δt between the frames, the tracks' time unit.
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// Rows (particles present in both frames).
+    pub fn len(&self) -> usize {
+        self.setup.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Rows `rows` of the pair's table, the same numbers whatever the blocks and the
+    /// thread count.
+    pub fn columns(&self, rows: std::ops::Range<usize>) -> KinematicsColumns {
+        assert!(rows.end <= self.len(), "rows within the pair");
+        KinematicsColumns::fill(rows, |n, buf| {
+            self.setup.particle(n, &self.a, buf, self.dt, self.conv)
+        })
+    }
+
+    /// The counts of one block's undetermined rows only (to add up over blocks).
+    pub fn block_counts(c: &KinematicsColumns) -> PairCounts {
+        let mut k = PairCounts::default();
+        for s in &c.status {
+            match s {
+                Status::Ok => {}
+                Status::TooFewNeighbours => k.invalid_few_neighbors += 1,
+                Status::Singular => k.invalid_singular += 1,
+            }
+        }
+        k
+    }
+
+    /// The pair's counts apart from the undetermined rows (see [`Self::block_counts`]).
+    pub fn pairing_counts(&self) -> PairCounts {
+        self.setup.counts(std::iter::empty())
+    }
 }
 
 /// What every particle of a frame pair shares: the pairing, positions at t,
