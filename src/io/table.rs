@@ -62,24 +62,7 @@ pub fn read_table_columns(
     }
     let format = TableFormat::of(path);
     let df = match format {
-        TableFormat::Parquet => {
-            let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-            // polars' Parquet decoder asserts on some corrupt metadata (issue 24's fuzz
-            // found "thrift bool field" and "offset + length <= self.length") instead of
-            // returning an error; a corrupt file must not take the process down. The
-            // page-header check (against allocations that abort) reads the same metadata,
-            // so it runs under the same guard.
-            let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                super::parquet_guard::check(path).map(|()| ParquetReader::new(f).finish())
-            }))
-            .map_err(|p| {
-                Error::input(
-                    &file,
-                    format!("reading Parquet: corrupt file ({})", panic_text(&*p)),
-                )
-            })??;
-            read.map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))?
-        }
+        TableFormat::Parquet => guarded_parquet(path, true, |r| r.finish())?,
         TableFormat::Csv => {
             let header = csvdiag::read_header(path)?;
             // polars panics on some headers that name a column twice (issue 24's fuzz:
@@ -142,6 +125,70 @@ pub fn read_table_columns(
         return Err(Error::input(&file, "no data rows (header only)"));
     }
     Ok(Table { df, file, format })
+}
+
+/// `read` on a Parquet reader of `path`, after `parquet_guard::check` (against
+/// allocations that abort) where `check`. polars' Parquet decoder asserts on some
+/// corrupt metadata (issue 24's fuzz found "thrift bool field" and "offset + length <=
+/// self.length") instead of returning an error; a corrupt file must not take the
+/// process down, so a panic becomes an error naming the file. The check reads the same
+/// metadata, so it runs under the same guard.
+fn guarded_parquet<T>(
+    path: &Path,
+    check: bool,
+    read: impl FnOnce(ParquetReader<std::fs::File>) -> PolarsResult<T>,
+) -> Result<T> {
+    let file = path.display().to_string();
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        if check {
+            super::parquet_guard::check(path)?;
+        }
+        Ok(read(ParquetReader::new(f)))
+    }))
+    .map_err(|p| {
+        Error::input(
+            &file,
+            format!("reading Parquet: corrupt file ({})", panic_text(&*p)),
+        )
+    })??;
+    read.map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))
+}
+
+/// A Parquet table's columns without their values (a frame of no rows with the file's
+/// schema), for `require`, `has` and `columns`, after the checks `read_table` makes
+/// (not empty, not corrupt, some rows). A reader then takes the columns it needs one at
+/// a time with [`read_parquet_column`], so it never holds polars' copy of the whole
+/// table beside its own (for 2 M tracks, 100 MB less memory to fault in).
+pub fn read_parquet_schema(path: &Path) -> Result<Table> {
+    let file = path.display().to_string();
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.len() == 0 {
+        return Err(Error::input(&file, "empty file"));
+    }
+    let (schema, rows) = guarded_parquet(path, true, |mut r| Ok((r.schema()?, r.num_rows()?)))?;
+    if rows == 0 {
+        return Err(Error::input(&file, "no data rows (header only)"));
+    }
+    let schema = Schema::from_arrow_schema(&schema);
+    Ok(Table {
+        df: DataFrame::empty_with_schema(&schema),
+        file,
+        format: TableFormat::Parquet,
+    })
+}
+
+/// Column `name` of a Parquet file that [`read_parquet_schema`] has checked, as a
+/// table of that one column.
+pub fn read_parquet_column(path: &Path, name: &str) -> Result<Table> {
+    let df = guarded_parquet(path, false, |r| {
+        r.with_columns(Some(vec![name.to_string()])).finish()
+    })?;
+    Ok(Table {
+        df,
+        file: path.display().to_string(),
+        format: TableFormat::Parquet,
+    })
 }
 
 /// The message of a caught panic.

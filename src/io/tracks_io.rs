@@ -2,7 +2,9 @@
 
 use super::atomic::{sidecar_path, write_with_sidecar};
 use super::csvdiag::Expect;
-use super::table::{Table, read_table, write_table};
+use super::table::{
+    Table, TableFormat, read_parquet_column, read_parquet_schema, read_table, write_table,
+};
 use crate::error::{Error, Result};
 use crate::schema;
 use crate::tracks::{Tracks, TracksMeta, finalize};
@@ -24,7 +26,11 @@ pub const TRACKS_EXPECT: &[(&str, Expect)] = &[
 /// Read a canonical tracks table and its sidecar (if any). Columns not in the schema
 /// are ignored and named in the returned warnings.
 pub fn read_tracks(path: &Path) -> Result<(Tracks, Vec<String>)> {
-    let table = read_table(path, TRACKS_EXPECT)?;
+    // Parquet one column at a time (never polars' copy of every column beside ours).
+    let table = match TableFormat::of(path) {
+        TableFormat::Parquet => read_parquet_schema(path)?,
+        TableFormat::Csv => read_table(path, TRACKS_EXPECT)?,
+    };
     let sch = schema::load("tracks");
     table.require(&sch.required())?;
     let mut warnings = Vec::new();
@@ -48,35 +54,40 @@ pub fn read_tracks(path: &Path) -> Result<(Tracks, Vec<String>)> {
             sidecar_path(path).display()
         ));
     }
-    let t = tracks_from_table(&table, meta.unwrap_or_default())?;
+    let t = tracks_from_table(&table, path, meta.unwrap_or_default())?;
     Ok((t, warnings))
 }
 
-fn tracks_from_table(table: &Table, meta: TracksMeta) -> Result<Tracks> {
+/// The tracks from `table`: its columns, or for a Parquet schema table (no rows) the
+/// columns of `path` read one by one.
+fn tracks_from_table(table: &Table, path: &Path, meta: TracksMeta) -> Result<Tracks> {
+    let whole = table.df.height() > 0;
+    let f64s = |c: &str| match whole {
+        true => table.f64(c),
+        false => read_parquet_column(path, c)?.f64(c),
+    };
+    let i64s = |c: &str| match whole {
+        true => table.i64(c),
+        false => read_parquet_column(path, c)?.i64(c),
+    };
     let opt_f = |c: &str| -> Result<Option<Vec<f64>>> {
         if table.has(c) {
-            table.f64(c).map(Some)
+            f64s(c).map(Some)
         } else {
             Ok(None)
         }
     };
     let species = if table.has("species") {
-        Some(
-            table
-                .i64("species")?
-                .into_iter()
-                .map(|s| s as i32)
-                .collect(),
-        )
+        Some(i64s("species")?.into_iter().map(|s| s as i32).collect())
     } else {
         None
     };
     let t = Tracks {
-        frame: table.i64("frame")?,
-        particle: table.i64("particle")?,
-        x: table.f64("x")?,
-        y: table.f64("y")?,
-        radius: table.f64("radius")?,
+        frame: i64s("frame")?,
+        particle: i64s("particle")?,
+        x: f64s("x")?,
+        y: f64s("y")?,
+        radius: f64s("radius")?,
         time: opt_f("time")?,
         species,
         theta: opt_f("theta")?,
@@ -138,4 +149,67 @@ pub fn write_tracks_owned(mut t: Tracks, path: &Path) -> Result<()> {
     t.meta = TracksMeta::default();
     let mut df = tracks_into_dataframe(t)?;
     write_with_sidecar(path, &meta, || write_table(&mut df, path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Parquet tracks are read one column at a time: a file of several row groups reads
+    /// as the same rows through CSV, an unknown column is still named, and a missing
+    /// value is still placed at its row and column.
+    #[test]
+    fn parquet_read_a_column_at_a_time_keeps_every_check() {
+        let dir = std::env::temp_dir().join(format!("pp-tracks-cols-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let n = 300_000usize;
+        let table = |y: Vec<Option<f64>>| {
+            df!(
+                "frame" => (0..n).map(|i| (i % 2) as i64).collect::<Vec<_>>(),
+                "particle" => (0..n).map(|i| (i / 2) as i64).collect::<Vec<_>>(),
+                "x" => (0..n).map(|i| (i / 2) as f64 * 1.5 + (i % 2) as f64 * 0.01).collect::<Vec<_>>(),
+                "y" => y,
+                "radius" => vec![0.5; n],
+                "brightness" => vec![1.0; n],
+            )
+            .unwrap()
+        };
+        let ys: Vec<Option<f64>> = (0..n).map(|i| Some((i % 7) as f64)).collect();
+        for (name, format) in [("t.parquet", "parquet"), ("t.csv", "csv")] {
+            let mut df = table(ys.clone());
+            let path = dir.join(name);
+            super::super::table::write_table(&mut df, &path).unwrap();
+            let (t, warnings) = read_tracks(&path).unwrap();
+            assert_eq!(t.len(), n, "{format}");
+            assert!(
+                t.x.iter()
+                    .zip(&t.particle)
+                    .all(|(&x, &p)| x == p as f64 * 1.5 || x == p as f64 * 1.5 + 0.01)
+            );
+            assert!(
+                warnings.iter().any(|w| w.contains("brightness")),
+                "{format}: {warnings:?}"
+            );
+        }
+        let parquet = std::fs::read(dir.join("t.parquet")).unwrap();
+        assert!(parquet.len() > 1000);
+        let (a, _) = read_tracks(&dir.join("t.parquet")).unwrap();
+        let (b, _) = read_tracks(&dir.join("t.csv")).unwrap();
+        assert_eq!(
+            (&a.frame, &a.particle, &a.x, &a.y),
+            (&b.frame, &b.particle, &b.x, &b.y)
+        );
+
+        let mut holed = ys;
+        holed[299_990] = None;
+        let mut df = table(holed);
+        let path = dir.join("holed.parquet");
+        super::super::table::write_table(&mut df, &path).unwrap();
+        let e = read_tracks(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("row 299990") && e.contains("'y'") && e.contains("missing value"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }
