@@ -419,7 +419,8 @@ fn tracking_noise_from_the_data_matches_the_ground_truth() {
             == left_out
     );
     // A simulation: no floor, whatever the data's intercept.
-    let (sfit, _) = simulated_fit(&tmpdir("noise-sim"), "0.05");
+    let sim_dir = tmpdir("noise-sim");
+    let (sfit, _) = simulated_fit(&sim_dir, "0.05");
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&sfit).unwrap()).unwrap();
     assert!(j["noise"]["floor"].is_null(), "{}", j["noise"]);

@@ -399,12 +399,32 @@ mod tests {
     use crate::io::table::read_table_columns;
     use crate::io::trackpy::EXPECT;
 
-    fn tmp(name: &str, text: &[u8]) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("pp-fastcsv-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join(name);
+    /// A scratch file, removed again when dropped.
+    struct TmpFile(std::path::PathBuf);
+
+    impl std::ops::Deref for TmpFile {
+        type Target = std::path::PathBuf;
+        fn deref(&self) -> &std::path::PathBuf {
+            &self.0
+        }
+    }
+
+    impl AsRef<Path> for TmpFile {
+        fn as_ref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl Drop for TmpFile {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    fn tmp(name: &str, text: &[u8]) -> TmpFile {
+        let p = std::env::temp_dir().join(format!("pp-fastcsv-{}-{name}", std::process::id()));
         std::fs::write(&p, text).unwrap();
-        p
+        TmpFile(p)
     }
 
     /// The slow path's columns, for comparison.

@@ -12,11 +12,38 @@ use std::time::SystemTime;
 pub const BIN: &str = env!("CARGO_BIN_EXE_pillar-pipe");
 pub const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
-pub fn tmpdir(name: &str) -> PathBuf {
+/// A fresh scratch directory, removed when the test that made it passes (kept when it
+/// fails, to look at; a test run used to leave a hundred directories behind).
+pub fn tmpdir(name: &str) -> TmpDir {
     let d = std::env::temp_dir().join(format!("pp-test-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TmpDir(d)
+}
+
+/// See [`tmpdir`]; derefs to its path.
+#[derive(Debug)]
+pub struct TmpDir(PathBuf);
+
+impl std::ops::Deref for TmpDir {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for TmpDir {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TmpDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// Run the CLI: (success, stdout followed by stderr).
