@@ -33,7 +33,7 @@ pub struct WholeBench {
     pub ovito: Vec<WholeRun>,
     /// Why there is no OVITO reference, when there is none.
     pub ovito_missing: Option<String>,
-    /// Our phases (read + hash, compute, assemble, write) in the median run.
+    /// Our phases (`stages::kinematics::PHASES`) in one more run.
     pub phases: Vec<Phase>,
     /// Size of our output table, bytes.
     pub output_bytes: u64,

@@ -101,7 +101,7 @@ enum Cmd {
         quiet: bool,
         #[arg(long)]
         json: bool,
-        /// Also print where the wall time went (read, hash, compute, assemble, write).
+        /// Also print where the wall time went (read + hash, compute, compute ‖ write, write).
         #[arg(long)]
         timings: bool,
     },

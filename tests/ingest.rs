@@ -678,3 +678,38 @@ fn corrupt_parquet_page_headers_are_refused_not_an_abort() {
     assert!(ok, "{text}");
     pillar_pipe::io::parquet_guard::check(&d.join("t.parquet")).unwrap();
 }
+
+/// Parquet tracks from another tool with column types this build cannot hold (decimal,
+/// struct; `tests/data/foreign/README.md`): as extra columns they are ignored with a
+/// warning (tracks are read a column at a time, and only the tracks' columns are
+/// converted); as `x` they are an error naming the file, never a panic.
+#[test]
+fn foreign_parquet_column_types_are_ignored_or_refused_not_a_panic() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/foreign");
+    let extra = dir.join("extra-decimal-struct.parquet");
+    let (t, warnings) = pillar_pipe::io::read_tracks(&extra).unwrap();
+    assert_eq!(t.len(), 6);
+    assert_eq!(t.x, [0.0, 1.0, 0.5, 0.01, 1.01, 0.51]);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("weight") && w.contains("pos")),
+        "{warnings:?}"
+    );
+    let bad = dir.join("x-decimal.parquet");
+    let e = pillar_pipe::io::read_tracks(&bad).unwrap_err().to_string();
+    assert!(
+        e.contains(bad.to_str().unwrap()) && e.contains("reading Parquet"),
+        "{e}"
+    );
+    let out = tmpdir("foreign");
+    let (ok, text) = run(&[
+        "kinematics",
+        bad.to_str().unwrap(),
+        "--lag",
+        "1",
+        "-o",
+        out.join("k.parquet").to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("reading Parquet"), "{text}");
+}

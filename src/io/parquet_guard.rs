@@ -19,12 +19,17 @@ fn max_values(len: u64) -> u64 {
 /// Refuse a Parquet file whose metadata or page headers claim more values than it can
 /// hold. Memory-maps the file; reads only the footer and the page headers.
 pub fn check(path: &Path) -> Result<()> {
-    let file = path.display().to_string();
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    check_file(&f, path)
+}
+
+/// As [`check`], on the open file `f` (named `path` in errors).
+pub fn check_file(f: &std::fs::File, path: &Path) -> Result<()> {
+    let file = path.display().to_string();
     // SAFETY: the map is read only; a file truncated under us by another process could
     // fault, as any reader of a file being rewritten can fail; ours are written under a
     // temporary name and renamed, never rewritten in place.
-    let map = unsafe { memmap2::Mmap::map(&f) }.map_err(|e| Error::io(path, e))?;
+    let map = unsafe { memmap2::Mmap::map(f) }.map_err(|e| Error::io(path, e))?;
     let len = map.len() as u64;
     let bad = |msg: String| Error::input(&file, format!("reading Parquet: corrupt file: {msg}"));
     let meta = read_metadata(&mut std::io::Cursor::new(&map[..]))

@@ -62,7 +62,10 @@ pub fn read_table_columns(
     }
     let format = TableFormat::of(path);
     let df = match format {
-        TableFormat::Parquet => guarded_parquet(path, true, |r| r.finish())?,
+        TableFormat::Parquet => {
+            let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+            guarded_parquet(path, f, true, |r| r.finish())?
+        }
         TableFormat::Csv => {
             let header = csvdiag::read_header(path)?;
             // polars panics on some headers that name a column twice (issue 24's fuzz:
@@ -127,22 +130,23 @@ pub fn read_table_columns(
     Ok(Table { df, file, format })
 }
 
-/// `read` on a Parquet reader of `path`, after `parquet_guard::check` (against
-/// allocations that abort) where `check`. polars' Parquet decoder asserts on some
-/// corrupt metadata (issue 24's fuzz found "thrift bool field" and "offset + length <=
-/// self.length") instead of returning an error; a corrupt file must not take the
+/// `read` on a Parquet reader of `f` (the file `path`), after `parquet_guard::check`
+/// (against allocations that abort) where `check`. polars' Parquet decoder asserts on
+/// some corrupt metadata (issue 24's fuzz found "thrift bool field" and "offset + length
+/// <= self.length") instead of returning an error; a corrupt file must not take the
 /// process down, so a panic becomes an error naming the file. The check reads the same
-/// metadata, so it runs under the same guard.
+/// metadata, so it runs under the same guard, as must anything that interprets what
+/// polars read (its schema conversion panics on some column types).
 fn guarded_parquet<T>(
     path: &Path,
+    f: std::fs::File,
     check: bool,
     read: impl FnOnce(ParquetReader<std::fs::File>) -> PolarsResult<T>,
 ) -> Result<T> {
     let file = path.display().to_string();
-    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         if check {
-            super::parquet_guard::check(path)?;
+            super::parquet_guard::check_file(&f, path)?;
         }
         Ok(read(ParquetReader::new(f)))
     }))
@@ -155,40 +159,74 @@ fn guarded_parquet<T>(
     read.map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))
 }
 
-/// A Parquet table's columns without their values (a frame of no rows with the file's
-/// schema), for `require`, `has` and `columns`, after the checks `read_table` makes
-/// (not empty, not corrupt, some rows). A reader then takes the columns it needs one at
-/// a time with [`read_parquet_column`], so it never holds polars' copy of the whole
-/// table beside its own (for 2 M tracks, 100 MB less memory to fault in).
-pub fn read_parquet_schema(path: &Path) -> Result<Table> {
-    let file = path.display().to_string();
-    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-    if meta.len() == 0 {
-        return Err(Error::input(&file, "empty file"));
-    }
-    let (schema, rows) = guarded_parquet(path, true, |mut r| Ok((r.schema()?, r.num_rows()?)))?;
-    if rows == 0 {
-        return Err(Error::input(&file, "no data rows (header only)"));
-    }
-    let schema = Schema::from_arrow_schema(&schema);
-    Ok(Table {
-        df: DataFrame::empty_with_schema(&schema),
-        file,
-        format: TableFormat::Parquet,
-    })
+/// A Parquet table opened for reading one column at a time, so a reader never holds
+/// polars' copy of the whole table beside its own (for 2 M tracks, 100 MB less memory
+/// to fault in). Every column comes from the one file opened and checked here, even if
+/// another is renamed onto its path meanwhile.
+pub struct ParquetColumns {
+    /// The file's column names (a frame of no rows, every column of type null), for
+    /// `require`, `has` and `columns`.
+    pub schema: Table,
+    rows: usize,
+    f: std::fs::File,
 }
 
-/// Column `name` of a Parquet file that [`read_parquet_schema`] has checked, as a
-/// table of that one column.
-pub fn read_parquet_column(path: &Path, name: &str) -> Result<Table> {
-    let df = guarded_parquet(path, false, |r| {
-        r.with_columns(Some(vec![name.to_string()])).finish()
-    })?;
-    Ok(Table {
-        df,
-        file: path.display().to_string(),
-        format: TableFormat::Parquet,
-    })
+impl ParquetColumns {
+    /// Opens `path` after the checks `read_table` makes (not empty, not corrupt, some
+    /// rows).
+    pub fn open(path: &Path) -> Result<Self> {
+        let file = path.display().to_string();
+        let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let meta = f.metadata().map_err(|e| Error::io(path, e))?;
+        if meta.len() == 0 {
+            return Err(Error::input(&file, "empty file"));
+        }
+        let handle = f.try_clone().map_err(|e| Error::io(path, e))?;
+        // Names only: a column of a type polars cannot hold (a decimal or struct column
+        // written by another tool) is then an unknown column like any other, and only
+        // the columns read are converted.
+        let (names, rows) = guarded_parquet(path, handle, true, |mut r| {
+            let names: Vec<PlSmallStr> = r.schema()?.iter_names().cloned().collect();
+            Ok((names, r.num_rows()?))
+        })?;
+        let schema = Schema::from_iter(names.into_iter().map(|n| Field::new(n, DataType::Null)));
+        if rows == 0 {
+            return Err(Error::input(&file, "no data rows (header only)"));
+        }
+        Ok(ParquetColumns {
+            schema: Table {
+                df: DataFrame::empty_with_schema(&schema),
+                file,
+                format: TableFormat::Parquet,
+            },
+            rows,
+            f,
+        })
+    }
+
+    /// Column `name` as a table of that one column.
+    pub fn column(&self, name: &str) -> Result<Table> {
+        let path = Path::new(&self.schema.file);
+        let handle = self.f.try_clone().map_err(|e| Error::io(path, e))?;
+        let df = guarded_parquet(path, handle, false, |r| {
+            r.with_columns(Some(vec![name.to_string()])).finish()
+        })?;
+        if df.height() != self.rows {
+            return Err(Error::input(
+                &self.schema.file,
+                format!(
+                    "column '{name}' has {} rows, the file {}",
+                    df.height(),
+                    self.rows
+                ),
+            ));
+        }
+        Ok(Table {
+            df,
+            file: self.schema.file.clone(),
+            format: TableFormat::Parquet,
+        })
+    }
 }
 
 /// The message of a caught panic.

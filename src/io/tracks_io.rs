@@ -2,9 +2,7 @@
 
 use super::atomic::{sidecar_path, write_with_sidecar};
 use super::csvdiag::Expect;
-use super::table::{
-    Table, TableFormat, read_parquet_column, read_parquet_schema, read_table, write_table,
-};
+use super::table::{ParquetColumns, Table, TableFormat, read_table, write_table};
 use crate::error::{Error, Result};
 use crate::schema;
 use crate::tracks::{Tracks, TracksMeta, finalize};
@@ -27,10 +25,11 @@ pub const TRACKS_EXPECT: &[(&str, Expect)] = &[
 /// are ignored and named in the returned warnings.
 pub fn read_tracks(path: &Path) -> Result<(Tracks, Vec<String>)> {
     // Parquet one column at a time (never polars' copy of every column beside ours).
-    let table = match TableFormat::of(path) {
-        TableFormat::Parquet => read_parquet_schema(path)?,
-        TableFormat::Csv => read_table(path, TRACKS_EXPECT)?,
+    let source = match TableFormat::of(path) {
+        TableFormat::Parquet => Source::Columns(ParquetColumns::open(path)?),
+        TableFormat::Csv => Source::Whole(read_table(path, TRACKS_EXPECT)?),
     };
+    let table = source.table();
     let sch = schema::load("tracks");
     table.require(&sch.required())?;
     let mut warnings = Vec::new();
@@ -54,22 +53,43 @@ pub fn read_tracks(path: &Path) -> Result<(Tracks, Vec<String>)> {
             sidecar_path(path).display()
         ));
     }
-    let t = tracks_from_table(&table, path, meta.unwrap_or_default())?;
+    let t = tracks_from_source(&source, meta.unwrap_or_default())?;
     Ok((t, warnings))
 }
 
-/// The tracks from `table`: its columns, or for a Parquet schema table (no rows) the
-/// columns of `path` read one by one.
-fn tracks_from_table(table: &Table, path: &Path, meta: TracksMeta) -> Result<Tracks> {
-    let whole = table.df.height() > 0;
-    let f64s = |c: &str| match whole {
-        true => table.f64(c),
-        false => read_parquet_column(path, c)?.f64(c),
-    };
-    let i64s = |c: &str| match whole {
-        true => table.i64(c),
-        false => read_parquet_column(path, c)?.i64(c),
-    };
+/// Where the tracks' columns come from: a table read whole (CSV), or a Parquet file
+/// read a column at a time.
+enum Source {
+    Whole(Table),
+    Columns(ParquetColumns),
+}
+
+impl Source {
+    /// The table's columns (for a Parquet file, without their values).
+    fn table(&self) -> &Table {
+        match self {
+            Source::Whole(t) => t,
+            Source::Columns(c) => &c.schema,
+        }
+    }
+    fn f64(&self, c: &str) -> Result<Vec<f64>> {
+        match self {
+            Source::Whole(t) => t.f64(c),
+            Source::Columns(p) => p.column(c)?.f64(c),
+        }
+    }
+    fn i64(&self, c: &str) -> Result<Vec<i64>> {
+        match self {
+            Source::Whole(t) => t.i64(c),
+            Source::Columns(p) => p.column(c)?.i64(c),
+        }
+    }
+}
+
+fn tracks_from_source(source: &Source, meta: TracksMeta) -> Result<Tracks> {
+    let table = source.table();
+    let f64s = |c: &str| source.f64(c);
+    let i64s = |c: &str| source.i64(c);
     let opt_f = |c: &str| -> Result<Option<Vec<f64>>> {
         if table.has(c) {
             f64s(c).map(Some)

@@ -1,5 +1,6 @@
 //! `kinematics`: canonical tracks → the per-particle `kinematics` table for every
-//! (start frame, lag) requested, streamed pair by pair so output memory stays bounded.
+//! (start frame, lag) requested, computed and written in blocks of rows so output memory
+//! stays bounded however large a frame.
 
 use super::timing::{Phase, PhaseTimer};
 use crate::error::{Error, Result};
@@ -53,7 +54,7 @@ pub struct KinematicsReport {
     pub rows: usize,
     pub counts: PairCounts,
     pub warnings: Vec<String>,
-    /// Wall time per phase (read, hash, compute, assemble, write), seconds.
+    /// Wall time per phase ([`PHASES`]), seconds.
     pub timings: Vec<Phase>,
 }
 
