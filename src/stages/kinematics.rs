@@ -10,6 +10,7 @@ use crate::io::{read_tracks, sha256_file, write_with_sidecar};
 use crate::kinematics::{Convention, FramePair, KinematicsParams, PairCounts};
 use crate::tracks::Tracks;
 use polars::prelude::DataFrame;
+use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -161,8 +162,11 @@ pub const PHASES: [&str; 5] = [
     "write",
 ];
 
-/// The kinematics table's rows in blocks of [`BLOCK_ROWS`], frame pair after
-/// frame pair (a pair's setup, the pairing and cell list, is built once for its blocks).
+/// The kinematics table's rows in blocks of about [`BLOCK_ROWS`], frame pair after frame
+/// pair: a pair larger than a block is split (its setup, the pairing and cell list,
+/// built once for its blocks), and consecutive smaller pairs share a block, computed in
+/// parallel, one pair per task (a movie of a few thousand particles a frame otherwise
+/// computes each pair on one thread and writes a row group per pair).
 struct Blocks<'t> {
     tracks: &'t Tracks,
     ranges: &'t [(i64, Range<usize>)],
@@ -172,38 +176,52 @@ struct Blocks<'t> {
     params: KinematicsParams,
     pairs: &'t [(i64, i64)],
     next_pair: usize,
-    /// The pair being written, its start and end frames, and its next row.
+    /// The pair being split, its start and end frames, and its next row.
     current: Option<(FramePair<'t>, (i64, i64), usize)>,
 }
 
-impl Blocks<'_> {
-    /// The next block as a table and its undetermined-row counts (the first block of
-    /// a pair also carries the pair's pairing counts); `None` after the last.
+impl<'t> Blocks<'t> {
+    /// Pair `(fa, fb)` set up.
+    fn pair(&self, (fa, fb): (i64, i64)) -> Result<FramePair<'t>> {
+        let a = self.tracks.view(fa, self.ranges[self.index[&fa]].1.clone());
+        let b = self.tracks.view(fb, self.ranges[self.index[&fb]].1.clone());
+        let dt = self.times[&fb] - self.times[&fa];
+        if !(dt > 0.0) {
+            return Err(Error::input(
+                self.file,
+                format!("frames {fa} and {fb} have non-increasing times (dt = {dt})"),
+            ));
+        }
+        FramePair::new(a, &b, dt, &self.params)
+    }
+
+    /// Rows of pair `(fa, fb)` at most (those of its first frame).
+    fn rows_at_most(&self, (fa, _): (i64, i64)) -> usize {
+        self.ranges[self.index[&fa]].1.len()
+    }
+
+    /// The next block as a table and its counts (a pair's pairing counts come with its
+    /// first block); `None` after the last.
     fn next_block(
         &mut self,
         bar: &indicatif::ProgressBar,
     ) -> Option<Result<(DataFrame, PairCounts)>> {
-        let mut counts = PairCounts::default();
         if self.current.is_none() {
-            let &(fa, fb) = self.pairs.get(self.next_pair)?;
-            self.next_pair += 1;
-            let a = self.tracks.view(fa, self.ranges[self.index[&fa]].1.clone());
-            let b = self.tracks.view(fb, self.ranges[self.index[&fb]].1.clone());
-            let dt = self.times[&fb] - self.times[&fa];
-            if !(dt > 0.0) {
-                return Some(Err(Error::input(
-                    self.file,
-                    format!("frames {fa} and {fb} have non-increasing times (dt = {dt})"),
-                )));
+            let first = *self.pairs.get(self.next_pair)?;
+            if self.rows_at_most(first) <= BLOCK_ROWS {
+                return Some(self.small_pairs(bar));
             }
-            let pair = match FramePair::new(a, &b, dt, &self.params) {
-                Ok(p) => p,
+            self.next_pair += 1;
+            match self.pair(first) {
+                Ok(p) => self.current = Some((p, first, 0)),
                 Err(e) => return Some(Err(e)),
-            };
-            counts = pair.pairing_counts();
-            self.current = Some((pair, (fa, fb), 0));
+            }
         }
         let (pair, (fa, fb), from) = self.current.as_mut().expect("set above");
+        let mut counts = PairCounts::default();
+        if *from == 0 {
+            counts = pair.pairing_counts();
+        }
         let rows = *from..(*from + BLOCK_ROWS).min(pair.len());
         let ks = pair.columns(rows.clone());
         counts.add(&FramePair::block_counts(&ks));
@@ -214,6 +232,46 @@ impl Blocks<'_> {
             bar.inc(1);
         }
         Some(df.map(|df| (df, counts)))
+    }
+
+    /// The next pairs of at most a block's rows together, as one block (at least one
+    /// pair); the first error in pair order, if any.
+    fn small_pairs(&mut self, bar: &indicatif::ProgressBar) -> Result<(DataFrame, PairCounts)> {
+        let (from, mut rows) = (self.next_pair, 0);
+        while let Some(&p) = self.pairs.get(self.next_pair) {
+            let r = self.rows_at_most(p);
+            if self.next_pair > from && (rows + r > BLOCK_ROWS) {
+                break;
+            }
+            rows += r;
+            self.next_pair += 1;
+        }
+        let group = &self.pairs[from..self.next_pair];
+        let this = &*self;
+        let parts: Vec<Result<(DataFrame, PairCounts)>> = group
+            .par_iter()
+            .map(|&(fa, fb)| {
+                let pair = this.pair((fa, fb))?;
+                let ks = pair.columns(0..pair.len());
+                let mut counts = pair.pairing_counts();
+                counts.add(&FramePair::block_counts(&ks));
+                Ok((kinematics_dataframe(fa, fb, pair.dt(), ks)?, counts))
+            })
+            .collect();
+        bar.inc(group.len() as u64);
+        let mut block: Option<(DataFrame, PairCounts)> = None;
+        for part in parts {
+            let (df, c) = part?;
+            match &mut block {
+                None => block = Some((df, c)),
+                Some((all, counts)) => {
+                    all.vstack_mut_owned(df)
+                        .map_err(|e| Error::polars("joining frame pairs", e))?;
+                    counts.add(&c);
+                }
+            }
+        }
+        Ok(block.expect("at least one pair"))
     }
 }
 
