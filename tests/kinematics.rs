@@ -380,6 +380,82 @@ fn failed_kinematics_write_leaves_no_sidecar_and_states_the_cause_once() {
     }
 }
 
+/// `kinematics --lag 1 --json` on tracks `t` written into `dir`: the report, the table
+/// it wrote and its row groups, and the tracks as the command read them.
+fn kinematics_lag1(
+    dir: &std::path::Path,
+    t: &pillar_pipe::tracks::Tracks,
+) -> (
+    serde_json::Value,
+    polars::prelude::DataFrame,
+    usize,
+    pillar_pipe::tracks::Tracks,
+) {
+    use polars::prelude::*;
+    let tp = dir.join("tracks.parquet");
+    write_tracks(t, &tp).unwrap();
+    let out = dir.join("k.parquet");
+    let (ok, text) = run(&[
+        "kinematics",
+        tp.to_str().unwrap(),
+        "--lag",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let report = serde_json::from_str(&text).unwrap();
+    let mut reader = ParquetReader::new(std::fs::File::open(&out).unwrap());
+    let groups = reader.get_metadata().unwrap().row_groups.len();
+    let (tracks, _) = pillar_pipe::io::read_tracks(&tp).unwrap();
+    (report, reader.finish().unwrap(), groups, tracks)
+}
+
+/// The table's rows are `want`'s frame pairs one after another (starting at frames
+/// `starts`), bit for bit.
+fn assert_rows_are(
+    got: &polars::prelude::DataFrame,
+    want: &[pillar_pipe::kinematics::KinematicsColumns],
+    starts: &[i64],
+) {
+    use pillar_pipe::kinematics::F64_COLUMNS;
+    let ids: Vec<i64> = got["particle"].i64().unwrap().into_no_null_iter().collect();
+    let want_ids: Vec<i64> = want.iter().flat_map(|c| c.particle.clone()).collect();
+    assert_eq!(ids, want_ids, "rows in pair order, particles ascending");
+    let frames: Vec<i64> = got["frame"].i64().unwrap().into_no_null_iter().collect();
+    let want_frames: Vec<i64> = want
+        .iter()
+        .zip(starts)
+        .flat_map(|(c, &f)| std::iter::repeat_n(f, c.len()))
+        .collect();
+    assert_eq!(frames, want_frames);
+    for (k, name) in F64_COLUMNS.iter().enumerate() {
+        let v: Vec<u64> = got[*name]
+            .f64()
+            .unwrap()
+            .into_no_null_iter()
+            .map(f64::to_bits)
+            .collect();
+        let w: Vec<u64> = want
+            .iter()
+            .flat_map(|c| c.f64s[k].iter().map(|x| x.to_bits()))
+            .collect();
+        assert!(v == w, "column {name} differs from the one-pass results");
+    }
+    let status: Vec<String> = got["status"]
+        .str()
+        .unwrap()
+        .iter()
+        .map(|s| s.unwrap_or("").to_string())
+        .collect();
+    let want_status: Vec<&str> = want
+        .iter()
+        .flat_map(|c| c.status.iter().map(|s| s.name()))
+        .collect();
+    assert_eq!(status, want_status);
+}
+
 /// A frame pair of more rows than one block of the command (65,536 rows, one Parquet
 /// row group each), with particles missing from either frame and isolated ones (too
 /// few neighbours): the table the command writes in blocks, overlapping the writing of
@@ -387,8 +463,7 @@ fn failed_kinematics_write_leaves_no_sidecar_and_states_the_cause_once() {
 /// in as many row groups as blocks, with the same counts.
 #[test]
 fn a_pair_larger_than_a_block_is_the_one_pass_result() {
-    use pillar_pipe::kinematics::{Convention, F64_COLUMNS, KinematicsParams, frame_pair_columns};
-    use polars::prelude::*;
+    use pillar_pipe::kinematics::{Convention, KinematicsParams, frame_pair_columns};
     let dir = tmpdir("blocks");
     let p = bidisperse_packing(140_000, 1.0, 0.1, 4);
     let t = two_frame_tracks(&p, Mat2::new(1.0, 0.02, 0.0, 0.99), 0.01, 2);
@@ -418,22 +493,7 @@ fn a_pair_larger_than_a_block_is_the_one_pass_result() {
             .unwrap();
         u.x[r] += 1e6 * (1.0 + id as f64);
     }
-    let tp = dir.join("big.parquet");
-    write_tracks(&u, &tp).unwrap();
-    let out = dir.join("k.parquet");
-    let (ok, text) = run(&[
-        "kinematics",
-        tp.to_str().unwrap(),
-        "--lag",
-        "1",
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(ok, "{text}");
-    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
-
-    let (tracks, _) = pillar_pipe::io::read_tracks(&tp).unwrap();
+    let (report, got, groups, tracks) = kinematics_lag1(&dir, &u);
     let fr = tracks.frame_ranges();
     let a = tracks.view(fr[0].0, fr[0].1.clone());
     let b = tracks.view(fr[1].0, fr[1].1.clone());
@@ -454,37 +514,12 @@ fn a_pair_larger_than_a_block_is_the_one_pass_result() {
         serde_json::to_value(counts).unwrap(),
         "counts summed over the blocks"
     );
-
-    let mut reader = ParquetReader::new(std::fs::File::open(&out).unwrap());
-    let groups = reader.get_metadata().unwrap().row_groups.len();
     assert_eq!(
         groups,
         want.len().div_ceil(65_536),
         "one row group per block"
     );
-    let got = reader.finish().unwrap();
-    assert_eq!(got.height(), want.len());
-    let ids: Vec<i64> = got["particle"].i64().unwrap().into_no_null_iter().collect();
-    assert_eq!(ids, want.particle);
-    for (name, col) in F64_COLUMNS.iter().zip(&want.f64s) {
-        let v: Vec<u64> = got[*name]
-            .f64()
-            .unwrap()
-            .into_no_null_iter()
-            .map(f64::to_bits)
-            .collect();
-        let w: Vec<u64> = col.iter().map(|x| x.to_bits()).collect();
-        assert!(v == w, "column {name} differs from the one-pass result");
-    }
-    let status: Vec<String> = got["status"]
-        .str()
-        .unwrap()
-        .iter()
-        .map(|s| s.unwrap_or("").to_string())
-        .collect();
-    let want_status: Vec<&str> = want.status.iter().map(|s| s.name()).collect();
-    assert_eq!(status, want_status);
-    let _ = std::fs::remove_dir_all(&dir);
+    assert_rows_are(&got, &[want], &[0]);
 }
 
 /// Many frame pairs smaller than a block (a movie): consecutive pairs share a block,
@@ -492,11 +527,8 @@ fn a_pair_larger_than_a_block_is_the_one_pass_result() {
 /// pair's one-pass result in pair order, bit for bit, with the same counts.
 #[test]
 fn small_pairs_share_blocks_and_keep_their_order() {
-    use pillar_pipe::kinematics::{
-        Convention, F64_COLUMNS, KinematicsParams, PairCounts, frame_pair_columns,
-    };
+    use pillar_pipe::kinematics::{Convention, KinematicsParams, PairCounts, frame_pair_columns};
     use pillar_pipe::tracks::Tracks;
-    use polars::prelude::*;
     let dir = tmpdir("movie");
     let p = bidisperse_packing(3000, 1.0, 0.1, 6);
     let frames = 40i64;
@@ -530,22 +562,7 @@ fn small_pairs_share_blocks_and_keep_their_order() {
     }
     t.time = Some(time);
     t.species = Some(species);
-    let tp = dir.join("movie.parquet");
-    write_tracks(&t, &tp).unwrap();
-    let out = dir.join("k.parquet");
-    let (ok, text) = run(&[
-        "kinematics",
-        tp.to_str().unwrap(),
-        "--lag",
-        "1",
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(ok, "{text}");
-    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
-
-    let (tracks, _) = pillar_pipe::io::read_tracks(&tp).unwrap();
+    let (report, got, groups, tracks) = kinematics_lag1(&dir, &t);
     let fr = tracks.frame_ranges();
     let params = KinematicsParams {
         rc: 1.25,
@@ -561,31 +578,7 @@ fn small_pairs_share_blocks_and_keep_their_order() {
         want.push(cols);
     }
     assert_eq!(report["counts"], serde_json::to_value(counts).unwrap());
-    let mut reader = ParquetReader::new(std::fs::File::open(&out).unwrap());
-    let groups = reader.get_metadata().unwrap().row_groups.len();
     assert!(groups < 4, "39 pairs of ~3000 rows in {groups} row groups");
-    let got = reader.finish().unwrap();
-    let ids: Vec<i64> = got["particle"].i64().unwrap().into_no_null_iter().collect();
-    let want_ids: Vec<i64> = want.iter().flat_map(|c| c.particle.clone()).collect();
-    assert_eq!(ids, want_ids, "rows in pair order, particles ascending");
-    let starts: Vec<i64> = got["frame"].i64().unwrap().into_no_null_iter().collect();
-    let want_starts: Vec<i64> = want
-        .iter()
-        .zip(&fr)
-        .flat_map(|(c, (f, _))| std::iter::repeat_n(*f, c.len()))
-        .collect();
-    assert_eq!(starts, want_starts);
-    for (k, name) in F64_COLUMNS.iter().enumerate() {
-        let v: Vec<u64> = got[*name]
-            .f64()
-            .unwrap()
-            .into_no_null_iter()
-            .map(f64::to_bits)
-            .collect();
-        let w: Vec<u64> = want
-            .iter()
-            .flat_map(|c| c.f64s[k].iter().map(|x| x.to_bits()))
-            .collect();
-        assert!(v == w, "column {name} differs from the one-pass results");
-    }
+    let starts: Vec<i64> = fr[..fr.len() - 1].iter().map(|(f, _)| *f).collect();
+    assert_rows_are(&got, &want, &starts);
 }
