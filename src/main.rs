@@ -365,6 +365,7 @@ fn parse_pair(s: &str) -> std::result::Result<(f64, f64), String> {
 
 fn main() {
     pillar_pipe::interrupt::install();
+    pillar_pipe::io::table::quiet_guarded_panics();
     // A file-size limit (`ulimit -f`) exceeded while writing should be a write error,
     // which removes the partial output and says why, not a SIGXFSZ kill that leaves it.
     // SAFETY: no thread runs yet, and SIG_IGN installs no handler code.

@@ -98,14 +98,14 @@ pub fn read_table_columns(
                 .filter(|(c, _)| header.iter().any(|h| h == c))
                 .map(|(c, _)| (*c).into())
                 .collect();
-            let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let read = guarded(|| {
                 CsvReadOptions::default()
                     .with_has_header(true)
                     .with_columns((only_expected && !keep.is_empty()).then(|| keep.into()))
                     .with_schema_overwrite(Some(Arc::new(schema)))
                     .try_into_reader_with_file_path(Some(path.to_path_buf()))
                     .and_then(|r| r.finish())
-            }));
+            });
             match read {
                 Ok(Ok(df)) => df,
                 Ok(Err(e)) => {
@@ -144,16 +144,19 @@ fn guarded_parquet<T>(
     read: impl FnOnce(ParquetReader<std::fs::File>) -> PolarsResult<T>,
 ) -> Result<T> {
     let file = path.display().to_string();
-    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+    let read = guarded(|| {
         if check {
             super::parquet_guard::check_file(&f, path)?;
         }
         Ok(read(ParquetReader::new(f)))
-    }))
+    })
     .map_err(|p| {
         Error::input(
             &file,
-            format!("reading Parquet: corrupt file ({})", panic_text(&*p)),
+            format!(
+                "reading Parquet: a corrupt file, or a column type this program cannot read ({})",
+                panic_text(&*p)
+            ),
         )
     })??;
     read.map_err(|e| Error::polars(format!("{file}: reading Parquet"), e))
@@ -227,6 +230,37 @@ impl ParquetColumns {
             format: TableFormat::Parquet,
         })
     }
+}
+
+/// Readers running under [`guarded`] now, in any thread.
+static GUARDED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// `read`, a panic in it caught (polars asserts on some malformed files instead of
+/// returning an error); the caller turns it into an error naming the file.
+fn guarded<T>(read: impl FnOnce() -> T) -> std::thread::Result<T> {
+    use std::sync::atomic::Ordering::SeqCst;
+    GUARDED.fetch_add(1, SeqCst);
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(read));
+    GUARDED.fetch_sub(1, SeqCst);
+    r
+}
+
+/// For the command-line program: while a reader runs under [`guarded`], panics print
+/// nothing. Their message reaches the user in the error that names the file; printed
+/// as well ("thread 'main' panicked at …, run with RUST_BACKTRACE=1"), a clean error
+/// about a malformed file looks like a crash. Any other panic prints as before. (Not
+/// for tests, which run many at once: one test's failure must not be silenced because
+/// another is reading a file.)
+pub fn quiet_guarded_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let default = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if GUARDED.load(std::sync::atomic::Ordering::SeqCst) == 0 {
+                default(info);
+            }
+        }));
+    });
 }
 
 /// The message of a caught panic.
