@@ -2,7 +2,8 @@
 //! the whole `pillar-pipe kinematics` process on one frame pair from a file, against
 //! OVITO's Atomic Strain as a whole Python process on the same frames
 //! (`bench/ovito_whole.py`: start, import, load, compute, save D²min), run alternately,
-//! medians reported. Peak memory of each process from `wait4`.
+//! medians reported; ours both writing every column and writing D²min only
+//! (`--columns d2min`, what the OVITO script saves). Peak memory of each process from `wait4`.
 
 use crate::error::{Error, Result};
 use crate::geom::Mat2;
@@ -27,8 +28,10 @@ pub struct WholeRun {
 pub struct WholeBench {
     pub n: usize,
     pub reps: usize,
-    /// Every run of `pillar-pipe kinematics`, in order.
+    /// Every run of `pillar-pipe kinematics` (every column), in order.
     pub ours: Vec<WholeRun>,
+    /// Every run of `pillar-pipe kinematics --columns d2min`: what OVITO's script saves.
+    pub ours_d2min: Vec<WholeRun>,
     /// Every OVITO run, alternating with ours; empty without OVITO.
     pub ovito: Vec<WholeRun>,
     /// Why there is no OVITO reference, when there is none.
@@ -37,6 +40,8 @@ pub struct WholeBench {
     pub phases: Vec<Phase>,
     /// Size of our output table, bytes.
     pub output_bytes: u64,
+    /// Size of our `--columns d2min` table, bytes.
+    pub d2min_output_bytes: u64,
     /// In-memory size of our output table's columns, bytes.
     pub output_table_bytes: u64,
 }
@@ -54,6 +59,15 @@ pub fn median(v: &[f64]) -> f64 {
 impl WholeBench {
     pub fn ours_median(&self) -> f64 {
         median(&self.ours.iter().map(|r| r.seconds).collect::<Vec<_>>())
+    }
+    pub fn ours_d2min_median(&self) -> f64 {
+        median(
+            &self
+                .ours_d2min
+                .iter()
+                .map(|r| r.seconds)
+                .collect::<Vec<_>>(),
+        )
     }
     pub fn ovito_median(&self) -> Option<f64> {
         (!self.ovito.is_empty())
@@ -199,6 +213,7 @@ pub fn bench_kinematics_whole(
     std::fs::write(&script, OVITO_SCRIPT).map_err(|e| Error::io(&script, e))?;
     let ovito_missing = ovito_available(python).err();
     let out = dir.join("pair.kinematics.parquet");
+    let out_d2min = dir.join("pair.d2min.parquet");
     let ours_cmd = || {
         let mut c = Command::new(exe);
         c.arg("kinematics")
@@ -207,10 +222,17 @@ pub fn bench_kinematics_whole(
             .arg(&out);
         c
     };
-    let (mut ours, mut ovito) = (Vec::new(), Vec::new());
+    let (mut ours, mut ours_d2min, mut ovito) = (Vec::new(), Vec::new(), Vec::new());
     let bar = crate::stages::progress(reps as u64, "whole runs", false);
     for _ in 0..reps.max(1) {
         ours.push(timed(&mut ours_cmd())?);
+        ours_d2min.push(timed(
+            Command::new(exe)
+                .arg("kinematics")
+                .arg(&tracks)
+                .args(["--lag", "1", "--quiet", "--columns", "d2min", "-o"])
+                .arg(&out_d2min),
+        )?);
         if ovito_missing.is_none() {
             ovito.push(timed(
                 Command::new(python)
@@ -249,6 +271,9 @@ pub fn bench_kinematics_whole(
     let output_bytes = std::fs::metadata(&out)
         .map_err(|e| Error::io(&out, e))?
         .len();
+    let d2min_output_bytes = std::fs::metadata(&out_d2min)
+        .map_err(|e| Error::io(&out_d2min, e))?
+        .len();
     let rows = rep["rows"].as_u64().unwrap_or(0);
     // 20 eight-byte columns, two of four bytes, a boolean and a 16-byte string view.
     let output_table_bytes = rows * (20 * 8 + 2 * 4 + 1 + 16);
@@ -256,10 +281,12 @@ pub fn bench_kinematics_whole(
         n: t.frame_ranges().first().map_or(0, |(_, r)| r.len()),
         reps,
         ours,
+        ours_d2min,
         ovito,
         ovito_missing,
         phases,
         output_bytes,
+        d2min_output_bytes,
         output_table_bytes,
     })
 }

@@ -97,6 +97,10 @@ enum Cmd {
         /// `ovito` reproduces OVITO's Atomic Strain numbers (≤ cutoff, D²min not ÷ N_i).
         #[arg(long, value_enum, default_value = "paper")]
         convention: Convention,
+        /// Write only these columns (and frame, frame_end, particle), e.g. d2min,eta_s:
+        /// the same numbers, a smaller file, a faster run [default: all]
+        #[arg(long, value_delimiter = ',')]
+        columns: Option<Vec<String>>,
         #[arg(long)]
         quiet: bool,
         #[arg(long)]
@@ -504,6 +508,7 @@ fn run(cli: Cli) -> Result<()> {
             start,
             every,
             convention,
+            columns,
             quiet,
             json,
             timings,
@@ -517,12 +522,17 @@ fn run(cli: Cli) -> Result<()> {
                 }
             };
             let output = output.unwrap_or_else(|| kin::default_output(&tracks));
+            let columns = match columns {
+                Some(c) => pillar_pipe::io::kinematics_io::Selection::of(&c)?,
+                None => Default::default(),
+            };
             let opt = KinematicsOptions {
                 lag,
                 rc,
                 start,
                 every,
                 convention,
+                columns,
                 quiet,
             };
             let rep = kin::run(&tracks, &output, &opt)

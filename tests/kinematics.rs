@@ -391,25 +391,38 @@ fn kinematics_lag1(
     usize,
     pillar_pipe::tracks::Tracks,
 ) {
-    use polars::prelude::*;
     let tp = dir.join("tracks.parquet");
     write_tracks(t, &tp).unwrap();
-    let out = dir.join("k.parquet");
-    let (ok, text) = run(&[
+    let (report, got, groups) = kinematics_of(&tp, "k.parquet", &[]);
+    let (tracks, _) = pillar_pipe::io::read_tracks(&tp).unwrap();
+    (report, got, groups, tracks)
+}
+
+/// `kinematics TRACKS --lag 1 --json -o DIR/OUT` plus `extra`: the report, the table
+/// and its row groups.
+fn kinematics_of(
+    tracks: &std::path::Path,
+    out: &str,
+    extra: &[&str],
+) -> (serde_json::Value, polars::prelude::DataFrame, usize) {
+    use polars::prelude::*;
+    let out = tracks.with_file_name(out);
+    let mut args = vec![
         "kinematics",
-        tp.to_str().unwrap(),
+        tracks.to_str().unwrap(),
         "--lag",
         "1",
         "-o",
         out.to_str().unwrap(),
         "--json",
-    ]);
+    ];
+    args.extend(extra);
+    let (ok, text) = run(&args);
     assert!(ok, "{text}");
     let report = serde_json::from_str(&text).unwrap();
     let mut reader = ParquetReader::new(std::fs::File::open(&out).unwrap());
     let groups = reader.get_metadata().unwrap().row_groups.len();
-    let (tracks, _) = pillar_pipe::io::read_tracks(&tp).unwrap();
-    (report, reader.finish().unwrap(), groups, tracks)
+    (report, reader.finish().unwrap(), groups)
 }
 
 /// The table's rows are `want`'s frame pairs one after another (starting at frames
@@ -581,4 +594,124 @@ fn small_pairs_share_blocks_and_keep_their_order() {
     assert!(groups < 4, "39 pairs of ~3000 rows in {groups} row groups");
     let starts: Vec<i64> = fr[..fr.len() - 1].iter().map(|(f, _)| *f).collect();
     assert_rows_are(&got, &want, &starts);
+}
+
+/// `--columns` writes the keys and the columns asked for, in the table's order, with
+/// the full table's numbers bit for bit, both where frame pairs share a block (a movie)
+/// and where one pair spans several blocks; the sidecar names the columns. An unknown
+/// name is refused before anything is written, naming the choices; a later stage that
+/// needs a column the table lacks names it.
+#[test]
+fn columns_option_writes_the_same_numbers_in_fewer_columns() {
+    let dir = tmpdir("select");
+    let cases = [
+        (
+            bidisperse_packing(3000, 1.0, 0.1, 6),
+            6,
+            "d2min,status,eta_s",
+        ),
+        (bidisperse_packing(70_000, 1.0, 0.1, 7), 2, "d2min"),
+    ];
+    for (k, (p, frames, cols)) in cases.into_iter().enumerate() {
+        let mut t = two_frame_tracks(&p, Mat2::IDENTITY, 0.0, 0);
+        t.frame.clear();
+        t.particle.clear();
+        t.x.clear();
+        t.y.clear();
+        t.radius.clear();
+        t.time = None;
+        t.species = None;
+        for f in 0..frames {
+            let e = 0.003 * f as f64;
+            let m = two_frame_tracks(&p, Mat2::new(1.0 + e, e, 0.0, 1.0 - e), 0.01, f as u64);
+            let n = p.pos.len();
+            t.frame.extend(std::iter::repeat_n(f as i64, n));
+            t.particle.extend(&m.particle[n..]);
+            t.x.extend(&m.x[n..]);
+            t.y.extend(&m.y[n..]);
+            t.radius.extend(&m.radius[n..]);
+        }
+        let tp = dir.join(format!("tracks{k}.parquet"));
+        write_tracks(&t, &tp).unwrap();
+        let (_, full, _) = kinematics_of(&tp, &format!("full{k}.parquet"), &[]);
+        let part_name = format!("part{k}.parquet");
+        let (report, part, groups) = kinematics_of(&tp, &part_name, &["--columns", cols]);
+        let asked: Vec<&str> = cols.split(',').collect();
+        let want: Vec<&str> = full
+            .get_column_names()
+            .into_iter()
+            .map(|c| c.as_str())
+            .filter(|c| ["frame", "frame_end", "particle"].contains(c) || asked.contains(c))
+            .collect();
+        let got: Vec<&str> = part
+            .get_column_names()
+            .into_iter()
+            .map(|c| c.as_str())
+            .collect();
+        assert_eq!(
+            got, want,
+            "the keys and the columns asked for, in the table's order"
+        );
+        assert_eq!(report["columns"], serde_json::json!(want));
+        assert_eq!(part.height(), full.height());
+        if k == 1 {
+            assert!(groups >= 2, "a pair over several blocks");
+        }
+        for c in &want {
+            assert!(
+                part[*c].equals_missing(&full[*c]),
+                "column {c} differs from the full table's"
+            );
+            if let Ok(v) = part[*c].f64() {
+                let bits = |s: &polars::prelude::Float64Chunked| {
+                    s.iter().map(|x| x.map(f64::to_bits)).collect::<Vec<_>>()
+                };
+                assert_eq!(bits(v), bits(full[*c].f64().unwrap()), "{c} bit for bit");
+            }
+        }
+        let side = std::fs::read_to_string(dir.join(format!("{part_name}.meta.json"))).unwrap();
+        let side: serde_json::Value = serde_json::from_str(&side).unwrap();
+        assert_eq!(side["columns"], serde_json::json!(want));
+        assert_eq!(
+            side["provenance"]["parameters"]["columns"],
+            serde_json::json!(want)
+        );
+        let side = std::fs::read_to_string(dir.join(format!("full{k}.parquet.meta.json"))).unwrap();
+        assert!(
+            !side.contains("\"columns\""),
+            "a full table's sidecar is as before"
+        );
+    }
+    // Refused before anything is written.
+    let out = dir.join("bad.parquet");
+    let (ok, text) = run(&[
+        "kinematics",
+        dir.join("tracks0.parquet").to_str().unwrap(),
+        "--lag",
+        "1",
+        "--columns",
+        "d2min,D2min",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok);
+    assert!(
+        text.contains("columns") && text.contains("'D2min'") && text.contains("eta_s"),
+        "{text}"
+    );
+    assert!(!text.contains("panicked"), "{text}");
+    assert!(!out.exists());
+    // The fit needs eta_s, which a d2min-only table lacks.
+    let (ok, text) = run(&[
+        "fit",
+        dir.join("part1.parquet").to_str().unwrap(),
+        "-o",
+        dir.join("fit.json").to_str().unwrap(),
+    ]);
+    assert!(!ok);
+    assert!(
+        text.contains("eta_s") && text.contains("part1.parquet"),
+        "{text}"
+    );
+    assert!(!text.contains("panicked"), "{text}");
 }

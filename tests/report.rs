@@ -198,6 +198,7 @@ fn simulation_report_has_force_maps_kappa_and_numeric_colour_bars() {
             start: None,
             every: None,
             convention: Convention::Paper,
+            columns: Default::default(),
             quiet: true,
         },
     )

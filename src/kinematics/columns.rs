@@ -12,6 +12,16 @@ pub const F64_COLUMNS: [&str; 16] = [
     "d2min", "vx", "vy", "speed",
 ];
 
+/// Which floating-point columns ([`F64_COLUMNS`] order) a fill stores; the others stay
+/// empty (`kinematics --columns`: a column nobody asked for costs its memory, its pages
+/// and its encoding).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FloatColumns(pub [bool; 16]);
+
+impl FloatColumns {
+    pub const ALL: FloatColumns = FloatColumns([true; 16]);
+}
+
 /// Rows per parallel block: large enough to amortise the scheduling, small enough
 /// that two threads stay balanced on a few thousand particles.
 const BLOCK: usize = 2048;
@@ -74,9 +84,10 @@ impl KinematicsColumns {
     }
 
     /// Rows `rows` from `row(n, buf)` (`buf`: a neighbour buffer reused within a
-    /// thread), at `0..rows.len()` here. Each row is computed once, by one thread, into
-    /// its own place, so the columns are the same whatever the thread count.
-    pub(crate) fn fill<F>(rows: std::ops::Range<usize>, row: F) -> Self
+    /// thread), at `0..rows.len()` here, of the float columns in `keep` (the others
+    /// empty). Each row is computed once, by one thread, into its own place, so the
+    /// columns are the same whatever the thread count.
+    pub(crate) fn fill<F>(rows: std::ops::Range<usize>, keep: FloatColumns, row: F) -> Self
     where
         F: Fn(usize, &mut Vec<(Vec2, Vec2)>) -> ParticleKinematics + Sync,
     {
@@ -87,7 +98,7 @@ impl KinematicsColumns {
             n_neighbors: vec![0; n],
             valid: vec![false; n],
             status: vec![Status::Ok; n],
-            f64s: std::array::from_fn(|_| vec![0.0; n]),
+            f64s: std::array::from_fn(|c| if keep.0[c] { vec![0.0; n] } else { Vec::new() }),
         };
         let mut f64_blocks: Vec<_> = c.f64s.iter_mut().map(|v| v.chunks_mut(BLOCK)).collect();
         let blocks: Vec<Block> = c
@@ -106,9 +117,11 @@ impl KinematicsColumns {
                     n_neighbors,
                     valid,
                     status,
+                    // A column not kept is empty: its blocks are empty slices, which
+                    // the rows skip.
                     f64s: f64_blocks
                         .iter_mut()
-                        .map(|it| it.next().expect("every column has n rows"))
+                        .map(|it| it.next().unwrap_or_default())
                         .collect(),
                 },
             )
@@ -124,7 +137,9 @@ impl KinematicsColumns {
                     b.valid[r] = k.valid;
                     b.status[r] = k.status;
                     for (col, v) in b.f64s.iter_mut().zip(k.f64_values()) {
-                        col[r] = v;
+                        if let Some(c) = col.get_mut(r) {
+                            *c = v;
+                        }
                     }
                 }
             });

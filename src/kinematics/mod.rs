@@ -6,7 +6,7 @@
 mod columns;
 mod strain;
 
-pub use columns::{F64_COLUMNS, KinematicsColumns};
+pub use columns::{F64_COLUMNS, FloatColumns, KinematicsColumns};
 pub use strain::{LocalStrain, strain_from_j};
 
 use crate::error::Result;
@@ -228,8 +228,17 @@ impl<'a> FramePair<'a> {
     /// Rows `rows` of the pair's table, the same numbers whatever the blocks and the
     /// thread count.
     pub fn columns(&self, rows: std::ops::Range<usize>) -> KinematicsColumns {
+        self.columns_of(rows, FloatColumns::ALL)
+    }
+
+    /// As [`FramePair::columns`], storing only the float columns in `keep`.
+    pub fn columns_of(
+        &self,
+        rows: std::ops::Range<usize>,
+        keep: FloatColumns,
+    ) -> KinematicsColumns {
         assert!(rows.end <= self.len(), "rows within the pair");
-        KinematicsColumns::fill(rows, |n, buf| {
+        KinematicsColumns::fill(rows, keep, |n, buf| {
             self.setup.particle(n, &self.a, buf, self.dt, self.conv)
         })
     }
@@ -259,6 +268,10 @@ struct PairSetup {
     pairs: Vec<(usize, usize)>,
     pos0: Vec<Vec2>,
     disp: Vec<Vec2>,
+    /// `disp` in the cell list's order: a neighbour's displacement is then read beside
+    /// its position, not from a random place (a cache miss per neighbour when the
+    /// particles' order is not spatial, as in a LAMMPS dump).
+    disp_sorted: Vec<Vec2>,
     cells: Option<CellList>,
     seam: Option<(f64, f64)>,
     missing_at_end: usize,
@@ -286,10 +299,14 @@ impl PairSetup {
         } else {
             Some(CellList::new(&pos0, p.rc, kind, a.simbox)?)
         };
+        let disp_sorted = cells.as_ref().map_or_else(Vec::new, |c| {
+            c.cell_order().iter().map(|&j| disp[j as usize]).collect()
+        });
         Ok(Self {
             pairs,
             pos0,
             disp,
+            disp_sorted,
             cells,
             seam,
             missing_at_end,
@@ -312,7 +329,16 @@ impl PairSetup {
     ) -> ParticleKinematics {
         let cells = self.cells.as_ref().expect("cells exist when rows do");
         let (i, _) = self.pairs[n];
-        let mut k = particle(n, &self.pos0, &self.disp, cells, self.seam, buf, dt, conv);
+        let mut k = particle(
+            n,
+            &self.pos0,
+            (&self.disp, &self.disp_sorted),
+            cells,
+            self.seam,
+            buf,
+            dt,
+            conv,
+        );
         k.particle = a.particle[i];
         k.species = a.species.map_or(UNKNOWN_SPECIES, |s| s[i]);
         k
@@ -343,7 +369,7 @@ impl PairSetup {
 fn particle(
     n: usize,
     pos0: &[Vec2],
-    disp: &[Vec2],
+    (disp, disp_sorted): (&[Vec2], &[Vec2]),
     cells: &CellList,
     seam: Option<(f64, f64)>,
     buf: &mut Vec<(Vec2, Vec2)>,
@@ -353,9 +379,9 @@ fn particle(
     buf.clear();
     let di = disp[n];
     let pi = pos0[n];
-    cells.for_each_within(pi, |j, r0| {
+    cells.for_each_within_at(pi, |j, k, r0| {
         if j != n {
-            let mut r1 = r0 + disp[j] - di;
+            let mut r1 = r0 + disp_sorted[k] - di;
             if let Some((ly, dxy)) = seam {
                 let images = ((pos0[j].y - pi.y - r0.y) / ly).round();
                 r1.x -= images * dxy;

@@ -168,6 +168,14 @@ impl CellList {
     /// caller skips itself by index).
     #[inline]
     pub fn for_each_within<F: FnMut(usize, Vec2)>(&self, p: Vec2, mut f: F) {
+        self.for_each_within_at(p, |j, _, d| f(j, d));
+    }
+
+    /// As [`CellList::for_each_within`], with each particle's place `k` in cell order
+    /// too (`f(j, k, d)`, `cell_order()[k] == j`): data a caller keeps in cell order is
+    /// read from the same few runs of memory as the positions.
+    #[inline]
+    pub fn for_each_within_at<F: FnMut(usize, usize, Vec2)>(&self, p: Vec2, mut f: F) {
         let b = self.simbox;
         let p = match b {
             Some(b) => b.wrap(p),
@@ -225,7 +233,7 @@ impl CellList {
                         d = Vec2::new(dx, dy);
                     }
                     if self.accept(d.norm2()) {
-                        f(self.order[k] as usize, d);
+                        f(self.order[k] as usize, k, d);
                     }
                 }
             }

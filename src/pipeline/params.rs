@@ -102,6 +102,8 @@ impl KinematicsParams {
             every: self.every,
             convention: Convention::from_str(&self.convention, true)
                 .map_err(|e| Error::param("convention", e))?,
+            // A pipeline's later stages read every column.
+            columns: Default::default(),
             quiet,
         })
     }

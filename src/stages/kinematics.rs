@@ -4,7 +4,7 @@
 
 use super::timing::{Phase, PhaseTimer};
 use crate::error::{Error, Result};
-use crate::io::kinematics_io::{kinematics_dataframe, kinematics_schema};
+use crate::io::kinematics_io::{Selection, kinematics_dataframe, kinematics_schema};
 use crate::io::sink::stream_table;
 use crate::io::{read_tracks, sha256_file, write_with_sidecar};
 use crate::kinematics::{Convention, FramePair, KinematicsParams, PairCounts};
@@ -35,6 +35,8 @@ pub struct KinematicsOptions {
     /// Step between start frames (default: the lag).
     pub every: Option<i64>,
     pub convention: Convention,
+    /// The columns to write (the keys always; default every column).
+    pub columns: Selection,
     pub quiet: bool,
 }
 
@@ -53,6 +55,8 @@ pub struct KinematicsReport {
     pub lags: Vec<i64>,
     pub frame_pairs: usize,
     pub rows: usize,
+    /// The columns written, in order.
+    pub columns: Vec<&'static str>,
     pub counts: PairCounts,
     pub warnings: Vec<String>,
     /// Wall time per phase ([`PHASES`]), seconds.
@@ -68,6 +72,9 @@ impl std::fmt::Display for KinematicsReport {
             "pairs         {} frame pairs, lags {:?} frames, {} rows",
             self.frame_pairs, self.lags, self.rows
         )?;
+        if self.columns.len() < crate::io::kinematics_io::COLUMNS.len() {
+            writeln!(f, "columns       {}", self.columns.join(", "))?;
+        }
         writeln!(
             f,
             "neighbours    R_c = {:.5} {} (1.25 D = {:.5}), convention {:?}",
@@ -174,6 +181,7 @@ struct Blocks<'t> {
     times: &'t BTreeMap<i64, f64>,
     file: &'t str,
     params: KinematicsParams,
+    columns: &'t Selection,
     pairs: &'t [(i64, i64)],
     next_pair: usize,
     /// The pair being split, its start and end frames, and its next row.
@@ -223,9 +231,9 @@ impl<'t> Blocks<'t> {
             counts = pair.pairing_counts();
         }
         let rows = *from..(*from + BLOCK_ROWS).min(pair.len());
-        let ks = pair.columns(rows.clone());
+        let ks = pair.columns_of(rows.clone(), self.columns.floats());
         counts.add(&FramePair::block_counts(&ks));
-        let df = kinematics_dataframe(*fa, *fb, pair.dt(), ks);
+        let df = kinematics_dataframe(*fa, *fb, pair.dt(), ks, self.columns);
         *from = rows.end;
         if rows.end == pair.len() {
             self.current = None;
@@ -252,10 +260,13 @@ impl<'t> Blocks<'t> {
             .par_iter()
             .map(|&(fa, fb)| {
                 let pair = this.pair((fa, fb))?;
-                let ks = pair.columns(0..pair.len());
+                let ks = pair.columns_of(0..pair.len(), this.columns.floats());
                 let mut counts = pair.pairing_counts();
                 counts.add(&FramePair::block_counts(&ks));
-                Ok((kinematics_dataframe(fa, fb, pair.dt(), ks)?, counts))
+                Ok((
+                    kinematics_dataframe(fa, fb, pair.dt(), ks, this.columns)?,
+                    counts,
+                ))
             })
             .collect();
         bar.inc(group.len() as u64);
@@ -365,7 +376,7 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
     };
     let mut counts = PairCounts::default();
     let bar = crate::stages::progress(pairs.len() as u64, "kinematics", opt.quiet);
-    let meta = serde_json::json!({
+    let mut meta = serde_json::json!({
         "table": "kinematics",
         "length_unit": tracks.meta.length_unit,
         "time_unit": time_unit,
@@ -380,6 +391,12 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         },
         "bar_speed": tracks.meta.bar_speed,
     });
+    // Only a partial table says which columns it has (a full one is as before).
+    if !opt.columns.is_all() {
+        let names = opt.columns.names();
+        meta["columns"] = serde_json::json!(names);
+        meta["provenance"]["parameters"]["columns"] = serde_json::json!(names);
+    }
     let meta = serde_json::to_string_pretty(&meta).expect("json");
     let mut blocks = Blocks {
         tracks: &tracks,
@@ -388,12 +405,13 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         times: &times,
         file: &file,
         params,
+        columns: &opt.columns,
         pairs: &pairs,
         next_pair: 0,
         current: None,
     };
     let rows = write_with_sidecar(output, &meta, || {
-        stream_table(output, &kinematics_schema(), |sink| {
+        stream_table(output, &kinematics_schema(&opt.columns), |sink| {
             clock.lap("other");
             // Block by block (one Parquet row group each, every frame pair in turn):
             // each block's writing overlaps the computing of the next (`rayon::join`;
@@ -427,6 +445,7 @@ pub fn run(input: &Path, output: &Path, opt: &KinematicsOptions) -> Result<Kinem
         lags,
         frame_pairs: pairs.len(),
         rows,
+        columns: opt.columns.names(),
         counts,
         warnings,
         timings: clock.finish(),

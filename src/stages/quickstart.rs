@@ -58,6 +58,7 @@ pub fn run(
             start: None,
             every: None,
             convention: Convention::Paper,
+            columns: Default::default(),
             quiet,
         },
     )?;

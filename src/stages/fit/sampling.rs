@@ -355,7 +355,10 @@ fn note_two_neighbours(n: usize, warnings: &mut Vec<String>) {
     }
 }
 
+/// Whether `input` is a `kinematics` table (else tracks): it has the kinematics key
+/// `frame_end` (always written, so a table of a few `--columns` is recognised and its
+/// missing column named), or both columns the fit reads.
 pub(crate) fn is_kinematics(input: &Path) -> Result<bool> {
     let t = read_table(input, &[])?;
-    Ok(t.has("d2min") && t.has("eta_s"))
+    Ok(t.has("frame_end") || t.has("d2min") && t.has("eta_s"))
 }
