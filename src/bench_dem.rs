@@ -2,6 +2,7 @@
 //! distance pass (the floor any implementation pays) timed in the same run, and an
 //! export of the loaded state for `bench/lammps_pillar.py` (LAMMPS on the same grains).
 
+use crate::dem::backend::pillar_threads::CrossLines;
 use crate::dem::pillar::PillarSim;
 use crate::dem::pillar::pack::{PackOptions, pack};
 use crate::dem::pillar::params::PillarParams;
@@ -28,6 +29,16 @@ pub struct PillarBench {
     /// Threads of the timed run, and the same steps on one thread (same run, skip on).
     pub threads: usize,
     pub ns_per_particle_step_one_thread: f64,
+    /// Several threads: the cache lines that cross between cores every step at the
+    /// run's split, what one exchange of that many lines (written on one core, read on
+    /// the other, and back) costs on this machine (ns, measured in the same run), and
+    /// the step's overhead over the one-thread step divided by the threads (ns).
+    pub cross_lines: CrossLines,
+    pub line_exchange_ns: f64,
+    /// The same for the partners' state alone: what any split with one exchange a step
+    /// pays, however its arrays are laid out.
+    pub state_exchange_ns: f64,
+    pub overhead_ns_per_step: f64,
 }
 
 /// A jammed periodic packing of 1000 grains tiled k × k (N = 1000 k²; the packing is
@@ -125,6 +136,17 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
     }
     let reused_fraction =
         sim.scratch.frozen_grain_steps as f64 / (steps as f64 * sim.grains.len() as f64);
+    let cross_lines = sim.cross_core_lines();
+    let (line_exchange_ns, state_exchange_ns) = if threads > 1 {
+        (
+            line_exchange_ns(cross_lines.total().max(1), 20_000),
+            line_exchange_ns(cross_lines.partner_state.max(1), 20_000),
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    let overhead_ns_per_step =
+        (seconds - seconds_single / threads as f64) / steps.max(1) as f64 * 1e9;
     let n = sim.grains.len();
     let floor = {
         let g = &sim.grains;
@@ -156,7 +178,51 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
         reused_fraction,
         threads,
         ns_per_particle_step_one_thread: seconds_single / (n as f64 * steps as f64) * 1e9,
+        cross_lines,
+        line_exchange_ns,
+        state_exchange_ns,
+        overhead_ns_per_step,
     })
+}
+
+/// Nanoseconds to move `lines` cache lines from one core to another and back: one
+/// thread writes them, the other reads them, in turn (a flag says whose turn it is),
+/// the median of `reps` turns, each line on its own 128 bytes as the pillar's arrays
+/// are spread. What two threads pay at least each step for the lines they share.
+pub fn line_exchange_ns(lines: usize, reps: u64) -> f64 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    #[repr(align(128))]
+    struct Line(AtomicU64);
+    let buf: Vec<Line> = (0..lines).map(|_| Line(AtomicU64::new(0))).collect();
+    let turn = Line(AtomicU64::new(0));
+    let mut times = Vec::with_capacity(reps as usize);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            for r in 0..reps {
+                while turn.0.load(Ordering::Acquire) != 2 * r {
+                    std::hint::spin_loop();
+                }
+                for l in &buf {
+                    l.0.store(r, Ordering::Relaxed);
+                }
+                turn.0.store(2 * r + 1, Ordering::Release);
+            }
+        });
+        let mut sum = 0u64;
+        for r in 0..reps {
+            let t = Instant::now();
+            while turn.0.load(Ordering::Acquire) != 2 * r + 1 {
+                std::hint::spin_loop();
+            }
+            for l in &buf {
+                sum = sum.wrapping_add(l.0.load(Ordering::Relaxed));
+            }
+            turn.0.store(2 * r + 2, Ordering::Release);
+            times.push(t.elapsed().as_secs_f64() * 1e9);
+        }
+        std::hint::black_box(sum);
+    });
+    crate::bench_whole::median(&times)
 }
 
 /// The loaded state for LAMMPS: `grains.csv` (id, type, diameter, density, x, y, vx,
@@ -318,5 +384,18 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         list_builds: s.list.builds - b0,
         near_selections: s.slots.selections - s0,
         ns_per_particle_step_unsorted: seconds_unsorted / (n as f64 * steps as f64) * 1e9,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The exchange finishes (each side waits for the other's turn) and takes a
+    /// positive, finite time (its size is a measurement, not checked here).
+    #[test]
+    fn a_line_exchange_takes_time_and_returns() {
+        let one = super::line_exchange_ns(1, 200);
+        let many = super::line_exchange_ns(256, 200);
+        assert!(one.is_finite() && one > 0.0, "{one}");
+        assert!(many.is_finite() && many > 0.0, "{many}");
     }
 }

@@ -278,6 +278,22 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                         b.floor_ns_per_particle,
                         b.list_builds
                     );
+                    if b.threads > 1 {
+                        let c = &b.cross_lines;
+                        println!(
+                            "  {} threads: {} cache lines cross cores a step (partners' state {}, terms {}, rest flags {}, chunk sums {}); moving that many there and back takes {:.2} µs here (same run; the partners' state alone {:.2} µs), of an overhead of {:.2} µs a step over the one-thread step / {}",
+                            b.threads,
+                            c.total(),
+                            c.partner_state,
+                            c.terms,
+                            c.marking,
+                            c.chunk_sums,
+                            b.line_exchange_ns / 1e3,
+                            b.state_exchange_ns / 1e3,
+                            b.overhead_ns_per_step / 1e3,
+                            b.threads
+                        );
+                    }
                 }
             }
         }

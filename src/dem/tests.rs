@@ -859,3 +859,49 @@ fn pair_list_survives_a_grain_at_an_absurd_distance() {
         assert_eq!(pairs, want, "far = {far}");
     }
 }
+
+/// `cross_core_lines` (what `bench dem` blames two threads' overhead on) counts what
+/// crosses a split: nothing on one thread; on two, the term lines and partner state
+/// of exactly the slots whose grains sit on both sides of the split, within the
+/// bounds their sizes allow; more with two splits than with one.
+#[test]
+fn cross_core_lines_count_what_crosses_a_split() {
+    use crate::dem::backend::pillar_threads::CrossLines;
+    let start = packed_pillar(400, 9, PillarParams::fast());
+    let run = |threads: usize| {
+        let mut s = start.clone();
+        s.scratch.no_fallback = true;
+        s.advance_with(10, threads);
+        s
+    };
+    assert_eq!(run(1).cross_core_lines(), CrossLines::default());
+    let two = run(2);
+    let lines = two.cross_core_lines();
+    let split = two.scratch.buffers.bounds[1];
+    let (mut slots, mut partners) = (0usize, std::collections::BTreeSet::new());
+    for i in 0..split {
+        for k in two.list.start[i] as usize..two.list.start[i + 1] as usize {
+            let j = two.list.j[k] as usize;
+            if j >= split {
+                slots += 1;
+                partners.insert(j);
+            }
+        }
+    }
+    assert!(
+        slots > 0 && lines.marking > 0 && lines.chunk_sums > 0,
+        "{lines:?}"
+    );
+    // One 32-byte term place per crossing slot, two to a line.
+    assert!(
+        (slots.div_ceil(2)..=slots).contains(&lines.terms),
+        "{slots} slots, {lines:?}"
+    );
+    // Per partner grain a 32-byte state, a 16-byte spin and a rest flag.
+    let g = partners.len();
+    assert!(
+        (g.div_ceil(2) + g.div_ceil(4) + 1..=3 * g).contains(&lines.partner_state),
+        "{g} partners, {lines:?}"
+    );
+    assert!(run(3).cross_core_lines().total() > lines.total());
+}

@@ -557,3 +557,81 @@ fn shift_bounds(bounds: &mut [usize], busy: &mut [f64], n: usize) {
     }
     busy.iter_mut().for_each(|v| *v = 0.0);
 }
+
+/// The cache lines that cross between the threads' cores every step at the current
+/// split (the explanation `bench dem` gives of two threads' overhead): each is written
+/// on one core and read on another, so it moves once there and once back a step.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct CrossLines {
+    /// Packed states, spins and rest flags of a later thread's grains that an earlier
+    /// thread's pair slots read.
+    pub partner_state: usize,
+    /// Lines of a later thread's grains' terms that an earlier thread's slots write.
+    pub terms: usize,
+    /// Rest flags of an earlier thread's grains that a later thread's frozen marking
+    /// reads.
+    pub marking: usize,
+    /// Per-chunk bar sums and power of later threads, which thread 0 folds.
+    pub chunk_sums: usize,
+}
+
+impl CrossLines {
+    pub fn total(&self) -> usize {
+        self.partner_state + self.terms + self.marking + self.chunk_sums
+    }
+}
+
+impl PillarSim {
+    /// [`CrossLines`] of the split the last `advance` used (none on one thread), from
+    /// the arrays' addresses.
+    pub fn cross_core_lines(&self) -> CrossLines {
+        let b = &self.scratch.buffers;
+        let n = self.grains.len();
+        if b.bounds.len() < 3 || b.reverse.term_partner.len() != self.list.j.len() {
+            return CrossLines::default();
+        }
+        let thread_of = |g: usize| b.bounds.partition_point(|&x| x <= g) - 1;
+        let line = |base: usize, index: usize, size: usize| (base + index * size) / 64;
+        let addr = |p: *const u8| p as usize;
+        let (state, spin, rest, terms) = (
+            addr(b.packed_state.as_ptr().cast()),
+            addr(b.packed_spin.as_ptr().cast()),
+            addr(self.scratch.resting.as_ptr().cast()),
+            addr(b.terms.as_ptr().cast()),
+        );
+        let mut sets: [std::collections::HashSet<usize>; 3] = Default::default();
+        for i in 0..n {
+            for k in self.list.start[i] as usize..self.list.start[i + 1] as usize {
+                let j = self.list.j[k] as usize;
+                if thread_of(i) == thread_of(j) {
+                    continue;
+                }
+                sets[0].extend([
+                    line(state, j, size_of::<Quad>()),
+                    line(spin, j, size_of::<Pos>()),
+                    line(rest, j, 1),
+                ]);
+                sets[1].insert(line(
+                    terms,
+                    b.reverse.term_partner[k] as usize,
+                    size_of::<Quad>(),
+                ));
+                sets[2].insert(line(rest, i, 1));
+            }
+        }
+        let chunks = b.bounds[1].div_ceil(CHUNK)..n.div_ceil(CHUNK);
+        let (sums, power) = (
+            addr(b.bar_sums.as_ptr().cast()),
+            addr(b.power.as_ptr().cast()),
+        );
+        let chunk_lines: std::collections::HashSet<usize> = chunks
+            .flat_map(|c| [line(sums, c, 24), line(power, c, 16)])
+            .collect();
+        CrossLines {
+            partner_state: sets[0].len(),
+            terms: sets[1].len(),
+            marking: sets[2].len(),
+            chunk_sums: chunk_lines.len(),
+        }
+    }
+}
