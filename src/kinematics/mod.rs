@@ -262,6 +262,22 @@ impl<'a> FramePair<'a> {
     }
 }
 
+/// Rows from which a pair's fits are computed in cell order when its rows are not in
+/// spatial order: below, the whole pair sits in cache anyway.
+const CELL_ORDER_MIN_ROWS: usize = 1 << 15;
+
+/// Whether rows follow space closely enough that searching their neighbours in row
+/// order stays in cache: most consecutive rows sit within a few cells of each other
+/// in the cell list's order (`rank`: each row's place in it). A lattice or tracker
+/// scan order is; a shuffled LAMMPS dump or this project's pillar tracks are not.
+fn spatially_ordered(rank: &[u32]) -> bool {
+    let near = rank
+        .windows(2)
+        .filter(|w| w[0].abs_diff(w[1]) <= 64)
+        .count();
+    2 * near >= rank.len()
+}
+
 /// What every particle of a frame pair shares: the pairing, positions at t,
 /// displacements and the cell list.
 struct PairSetup {
@@ -274,6 +290,11 @@ struct PairSetup {
     disp_sorted: Vec<Vec2>,
     cells: Option<CellList>,
     seam: Option<(f64, f64)>,
+    /// A large pair whose rows are not in spatial order: every row's fit, computed
+    /// in the cell list's order (each particle's neighbours then sit in cache beside
+    /// the last one's), and each row's place in that order. Rows then read their fit
+    /// instead of searching their neighbours in a random place of memory each.
+    fits: Option<(Vec<Fit>, Vec<u32>)>,
     missing_at_end: usize,
     missing_at_start: usize,
 }
@@ -302,16 +323,72 @@ impl PairSetup {
         let disp_sorted = cells.as_ref().map_or_else(Vec::new, |c| {
             c.cell_order().iter().map(|&j| disp[j as usize]).collect()
         });
-        Ok(Self {
+        let mut setup = Self {
             pairs,
             pos0,
             disp,
             disp_sorted,
             cells,
             seam,
+            fits: None,
             missing_at_end,
             missing_at_start,
-        })
+        };
+        setup.fits = setup.fits_in_cell_order(p.convention);
+        if setup.fits.is_some() {
+            // Rows read their fits now: the search's arrays are done with.
+            setup.cells = None;
+            setup.disp_sorted = Vec::new();
+        }
+        Ok(setup)
+    }
+
+    /// The fits of every row in cell order and each row's rank in it, for a pair of
+    /// more than [`CELL_ORDER_MIN_ROWS`] rows that are not in spatial order (see
+    /// `fits`); `None` otherwise. The same numbers either way: each fit is the same
+    /// function of the same neighbours in the same order.
+    fn fits_in_cell_order(&self, conv: Convention) -> Option<(Vec<Fit>, Vec<u32>)> {
+        let cells = self.cells.as_ref()?;
+        let order = cells.cell_order();
+        if order.len() < CELL_ORDER_MIN_ROWS {
+            return None;
+        }
+        let mut rank = vec![0u32; order.len()];
+        for (k, &n) in order.iter().enumerate() {
+            rank[n as usize] = k as u32;
+        }
+        if spatially_ordered(&rank) {
+            return None;
+        }
+        // Each particle's own position in cell order too (its displacement already
+        // is): in row order, each fit would start with a read from a random place,
+        // which it waits for (a fit is too long for the processor to run ahead).
+        // (In an open box the cell list holds them already.)
+        let copied: Vec<Vec2>;
+        let pos_sorted = match cells.positions_as_given() {
+            Some(p) => p,
+            None => {
+                copied = order.iter().map(|&n| self.pos0[n as usize]).collect();
+                &copied
+            }
+        };
+        let fits = order
+            .par_iter()
+            .enumerate()
+            .with_min_len(1024)
+            .map_init(Vec::new, |buf, (k, &n)| {
+                fit(
+                    (n as usize, pos_sorted[k], self.disp_sorted[k]),
+                    (pos_sorted, Index::Places),
+                    &self.disp_sorted,
+                    cells,
+                    self.seam,
+                    buf,
+                    conv,
+                )
+            })
+            .collect();
+        Some((fits, rank))
     }
 
     fn len(&self) -> usize {
@@ -327,18 +404,26 @@ impl PairSetup {
         dt: f64,
         conv: Convention,
     ) -> ParticleKinematics {
-        let cells = self.cells.as_ref().expect("cells exist when rows do");
+        let f = match &self.fits {
+            Some((fits, rank)) => fits[rank[n] as usize],
+            None => {
+                let cells = self
+                    .cells
+                    .as_ref()
+                    .expect("cells exist when rows do (or fits do)");
+                fit(
+                    (n, self.pos0[n], self.disp[n]),
+                    (&self.pos0, Index::Rows),
+                    &self.disp_sorted,
+                    cells,
+                    self.seam,
+                    buf,
+                    conv,
+                )
+            }
+        };
         let (i, _) = self.pairs[n];
-        let mut k = particle(
-            n,
-            &self.pos0,
-            (&self.disp, &self.disp_sorted),
-            cells,
-            self.seam,
-            buf,
-            dt,
-            conv,
-        );
+        let mut k = row(f, self.pos0[n], self.disp[n], dt, conv);
         k.particle = a.particle[i];
         k.species = a.species.map_or(UNKNOWN_SPECIES, |s| s[i]);
         k
@@ -362,42 +447,101 @@ impl PairSetup {
     }
 }
 
-/// One particle: gather (r_ji(t), r_ji(t+Δt)) into `buf`, fit J, then D²min exactly
-/// as the residual sum (a second pass over the buffer, no cancellation).
+/// How an array of per-particle values is indexed: by pair row, or by place in the
+/// cell list's order.
+#[derive(Debug, Clone, Copy)]
+enum Index {
+    Rows,
+    Places,
+}
+
+/// What of a particle's row needs its neighbours: N_i, the status, J and D²min. The
+/// rest (strains, J2, velocity, position) follows from these and its own displacement
+/// ([`row`]).
+#[derive(Debug, Clone, Copy)]
+struct Fit {
+    n_neighbors: u32,
+    status: Status,
+    j: Mat2,
+    d2min: f64,
+}
+
+/// One particle's neighbourhood fit: gather (r_ji(t), r_ji(t+Δt)) into `buf`, fit J,
+/// then D²min exactly as the residual sum (a second pass over the buffer, no
+/// cancellation). `me` is the particle (row `n`, at `pi` with displacement `di`); a
+/// neighbour's displacement is read in cell order, and under Lees–Edwards its
+/// position too, from `seam_pos`: by row with `Rows`, by place in cell order with
+/// `Places`.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-fn particle(
-    n: usize,
-    pos0: &[Vec2],
-    (disp, disp_sorted): (&[Vec2], &[Vec2]),
+fn fit(
+    (n, pi, di): (usize, Vec2, Vec2),
+    seam_pos: (&[Vec2], Index),
+    disp_sorted: &[Vec2],
     cells: &CellList,
     seam: Option<(f64, f64)>,
     buf: &mut Vec<(Vec2, Vec2)>,
-    dt: f64,
     conv: Convention,
-) -> ParticleKinematics {
+) -> Fit {
     buf.clear();
-    let di = disp[n];
-    let pi = pos0[n];
     cells.for_each_within_at(pi, |j, k, r0| {
         if j != n {
             let mut r1 = r0 + disp_sorted[k] - di;
             if let Some((ly, dxy)) = seam {
-                let images = ((pos0[j].y - pi.y - r0.y) / ly).round();
+                let pj = match seam_pos.1 {
+                    Index::Rows => seam_pos.0[j],
+                    Index::Places => seam_pos.0[k],
+                };
+                let images = ((pj.y - pi.y - r0.y) / ly).round();
                 r1.x -= images * dxy;
             }
             buf.push((r0, r1));
         }
     });
-    let mut k = ParticleKinematics {
-        pos: pos0[n],
+    let mut f = Fit {
         n_neighbors: buf.len() as u32,
+        status: Status::TooFewNeighbours,
+        j: Mat2::ZERO,
+        d2min: 0.0,
+    };
+    if buf.len() < MIN_NEIGHBORS {
+        return f;
+    }
+    let (mut x, mut y) = (Mat2::ZERO, Mat2::ZERO);
+    for &(r0, r1) in buf.iter() {
+        x = x + Mat2::outer(r1, r0);
+        y = y + Mat2::outer(r0, r0);
+    }
+    let Some(yinv) = y.inverse(SINGULAR_TOL) else {
+        f.status = Status::Singular;
+        return f;
+    };
+    let j = x * yinv;
+    let mut d2 = 0.0;
+    for &(r0, r1) in buf.iter() {
+        d2 += (r1 - j * r0).norm2();
+    }
+    if conv == Convention::Paper {
+        d2 /= buf.len() as f64;
+    }
+    f.status = Status::Ok;
+    f.j = j;
+    f.d2min = d2;
+    f
+}
+
+/// A particle's result from its fit, its position at t and its displacement `di`.
+#[inline]
+fn row(f: Fit, pos: Vec2, di: Vec2, dt: f64, conv: Convention) -> ParticleKinematics {
+    let mut k = ParticleKinematics {
+        pos,
+        n_neighbors: f.n_neighbors,
         velocity: di * (1.0 / dt),
+        status: f.status,
         ..Default::default()
     };
-    let undetermined = |mut k: ParticleKinematics, status| {
+    if f.status != Status::Ok {
         let nan = f64::NAN;
-        k.status = status;
         k.j = Mat2 {
             a11: nan,
             a12: nan,
@@ -413,33 +557,13 @@ fn particle(
         };
         k.j2 = nan;
         k.d2min = nan;
-        k
-    };
-    if buf.len() < MIN_NEIGHBORS {
-        return undetermined(k, Status::TooFewNeighbours);
-    }
-    let (mut x, mut y) = (Mat2::ZERO, Mat2::ZERO);
-    for &(r0, r1) in buf.iter() {
-        x = x + Mat2::outer(r1, r0);
-        y = y + Mat2::outer(r0, r0);
-    }
-    let Some(yinv) = y.inverse(SINGULAR_TOL) else {
-        return undetermined(k, Status::Singular);
-    };
-    let j = x * yinv;
-    let mut d2 = 0.0;
-    for &(r0, r1) in buf.iter() {
-        d2 += (r1 - j * r0).norm2();
-    }
-    if conv == Convention::Paper {
-        d2 /= buf.len() as f64;
+        return k;
     }
     k.valid = true;
-    k.status = Status::Ok;
-    k.j = j;
-    k.strain = strain_from_j(&j, conv);
+    k.j = f.j;
+    k.strain = strain_from_j(&f.j, conv);
     k.j2 = k.strain.eta_s / dt;
-    k.d2min = d2;
+    k.d2min = f.d2min;
     k
 }
 

@@ -155,6 +155,12 @@ impl CellList {
         &self.order
     }
 
+    /// The positions in cell order exactly as given, where there is no box to wrap
+    /// them into (`None` with a box).
+    pub fn positions_as_given(&self) -> Option<&[Vec2]> {
+        self.simbox.is_none().then_some(&self.sorted[..])
+    }
+
     #[inline]
     fn accept(&self, r2: f64) -> bool {
         match self.kind {
