@@ -377,7 +377,7 @@ fn relabelled(t: &Tracks) -> Tracks {
     // A multiplicative permutation of 0..ids (the multiplier is coprime with ids).
     let mult = (0..)
         .map(|k| 7919 + 2 * k)
-        .find(|&m: &usize| (2..=m).all(|d| !(m % d == 0 && ids % d == 0)))
+        .find(|&m: &usize| (2..=m).all(|d| !(m.is_multiple_of(d) && ids.is_multiple_of(d))))
         .unwrap();
     let new_id = |id: i64| ((id as usize * mult) % ids) as i64;
     let mut rows: Vec<usize> = (0..t.len()).collect();
