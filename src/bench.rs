@@ -19,6 +19,8 @@ pub struct KinematicsBench {
     /// Reference in the same run: building the cell list and counting neighbours
     /// (the floor any method pays), s.
     pub neighbour_pass_seconds: f64,
+    /// The synthetic pair's particles relabelled into no spatial order.
+    pub shuffled: bool,
 }
 
 fn best_of<F: FnMut()>(reps: usize, mut f: F) -> f64 {
@@ -32,10 +34,22 @@ fn best_of<F: FnMut()>(reps: usize, mut f: F) -> f64 {
 }
 
 /// One frame pair of `n` particles (affine map + noise), timed with `threads` threads.
-pub fn bench_kinematics(n: usize, threads: usize, reps: usize) -> Result<KinematicsBench> {
+/// One synthetic pair of about `n` particles, its rows in lattice order or (`shuffled`)
+/// relabelled into no spatial order, as a shuffled dump or this tool's pillar tracks.
+pub fn bench_kinematics(
+    n: usize,
+    threads: usize,
+    reps: usize,
+    shuffled: bool,
+) -> Result<KinematicsBench> {
     let p = bidisperse_packing(n, 1.0, 0.1, 1);
-    let t = two_frame_tracks(&p, Mat2::new(1.0, 0.02, 0.0, 0.99), 0.01, 2);
-    bench_kinematics_tracks(&t, 1.25, Convention::Paper, threads, reps)
+    let mut t = two_frame_tracks(&p, Mat2::new(1.0, 0.02, 0.0, 0.99), 0.01, 2);
+    if shuffled {
+        t = crate::synth::relabelled(&t);
+    }
+    let mut b = bench_kinematics_tracks(&t, 1.25, Convention::Paper, threads, reps)?;
+    b.shuffled = shuffled;
+    Ok(b)
 }
 
 /// The first two frames of `t` (e.g. the frames OVITO is timed on), R_c = `rc`.
@@ -83,6 +97,7 @@ pub fn bench_kinematics_tracks(
         seconds,
         particles_per_s: a.len() as f64 / seconds,
         neighbour_pass_seconds,
+        shuffled: false,
     })
 }
 

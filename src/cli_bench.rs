@@ -420,19 +420,31 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                 Some(p) => Some(pillar_pipe::io::read_tracks(p)?.0),
                 None => None,
             };
-            let sizes = if given.is_some() { vec![0] } else { n };
-            for &n in &sizes {
+            // Synthetic pairs in lattice order, then relabelled into no spatial order
+            // (a shuffled dump; this tool's pillar tracks), which the kernel fits in
+            // the cell list's order.
+            let cases: Vec<(usize, bool)> = if given.is_some() {
+                vec![(0, false)]
+            } else {
+                n.iter().flat_map(|&n| [(n, false), (n, true)]).collect()
+            };
+            for &(n, shuffled) in &cases {
                 for threads in [1, 2] {
                     let b = match &given {
                         Some(t) => {
                             bench::bench_kinematics_tracks(t, rc, convention, threads, reps)?
                         }
-                        None => bench::bench_kinematics(n, threads, reps)?,
+                        None => bench::bench_kinematics(n, threads, reps, shuffled)?,
                     };
                     if !json {
                         println!(
-                            "kinematics n={:>8} threads={} {:>8.4} s/pair {:>12.0} particles/s   (same-run reference: cell list + neighbour count {:.4} s, ratio {:.2})",
+                            "kinematics n={:>8} {} threads={} {:>8.4} s/pair {:>12.0} particles/s   (same-run reference: cell list + neighbour count {:.4} s, ratio {:.2})",
                             b.n,
+                            match (&given, shuffled) {
+                                (Some(_), _) => "(given)  ",
+                                (None, false) => "(lattice)",
+                                (None, true) => "(shuffled)",
+                            },
                             b.threads,
                             b.seconds,
                             b.particles_per_s,

@@ -135,3 +135,32 @@ pub fn sheared_periodic_tracks(p: &SynthPacking, gamma0: f64, gamma: f64, shift_
     t.meta.boxes = boxes;
     t
 }
+
+/// `t` with its particles relabelled by a fixed permutation (rows re-sorted by the new
+/// ids): the same frames, with rows in no spatial order, as in a shuffled dump.
+pub fn relabelled(t: &Tracks) -> Tracks {
+    let ids = t.particle.iter().max().map_or(0, |&m| m as usize + 1);
+    // A multiplicative permutation of 0..ids (the multiplier is coprime with ids).
+    let mult = (0..)
+        .map(|k| 7919 + 2 * k)
+        .find(|&m: &usize| (2..=m).all(|d| !(m.is_multiple_of(d) && ids.is_multiple_of(d))))
+        .unwrap();
+    let new_id = |id: i64| ((id as usize * mult) % ids) as i64;
+    let mut rows: Vec<usize> = (0..t.len()).collect();
+    rows.sort_by_key(|&r| (t.frame[r], new_id(t.particle[r])));
+    let pick = |v: &[f64]| rows.iter().map(|&r| v[r]).collect::<Vec<f64>>();
+    Tracks {
+        frame: rows.iter().map(|&r| t.frame[r]).collect(),
+        particle: rows.iter().map(|&r| new_id(t.particle[r])).collect(),
+        x: pick(&t.x),
+        y: pick(&t.y),
+        radius: pick(&t.radius),
+        time: t.time.as_deref().map(pick),
+        species: t
+            .species
+            .as_ref()
+            .map(|s| rows.iter().map(|&r| s[r]).collect()),
+        theta: t.theta.as_deref().map(pick),
+        meta: t.meta.clone(),
+    }
+}

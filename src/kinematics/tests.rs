@@ -370,35 +370,6 @@ fn columns_equal_the_records_bit_for_bit_at_any_thread_count() {
     }
 }
 
-/// `t` with its particles relabelled by a fixed permutation (rows re-sorted by the new
-/// ids): the same frames, with rows in no spatial order, as in a shuffled dump.
-fn relabelled(t: &Tracks) -> Tracks {
-    let ids = t.particle.iter().max().map_or(0, |&m| m as usize + 1);
-    // A multiplicative permutation of 0..ids (the multiplier is coprime with ids).
-    let mult = (0..)
-        .map(|k| 7919 + 2 * k)
-        .find(|&m: &usize| (2..=m).all(|d| !(m.is_multiple_of(d) && ids.is_multiple_of(d))))
-        .unwrap();
-    let new_id = |id: i64| ((id as usize * mult) % ids) as i64;
-    let mut rows: Vec<usize> = (0..t.len()).collect();
-    rows.sort_by_key(|&r| (t.frame[r], new_id(t.particle[r])));
-    let pick = |v: &[f64]| rows.iter().map(|&r| v[r]).collect::<Vec<f64>>();
-    Tracks {
-        frame: rows.iter().map(|&r| t.frame[r]).collect(),
-        particle: rows.iter().map(|&r| new_id(t.particle[r])).collect(),
-        x: pick(&t.x),
-        y: pick(&t.y),
-        radius: pick(&t.radius),
-        time: t.time.as_deref().map(pick),
-        species: t
-            .species
-            .as_ref()
-            .map(|s| rows.iter().map(|&r| s[r]).collect()),
-        theta: t.theta.as_deref().map(pick),
-        meta: t.meta.clone(),
-    }
-}
-
 /// A large pair whose rows are in no spatial order has its fits computed in cell
 /// order; every row is bit for bit what the row-order search gives, in an open box
 /// and across a Lees–Edwards seam. Pairs in lattice order keep the row-order search.
@@ -415,7 +386,7 @@ fn fits_in_cell_order_are_the_row_order_fits_bit_for_bit() {
             PairSetup::new(&a, &b, &params(Convention::Paper)).unwrap()
         };
         assert!(setup_of(&t).fits.is_none(), "lattice order: row order");
-        let s = relabelled(&t);
+        let s = crate::synth::relabelled(&t);
         let setup = setup_of(&s);
         assert!(setup.fits.is_some(), "no spatial order: cell order");
         assert_eq!(setup.seam.is_some(), seam);
