@@ -441,8 +441,8 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                             "kinematics n={:>8} {} threads={} {:>8.4} s/pair {:>12.0} particles/s   (same-run reference: cell list + neighbour count {:.4} s, ratio {:.2})",
                             b.n,
                             match (&given, shuffled) {
-                                (Some(_), _) => "(given)  ",
-                                (None, false) => "(lattice)",
+                                (Some(_), _) => "(given)   ",
+                                (None, false) => "(lattice) ",
                                 (None, true) => "(shuffled)",
                             },
                             b.threads,

@@ -97,8 +97,9 @@ enum Cmd {
         /// `ovito` reproduces OVITO's Atomic Strain numbers (≤ cutoff, D²min not ÷ N_i).
         #[arg(long, value_enum, default_value = "paper")]
         convention: Convention,
-        /// Write only these columns (and frame, frame_end, particle), e.g. d2min,eta_s:
-        /// the same numbers, a smaller file, a faster run [default: all]
+        /// Write only these columns (and frame, frame_end, particle), e.g. d2min, or
+        /// eta_s,d2min,valid for `fit`: the same numbers, a smaller file, a faster run
+        /// [default: all]
         #[arg(long, value_delimiter = ',')]
         columns: Option<Vec<String>>,
         #[arg(long)]

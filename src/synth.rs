@@ -136,16 +136,25 @@ pub fn sheared_periodic_tracks(p: &SynthPacking, gamma0: f64, gamma: f64, shift_
     t
 }
 
-/// `t` with its particles relabelled by a fixed permutation (rows re-sorted by the new
-/// ids): the same frames, with rows in no spatial order, as in a shuffled dump.
+/// `t` with its particles relabelled by a random permutation of their ids (seeded, so
+/// always the same; rows re-sorted by the new ids): the same frames, with rows in no
+/// spatial order, as in a shuffled dump. Ids are distinct values in 0..=max; with a
+/// negative id, or fewer than two, `t` is returned as it is.
 pub fn relabelled(t: &Tracks) -> Tracks {
-    let ids = t.particle.iter().max().map_or(0, |&m| m as usize + 1);
-    // A multiplicative permutation of 0..ids (the multiplier is coprime with ids).
-    let mult = (0..)
-        .map(|k| 7919 + 2 * k)
-        .find(|&m: &usize| (2..=m).all(|d| !(m.is_multiple_of(d) && ids.is_multiple_of(d))))
-        .unwrap();
-    let new_id = |id: i64| ((id as usize * mult) % ids) as i64;
+    let ids = match t.particle.iter().min() {
+        Some(&lo) if lo >= 0 => t.particle.iter().max().map_or(0, |&m| m as usize + 1),
+        _ => 0,
+    };
+    if ids < 2 {
+        return t.clone();
+    }
+    // Fisher–Yates.
+    let mut perm: Vec<i64> = (0..ids as i64).collect();
+    let mut rng = Rng::new(0x5eed);
+    for k in (1..ids).rev() {
+        perm.swap(k, rng.below(k + 1));
+    }
+    let new_id = |id: i64| perm[id as usize];
     let mut rows: Vec<usize> = (0..t.len()).collect();
     rows.sort_by_key(|&r| (t.frame[r], new_id(t.particle[r])));
     let pick = |v: &[f64]| rows.iter().map(|&r| v[r]).collect::<Vec<f64>>();

@@ -58,10 +58,18 @@ impl Selection {
         for k in KEY_COLUMNS {
             keep[index(k).expect("a key is a column")] = true;
         }
+        let mut all = false;
         for name in names {
             let name = name.as_ref().trim();
+            if name.is_empty() {
+                return Err(Error::param(
+                    "columns",
+                    "an empty column name (a stray comma?); give names such as d2min,eta_s",
+                ));
+            }
             if name == "all" {
-                return Ok(Selection::all());
+                all = true;
+                continue;
             }
             match index(name) {
                 Some(i) => keep[i] = true,
@@ -77,7 +85,11 @@ impl Selection {
                 }
             }
         }
-        Ok(Selection(keep))
+        Ok(if all {
+            Selection::all()
+        } else {
+            Selection(keep)
+        })
     }
 
     pub fn is_all(&self) -> bool {
@@ -215,5 +227,10 @@ mod tests {
         let e = Selection::of(&["d2min", "D2min"]).unwrap_err().to_string();
         assert!(e.contains("'D2min'"), "{e}");
         assert!(e.contains("eta_s") && e.contains("always written"), "{e}");
+        // Every name is checked, `all` or not, and an empty one is named as such.
+        let e = Selection::of(&["all", "bogus"]).unwrap_err().to_string();
+        assert!(e.contains("'bogus'"), "{e}");
+        let e = Selection::of(&["d2min", ""]).unwrap_err().to_string();
+        assert!(e.contains("empty column name"), "{e}");
     }
 }

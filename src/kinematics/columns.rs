@@ -137,6 +137,7 @@ impl KinematicsColumns {
                     b.valid[r] = k.valid;
                     b.status[r] = k.status;
                     for (col, v) in b.f64s.iter_mut().zip(k.f64_values()) {
+                        // Empty: a column not kept (every kept one has the block's rows).
                         if let Some(c) = col.get_mut(r) {
                             *c = v;
                         }

@@ -271,11 +271,14 @@ const CELL_ORDER_MIN_ROWS: usize = 1 << 15;
 /// in the cell list's order (`rank`: each row's place in it). A lattice or tracker
 /// scan order is; a shuffled LAMMPS dump or this project's pillar tracks are not.
 fn spatially_ordered(rank: &[u32]) -> bool {
+    if rank.len() < 2 {
+        return true;
+    }
     let near = rank
         .windows(2)
         .filter(|w| w[0].abs_diff(w[1]) <= 64)
         .count();
-    2 * near >= rank.len()
+    2 * near >= rank.len() - 1
 }
 
 /// What every particle of a frame pair shares: the pairing, positions at t,
@@ -344,7 +347,7 @@ impl PairSetup {
     }
 
     /// The fits of every row in cell order and each row's rank in it, for a pair of
-    /// more than [`CELL_ORDER_MIN_ROWS`] rows that are not in spatial order (see
+    /// at least [`CELL_ORDER_MIN_ROWS`] rows that are not in spatial order (see
     /// `fits`); `None` otherwise. The same numbers either way: each fit is the same
     /// function of the same neighbours in the same order.
     fn fits_in_cell_order(&self, conv: Convention) -> Option<(Vec<Fit>, Vec<u32>)> {

@@ -386,7 +386,15 @@ fn fits_in_cell_order_are_the_row_order_fits_bit_for_bit() {
             PairSetup::new(&a, &b, &params(Convention::Paper)).unwrap()
         };
         assert!(setup_of(&t).fits.is_none(), "lattice order: row order");
-        let s = crate::synth::relabelled(&t);
+        let mut s = crate::synth::relabelled(&t);
+        if !seam {
+            // A few isolated particles at t (too few neighbours: the undetermined rows).
+            for r in 0..s.len() {
+                if s.frame[r] == 0 && s.particle[r] % 4999 == 7 {
+                    s.x[r] += 1e6 * (1.0 + s.particle[r] as f64);
+                }
+            }
+        }
         let setup = setup_of(&s);
         assert!(setup.fits.is_some(), "no spatial order: cell order");
         assert_eq!(setup.seam.is_some(), seam);
@@ -423,5 +431,10 @@ fn fits_in_cell_order_are_the_row_order_fits_bit_for_bit() {
             undetermined += usize::from(!got.valid);
         }
         assert!(undetermined < setup.len() / 100);
+        assert_eq!(
+            undetermined > 0,
+            !seam,
+            "the undetermined rows are compared too"
+        );
     }
 }

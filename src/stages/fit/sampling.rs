@@ -355,10 +355,17 @@ fn note_two_neighbours(n: usize, warnings: &mut Vec<String>) {
     }
 }
 
-/// Whether `input` is a `kinematics` table (else tracks): it has the kinematics key
-/// `frame_end` (always written, so a table of a few `--columns` is recognised and its
-/// missing column named), or both columns the fit reads.
+/// Whether `input` is a `kinematics` table (else tracks): its sidecar says so (a table
+/// of a few `--columns` is then recognised, and its missing column named), or, without
+/// one, it has both columns the fit reads.
 pub(crate) fn is_kinematics(input: &Path) -> Result<bool> {
+    let side = crate::io::sidecar_path(input);
+    if let Ok(text) = std::fs::read_to_string(&side)
+        && let Ok(meta) = serde_json::from_str::<serde_json::Value>(&text)
+        && let Some(table) = meta["table"].as_str()
+    {
+        return Ok(table == "kinematics");
+    }
     let t = read_table(input, &[])?;
-    Ok(t.has("frame_end") || t.has("d2min") && t.has("eta_s"))
+    Ok(t.has("d2min") && t.has("eta_s"))
 }

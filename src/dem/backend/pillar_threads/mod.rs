@@ -625,7 +625,12 @@ impl PillarSim {
             addr(b.power.as_ptr().cast()),
         );
         let chunk_lines: std::collections::HashSet<usize> = chunks
-            .flat_map(|c| [line(sums, c, 24), line(power, c, 16)])
+            .flat_map(|c| {
+                [
+                    line(sums, c, size_of::<[f64; 3]>()),
+                    line(power, c, size_of::<[f64; 2]>()),
+                ]
+            })
             .collect();
         CrossLines {
             partner_state: sets[0].len(),
