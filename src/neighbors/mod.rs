@@ -75,11 +75,13 @@ impl CellList {
             f64::INFINITY,
             f64::NEG_INFINITY,
         );
-        let wrapped: Vec<Vec2> = match simbox {
+        // In an open box the positions are used as given (no copy: a frame of a
+        // million particles is 16 MB).
+        let wrapped: std::borrow::Cow<[Vec2]> = match simbox {
             Some(b) => pos.iter().map(|&p| b.wrap(p)).collect(),
-            None => pos.to_vec(),
+            None => pos.into(),
         };
-        for p in &wrapped {
+        for p in wrapped.iter() {
             xmin = xmin.min(p.x);
             xmax = xmax.max(p.x);
             ymin = ymin.min(p.y);
