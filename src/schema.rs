@@ -76,6 +76,10 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         include_str!("../data_schema/collision_angles.schema.json"),
     ),
     (
+        "sweep_angles",
+        include_str!("../data_schema/sweep_angles.schema.json"),
+    ),
+    (
         "shear_profile",
         include_str!("../data_schema/shear_profile.schema.json"),
     ),

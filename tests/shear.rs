@@ -486,7 +486,7 @@ fn collision_angles_and_profile_in_steady_shear() {
     };
     run(&out, &opt).unwrap();
     let a = read_table(&out.join("collision_angles.parquet"), &[]).unwrap();
-    assert_eq!(a.df.height(), 50, "3.6° bins over [0°, 180°)");
+    assert_eq!(a.df.height(), 100, "3.6° bins over (−180°, 180°]");
     assert_eq!(
         a.columns(),
         pillar_pipe::schema::load("collision_angles").names()
@@ -496,30 +496,50 @@ fn collision_angles_and_profile_in_steady_shear() {
         pr.columns(),
         pillar_pipe::schema::load("shear_profile").names()
     );
-    let (lo, mk, br) = (
-        a.f64("angle_lo_deg").unwrap(),
-        a.f64("making_pdf").unwrap(),
-        a.f64("breaking_pdf").unwrap(),
+    let (lo, hi) = (
+        a.f64("theta_lo_deg").unwrap(),
+        a.f64("theta_hi_deg").unwrap(),
     );
-    let norm: f64 = mk.iter().sum::<f64>() * 3.6;
+    assert_eq!((lo[0], hi[99]), (-180.0, 180.0));
+    let (mk, br, both) = (
+        a.f64("making").unwrap(),
+        a.f64("breaking").unwrap(),
+        a.f64("pdf").unwrap(),
+    );
+    let norm: f64 = both.iter().sum::<f64>() * 3.6;
     assert!((norm - 1.0).abs() < 1e-9);
-    // Shear along x with v_x = γ̇ y brings grains together along the compressive axis
-    // (ϑ ≈ 135°) and pulls them apart along the extensional one (ϑ ≈ 45°).
-    let mass = |pdf: &[f64], from: f64, to: f64| -> f64 {
-        lo.iter()
-            .zip(pdf)
-            .filter(|(l, _)| **l >= from && **l < to)
-            .map(|(_, p)| p * 3.6)
-            .sum()
+    // Eq. 27: a contact that begins has the grains driven into each other (|ϑ| > 90°),
+    // one that breaks has them driven apart (|ϑ| < 90°) — the 99 % check.
+    let share = |h: &[f64], inside: bool| -> f64 {
+        let sel: f64 = lo
+            .iter()
+            .zip(hi.iter().zip(h))
+            .filter(|(l, (u, _))| (**l >= -90.0 && **u <= 90.0) == inside)
+            .map(|(_, (_, c))| *c)
+            .sum();
+        sel / h.iter().sum::<f64>()
     };
-    assert!(
-        mass(&mk, 90.0, 180.0) > mass(&mk, 0.0, 90.0),
-        "contacts form in the compressive quadrant"
-    );
-    assert!(
-        mass(&br, 0.0, 90.0) > mass(&br, 90.0, 180.0),
-        "contacts break in the extensional quadrant"
-    );
+    assert!(mk.iter().sum::<f64>() > 1000.0, "enough contacts to judge");
+    let (approach, separate) = (share(&mk, false), share(&br, true));
+    assert!(approach >= 0.99, "making with |ϑ| > 90°: {approach}");
+    assert!(separate >= 0.99, "breaking with |ϑ| < 90°: {separate}");
+    // The summary carries the same counts and fractions, and P(±90°).
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let counts = |k: &str| -> Vec<f64> {
+        s[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    assert_eq!(counts("collision_angle_making"), mk);
+    assert_eq!(counts("collision_angle_breaking"), br);
+    let q = |k: &str| s[k]["mean"].as_f64().unwrap();
+    assert!((q("making_approaching_fraction") - approach).abs() < 1e-12);
+    assert!((q("breaking_separating_fraction") - separate).abs() < 1e-12);
+    let p90 = (both[74] + both[75]) / 2.0;
+    assert!((q("p_theta_90") - p90).abs() <= 1e-12 * p90.max(1e-300));
     // The steady profile is the imposed one.
     let p = read_table(&out.join("profile.parquet"), &[]).unwrap();
     let (y, vx, aff) = (
@@ -807,6 +827,93 @@ fn the_near_list_skin_adapts_and_changes_no_number() {
                 a > 2.0 * NEAR_SKIN_MIN,
                 "fast shear kept the thinnest skin: {a} {b}"
             );
+        }
+    }
+}
+
+/// Eq. 27 on hand-made pairs: ϑ rotates v_ij onto r_ij (counter-clockwise positive),
+/// −180° < ϑ ≤ 180°, and the bins are (−180° + 3.6° k, −180° + 3.6° (k + 1)].
+#[test]
+fn collision_angle_is_eq_27() {
+    use pillar_pipe::dem::shear::{angle_bin, collision_angle};
+    let th = |r: (f64, f64), v: (f64, f64)| collision_angle(r, v).unwrap();
+    // i to the right of j, moving left at it: head-on approach (the −0 cross product
+    // atan2 would call −180° is +180°).
+    assert_eq!(th((1.0, 0.0), (-1.0, 0.0)), 180.0);
+    assert_eq!(th((1.0, 0.0), (-1.0, -0.0)), 180.0);
+    assert_eq!(angle_bin(180.0), 99);
+    // Separating along r_ij.
+    assert_eq!(th((0.3, -0.4), (0.6, -0.8)), 0.0);
+    assert_eq!(angle_bin(0.0), 49);
+    // Grazing: v_ij along +x, r_ij along +y is a quarter turn counter-clockwise (+90°);
+    // r_ij along −y, clockwise (−90°). The sign is the sense of rotation.
+    assert!((th((0.0, 1.0), (1.0, 0.0)) - 90.0).abs() < 1e-12);
+    assert!((th((0.0, -1.0), (1.0, 0.0)) + 90.0).abs() < 1e-12);
+    // Just past grazing, either way: approach has |ϑ| > 90°, separation |ϑ| < 90°.
+    let eps = 1e-3;
+    let a = th((0.0, 1.0), (1.0, eps)); // v has a component along +r: separating
+    let b = th((0.0, 1.0), (1.0, -eps)); // against r: approaching
+    assert!(a < 90.0 && b > 90.0, "{a} {b}");
+    assert_eq!((angle_bin(a), angle_bin(b)), (74, 75));
+    assert_eq!((angle_bin(-a), angle_bin(-b)), (25, 24));
+    // Exact edges belong to the bin below; the open end −180° never occurs.
+    assert_eq!((angle_bin(90.0), angle_bin(-90.0)), (74, 24));
+    assert_eq!(angle_bin(-180.0 + 1e-9), 0);
+    // Rotating the whole picture leaves ϑ alone.
+    let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+    let rot = |(x, y): (f64, f64)| (c * x - s * y, s * x + c * y);
+    let (r, v) = ((0.2, 0.9), (-0.7, 0.1));
+    assert!((th(rot(r), rot(v)) - th(r, v)).abs() < 1e-9);
+    // No relative velocity, no angle.
+    assert_eq!(collision_angle((1.0, 0.0), (0.0, 0.0)), None);
+    assert_eq!(collision_angle((f64::NAN, 0.0), (1.0, 0.0)), None);
+}
+
+/// A pair that meets through the Lees–Edwards boundary: the image of j moves γ̇L faster
+/// along x, so the relative velocity is v_ij = (0, 1) and the contact forms at
+/// r_ij ≈ (0.2, −0.95), ϑ ≈ −168° (bin 3). Forgetting the image's velocity would give
+/// v_ij = (1, 1) and ϑ ≈ −123° (bin 15). The same pair placed at its image agrees, on
+/// every kernel.
+#[test]
+fn a_contact_made_across_the_seam_has_the_image_velocity_in_its_angle() {
+    use pillar_pipe::dem::shear::{ShearKernel, angle_bin, collision_angle};
+    let expected = angle_bin(collision_angle((0.2, -0.95), (0.0, 1.0)).unwrap());
+    assert_eq!(expected, 3);
+    let forgot = angle_bin(collision_angle((0.2, -0.95), (1.0, 1.0)).unwrap());
+    assert_eq!(forgot, 15);
+    for kernel in [ShearKernel::Straight, ShearKernel::default()] {
+        for image in [false, true] {
+            let (l, rate, t) = (10.0, 0.1, 3.7);
+            let off = rate * t * l;
+            let mut g = Grains::default();
+            g.push(0, SMALL, 0.5, 1.0, 2.2, 9.4);
+            // j's image sits 1.1 d_s above i and 0.2 d_s to its left, moving down at it.
+            let (xj, yj, vxj) = if image {
+                (2.0, 10.5, -1.0 + rate * l)
+            } else {
+                (2.0 - off + l, 0.5, -1.0)
+            };
+            g.push(1, SMALL, 0.5, 1.0, xj, yj);
+            g.vy[0] = 0.5;
+            g.vx[1] = vxj;
+            g.vy[1] = -0.5;
+            let mut p = params(2, 0.5, Dissipation::Cd, rate);
+            p.n = 2;
+            let mut s = ShearSim::from_grains(p, g, l);
+            s.kernel = kernel;
+            s.time = t;
+            s.gamma = rate * t;
+            s.refresh();
+            for _ in 0..20 {
+                s.step();
+                if s.coll.begun > 0 {
+                    break;
+                }
+            }
+            let what = format!("{kernel:?}, image {image}");
+            assert_eq!(s.coll.begun, 1, "{what}");
+            let bins: Vec<usize> = (0..100).filter(|&k| s.coll.angle_making[k] > 0).collect();
+            assert_eq!(bins, [expected], "{what}");
         }
     }
 }

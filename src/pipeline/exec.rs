@@ -227,6 +227,7 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 outputs: outputs(&[
                     ("sweep", stages::sweep::TABLE),
                     ("grid", stages::sweep::GRID),
+                    ("angles", stages::sweep::ANGLES),
                 ]),
                 metrics: json!({"points": r.runs, "model": p.model, "n": p.n}),
                 summary: json!({"points": r.runs}),

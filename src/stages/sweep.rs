@@ -128,6 +128,9 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
 
 /// The table of a sweep, one row per finished run.
 pub const TABLE: &str = "sweep.parquet";
+/// The collision-angle histograms of a sweep's runs (ϑ of vagberg-sheared-disks Eq. 27),
+/// one row per run and bin.
+pub const ANGLES: &str = "sweep_angles.parquet";
 /// The grid the sweep was asked for and what its runs share, so that a reader can tell
 /// which points are missing.
 pub const GRID: &str = "sweep.json";
@@ -174,6 +177,7 @@ pub fn write_outputs(
         DataFrame::new(n, columns).map_err(|e| Error::polars("building the sweep table", e))?;
     let table = out.join(TABLE);
     write_table(&mut df, &table)?;
+    write_angles(out, points)?;
     let missing: Vec<&(f64, f64, f64)> = grid
         .iter()
         .filter(|g| !points.iter().any(|(p, _)| p == *g))
@@ -199,4 +203,60 @@ pub fn write_outputs(
         runs: n,
         reused: 0,
     })
+}
+
+/// `sweep_angles.parquet`: for every finished run whose summary carries them, its
+/// collision-angle counts at making and breaking by 3.6° bin, and P(ϑ) per degree of both
+/// together (Figs. 8, 18 draw it at three Q per φ). Runs without the histograms (none
+/// since they were added) have no rows.
+fn write_angles(out: &Path, points: &[((f64, f64, f64), serde_json::Value)]) -> Result<()> {
+    use crate::dem::shear::{ANGLE_BIN_DEG, ANGLE_BINS};
+    let names = [
+        "phi",
+        "q",
+        "rate",
+        "theta_lo_deg",
+        "theta_hi_deg",
+        "making",
+        "breaking",
+        "pdf",
+    ];
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let edge = |k: usize| k as f64 * 360.0 / ANGLE_BINS as f64 - 180.0;
+    for ((phi, q, rate), v) in points {
+        let counts = |key: &str| -> Option<Vec<f64>> {
+            let a = v.get(key)?.as_array()?;
+            let c: Vec<f64> = a.iter().filter_map(|x| x.as_f64()).collect();
+            (c.len() == ANGLE_BINS && a.len() == ANGLE_BINS).then_some(c)
+        };
+        let (Some(mk), Some(br)) = (
+            counts("collision_angle_making"),
+            counts("collision_angle_breaking"),
+        ) else {
+            continue;
+        };
+        let total: f64 = mk.iter().chain(&br).sum();
+        for k in 0..ANGLE_BINS {
+            let pdf = if total > 0.0 {
+                (mk[k] + br[k]) / (total * ANGLE_BIN_DEG)
+            } else {
+                0.0
+            };
+            let row = [*phi, *q, *rate, edge(k), edge(k + 1), mk[k], br[k], pdf];
+            for (c, x) in cols.iter_mut().zip(row) {
+                c.push(x);
+            }
+        }
+    }
+    let rows = cols[0].len();
+    let mut df = DataFrame::new(
+        rows,
+        names
+            .iter()
+            .zip(&cols)
+            .map(|(n, c)| Column::new((*n).into(), c))
+            .collect(),
+    )
+    .map_err(|e| Error::polars("building the sweep's angle table", e))?;
+    write_table(&mut df, &out.join(ANGLES))
 }

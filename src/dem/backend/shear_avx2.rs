@@ -142,6 +142,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
         let (si, sj) = (slots.i.as_ptr(), slots.j.as_ptr());
         let (inv_dij_p, dij2_p) = (slots.inv_dij.as_ptr(), slots.dij2.as_ptr());
         let (n, sums) = (acc.len(), acc);
+        let vel_all = vel;
         let (pos, vel) = (pos.as_ptr(), vel.as_ptr());
         let mut acc: *mut Quad;
         let mut dxs = [0.0f64; 4];
@@ -185,10 +186,13 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
                             .sum()
                     };
                     if held != mask {
+                        let mut imgs = [0.0f64; 4];
                         _mm256_storeu_pd(dxs.as_mut_ptr(), dx);
                         _mm256_storeu_pd(dys.as_mut_ptr(), dy);
+                        _mm256_storeu_pd(imgs.as_mut_ptr(), img);
                         let count = (len - k).min(4);
-                        contact_events(k, count, mask, (&dxs, &dys), hist, pp.now, coll);
+                        let v = (slots, vel_all, pp.shear_v);
+                        contact_events(k, count, mask, (&dxs, &dys, &imgs), v, hist, pp.now, coll);
                     }
                 }
                 let dist = _mm256_sqrt_pd(r2);

@@ -156,6 +156,7 @@ unsafe fn pairs8(slots: &Slots, k: usize) -> ([usize; 8], [usize; 8]) {
 #[target_feature(enable = "avx2,avx512f,avx512vl,avx512dq")]
 unsafe fn separations8<const TRACK: bool>(
     pos: *const Pos,
+    vel: &[Quad],
     slots: &Slots,
     k: usize,
     c: &Consts,
@@ -193,16 +194,18 @@ unsafe fn separations8<const TRACK: bool>(
             let h = _mm512_loadu_pd(hist.near.as_ptr().add(k));
             let held = _mm512_cmp_pd_mask::<_CMP_NEQ_UQ>(h, _mm512_setzero_pd());
             if held != touch {
-                let (mut dxs, mut dys) = ([0.0f64; 8], [0.0f64; 8]);
+                let (mut dxs, mut dys, mut imgs) = ([0.0f64; 8], [0.0f64; 8], [0.0f64; 8]);
                 _mm512_storeu_pd(dxs.as_mut_ptr(), dx);
                 _mm512_storeu_pd(dys.as_mut_ptr(), dy);
+                _mm512_storeu_pd(imgs.as_mut_ptr(), img);
                 let count = (slots.len() - k).min(8);
                 let t = touch as u32;
                 crate::dem::shear::near::contact_events(
                     k,
                     count,
                     t,
-                    (&dxs, &dys),
+                    (&dxs, &dys, &imgs),
+                    (slots, vel, pp.shear_v),
                     hist,
                     pp.now,
                     coll,
@@ -303,6 +306,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         one: _mm512_set1_pd(1.0),
     };
     let (n, sums) = (acc.len(), acc);
+    let vel_all = vel;
     let (pos, vel) = (pos.as_ptr(), vel.as_ptr());
     let zero = _mm512_setzero_pd();
     let mut a = Seps {
@@ -320,7 +324,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         let groups = ((padded - k0) / 8).min(GROUPS);
         for g in 0..groups {
             // SAFETY: k0 + 8 g + 8 <= padded, and this function's contract.
-            let s = unsafe { separations8::<TRACK>(pos, slots, k0 + 8 * g, &c, hist, pp, coll) };
+            let s = unsafe { separations8::<TRACK>(pos, vel_all, slots, k0 + 8 * g, &c, hist, pp, coll) };
             (a.dx[g], a.dy[g], a.img[g], a.r2[g], a.touch[g]) = s;
         }
         for g in 0..groups {

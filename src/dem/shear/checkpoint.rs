@@ -1,7 +1,9 @@
 //! Exact binary checkpoints of a sheared-disk run (same codec as the pillar's).
 
 use crate::dem::base::codec::{Dec, Enc, check_state, dec_grains, dec_list, enc_grains, enc_list};
-use crate::dem::shear::{Collisions, DurationHistogram, Predicted, ShearParams, ShearSim};
+use crate::dem::shear::{
+    ANGLE_BINS, Collisions, DurationHistogram, Predicted, ShearParams, ShearSim,
+};
 
 const MAGIC: &[u8; 8] = b"PPSHEAR1";
 
@@ -57,6 +59,7 @@ impl ShearSim {
             e.i64s(&h.count.iter().map(|&v| v as i64).collect::<Vec<_>>());
             e.f64s(&h.sum);
         }
+        e.u64(self.coll.angle_undefined);
         e.0
     }
 
@@ -84,6 +87,17 @@ impl ShearSim {
         let (begun, ended, duration_sum) = (d.u64()?, d.u64()?, d.f64()?);
         let to_u = |v: Vec<i64>| v.into_iter().map(|x| x as u64).collect::<Vec<u64>>();
         let (angle_making, angle_breaking) = (to_u(d.i64s()?), to_u(d.i64s()?));
+        if angle_making.len() != ANGLE_BINS || angle_breaking.len() != ANGLE_BINS {
+            // Before the collision angle of Eq. 27 the histograms held 50 bins of the
+            // direction of r_ij: those counts cannot be continued as ϑ.
+            return Err(format!(
+                "its collision-angle histograms have {} bins, not {ANGLE_BINS}: the checkpoint \
+                 was written by an earlier version, which binned the direction of r_ij rather \
+                 than the collision angle ϑ of vagberg-sheared-disks Eq. 27; this run cannot be \
+                 continued with the same statistics — start it again without --resume",
+                angle_making.len()
+            ));
+        }
         let mut coll = Collisions {
             begun,
             ended,
@@ -109,6 +123,10 @@ impl ShearSim {
                 }
                 *h = DurationHistogram { count, sum };
             }
+        }
+        // Added with the collision angle of Eq. 27.
+        if !d.done() {
+            coll.angle_undefined = d.u64()?;
         }
         if !d.done() {
             return Err(d.trailing());

@@ -26,8 +26,9 @@ use crate::dem::shear::slots::evaluate;
 use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
 use crate::rng::Rng;
 pub use params::{
-    ANGLE_BINS, Collisions, Dissipation, DurationHistogram, ShearParams, Virial, angle_bin,
-    cohort_half,
+    ANGLE_BIN_DEG, ANGLE_BINS, ANGLE_BINS_AT_90, ANGLE_BINS_AT_MINUS_90, Collisions,
+    Dissipation, DurationHistogram, ShearParams, Virial, angle_bin, cohort_half,
+    collision_angle,
 };
 
 #[derive(Debug, Clone, PartialEq)]

@@ -12,7 +12,7 @@
 //! summation and the contact bookkeeping are those of the whole list.
 
 use crate::dem::base::verlet::{Boundary, PairList, strain_since, stray_limit, strays};
-use crate::dem::shear::params::{Collisions, angle_bin};
+use crate::dem::shear::params::{Collisions, angle_bin, collision_angle};
 
 /// Extra distance beyond contact kept in the near list (d_s): the range its skin adapts
 /// in, and where it starts.
@@ -327,19 +327,21 @@ pub struct History<'a> {
 
 impl History<'_> {
     /// Near slot k at time `now` (τ_e), whose pair touches or not (separation (dx, dy),
-    /// d_s): see [`contact_event`].
+    /// d_s; relative velocity `dv()`, d_s/τ_e, asked for only at an event): see
+    /// [`contact_event`].
     #[inline]
     pub fn update(
         &mut self,
         k: usize,
         touch: bool,
         d: (f64, f64),
+        dv: impl FnOnce() -> (f64, f64),
         now: f64,
         coll: &mut Collisions,
     ) {
         let h = self.near[k];
         if touch != (h != 0.0) {
-            let new = contact_event(h, touch, d, now, coll);
+            let new = contact_event(h, touch, d, dv(), now, coll);
             self.near[k] = new;
             self.all[self.sel[k] as usize] = new;
         }
@@ -347,27 +349,37 @@ impl History<'_> {
 }
 
 /// A pair's contact history `h` (0, or 1 + the time the contact began) at time `now`
-/// (τ_e), the pair touching or not (separation (dx, dy), d_s): a contact that begins gets
-/// its start time, one that ends adds its duration; both count, and their direction goes
-/// into the collision-angle histograms. Returns the new history.
+/// (τ_e), the pair touching or not (separation r_ij = (dx, dy), d_s; relative velocity
+/// v_ij = `dv`, d_s/τ_e, the image's Lees–Edwards velocity included): a contact that
+/// begins gets its start time, one that ends adds its duration; both count, and their
+/// collision angle ϑ (Eq. 27) goes into the making or breaking histogram. Returns the
+/// new history.
 #[inline]
 pub fn contact_event(
     h: f64,
     touch: bool,
-    (dx, dy): (f64, f64),
+    d: (f64, f64),
+    dv: (f64, f64),
     now: f64,
     coll: &mut Collisions,
 ) -> f64 {
     if touch == (h != 0.0) {
         return h;
     }
-    let bin = angle_bin(dx, dy);
+    let bin = collision_angle(d, dv).map(angle_bin);
+    let hist = if touch {
+        &mut coll.angle_making
+    } else {
+        &mut coll.angle_breaking
+    };
+    match bin {
+        Some(b) => hist[b] += 1,
+        None => coll.angle_undefined += 1,
+    }
     if touch {
         coll.begun += 1;
-        coll.angle_making[bin] += 1;
         1.0 + now
     } else {
-        coll.angle_breaking[bin] += 1;
         coll.ended_at(h - 1.0, now);
         0.0
     }
@@ -386,20 +398,29 @@ pub(crate) type Done<'a> =
 pub(crate) const DONE_MIN: usize = 48;
 
 /// Contact events of the `count` slots from k on (`touch` bits, separations `dx`, `dy`
-/// by lane; see `History::update`). Out of line: rare, and inlined it would crowd the
-/// hot loop's registers.
+/// and Lees–Edwards image numbers `img` by lane; see `History::update`), the relative
+/// velocities read from the packed (v_x, v_y, ω, R) records `vel` as the kernels form
+/// them. Out of line: rare, and inlined it would crowd the hot loop's registers.
 #[cold]
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn contact_events(
     k: usize,
     count: usize,
     touch: u32,
-    (dx, dy): (&[f64], &[f64]),
+    (dx, dy, img): (&[f64], &[f64], &[f64]),
+    (slots, vel, shear_v): (&Slots, &[crate::dem::backend::simd::Quad], f64),
     hist: &mut History,
     now: f64,
     coll: &mut Collisions,
 ) {
     for l in 0..count {
-        hist.update(k + l, touch >> l & 1 == 1, (dx[l], dy[l]), now, coll);
+        let dv = || {
+            let (i, j) = (slots.i[k + l] as usize, slots.j[k + l] as usize);
+            let (vi, vj) = (vel[i].0, vel[j].0);
+            // As the pair loop's `Motion`: j's image moves img·γ̇L faster along x.
+            (vi[0] - vj[0] - img[l] * shear_v, vi[1] - vj[1])
+        };
+        hist.update(k + l, touch >> l & 1 == 1, (dx[l], dy[l]), dv, now, coll);
     }
 }

@@ -94,7 +94,7 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
             let mut no_history = 0.0;
             let c = law.pair((dx, dy), (r[i], r[j]), m, &mut no_history, 0.0);
             if track {
-                hist[k] = contact_event(hist[k], c.is_some(), (dx, dy), now, coll);
+                hist[k] = contact_event(hist[k], c.is_some(), (dx, dy), (m.dvx, m.dvy), now, coll);
             }
             let Some(c) = c else { continue };
             if VIRIAL {

@@ -101,10 +101,12 @@ pub struct Collisions {
     pub ended: u64,
     /// Σ durations of the contacts that ended (τ_e).
     pub duration_sum: f64,
-    /// Histograms of the collision angle ϑ (direction of r_ij from the flow direction x̂,
-    /// folded into [0°, 180°)) at contact making and breaking, in bins of 3.6°.
+    /// Histograms of the collision angle ϑ of Eq. 27 ([`collision_angle`]) at contact
+    /// making and breaking, in [`ANGLE_BINS`] bins of 3.6° ([`angle_bin`]); events with
+    /// no relative velocity have no angle and are counted in `angle_undefined`.
     pub angle_making: Vec<u64>,
     pub angle_breaking: Vec<u64>,
+    pub angle_undefined: u64,
     /// The cohort whose durations give τ_dur without censoring bias: contacts begun at
     /// or after `window_start` (τ_e; +∞ until the caller opens the window). Those that
     /// ended are recorded here, by duration and by half of the cohort (see
@@ -122,6 +124,7 @@ impl Default for Collisions {
             duration_sum: 0.0,
             angle_making: vec![0; ANGLE_BINS],
             angle_breaking: vec![0; ANGLE_BINS],
+            angle_undefined: 0,
             window_start: f64::INFINITY,
             cohort_ended: Default::default(),
         }
@@ -199,15 +202,46 @@ impl DurationHistogram {
     }
 }
 
-/// Bins of the collision-angle histograms: 3.6° over [0°, 180°).
-pub const ANGLE_BINS: usize = 50;
+/// Bins of the collision-angle histograms: 3.6° over (−180°, 180°]
+/// (vagberg-sheared-disks Sec. III.C, Δϑ = 3.6°).
+pub const ANGLE_BINS: usize = 100;
 
-/// Histogram bin of the direction (dx, dy), folded to [0°, 180°).
+/// Width of a collision-angle bin (degrees).
+pub const ANGLE_BIN_DEG: f64 = 360.0 / ANGLE_BINS as f64;
+
+/// The collision angle ϑ of vagberg-sheared-disks Eq. 27 (degrees, −180° < ϑ ≤ 180°):
+/// the angle by which v_ij = v_i − v_j must be rotated (counter-clockwise positive) to lie
+/// along r_ij = r_i − r_j, so cos ϑ = v̂_ij · r̂_ij. Grains that approach have |ϑ| > 90°,
+/// grains that separate |ϑ| < 90°. `None` when v_ij or r_ij is zero or not finite.
 #[inline]
-pub fn angle_bin(dx: f64, dy: f64) -> usize {
-    let a = dy.atan2(dx).to_degrees().rem_euclid(180.0);
-    ((a / (180.0 / ANGLE_BINS as f64)) as usize).min(ANGLE_BINS - 1)
+pub fn collision_angle((rx, ry): (f64, f64), (vx, vy): (f64, f64)) -> Option<f64> {
+    let dot = vx * rx + vy * ry;
+    let cross = vx * ry - vy * rx;
+    if !(dot != 0.0 || cross != 0.0) {
+        return None;
+    }
+    let t = cross.atan2(dot).to_degrees();
+    if t.is_nan() {
+        return None;
+    }
+    // atan2 gives −180° for a −0 cross product: the same direction as +180°, which the
+    // paper's half-open range keeps.
+    Some(if t <= -180.0 { 180.0 } else { t.min(180.0) })
 }
+
+/// Histogram bin of the collision angle `theta` (degrees, −180° < ϑ ≤ 180°): bin k covers
+/// (−180° + 3.6° k, −180° + 3.6° (k + 1)].
+#[inline]
+pub fn angle_bin(theta: f64) -> usize {
+    // ×100/360 rather than /3.6: the edges at multiples of 90° are then exact.
+    let u = (theta + 180.0) * ANGLE_BINS as f64 / 360.0;
+    (u.ceil() as usize).saturating_sub(1).min(ANGLE_BINS - 1)
+}
+
+/// The bins on either side of ϑ = +90° (k = 74, 75) and of ϑ = −90° (k = 24, 25), whose
+/// mean density is reported as P(90°) and P(−90°) (Figs. 9, 19): 90° is an edge.
+pub const ANGLE_BINS_AT_90: [usize; 2] = [74, 75];
+pub const ANGLE_BINS_AT_MINUS_90: [usize; 2] = [24, 25];
 
 /// Positions, velocities, spins and radii of one state: x, y, v_x, v_y, ω, R.
 pub type StateSlices<'a> = (

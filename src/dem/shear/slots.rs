@@ -122,7 +122,7 @@ pub fn evaluate<const TRACK: bool>(
                 (true, false) => forces_cdrot_general(st, si, sj, inv, pp, &sep, f),
                 (false, false) => forces_cd_general(st, si, sj, inv, pp, &sep, f),
             }
-            sums::<TRACK>(si, sj, &sep, &frc, (hist, b0), pp.now, fx, fy, tq, coll);
+            sums::<TRACK>(si, sj, &sep, &frc, (hist, b0), (vx, vy), pp, fx, fy, tq, coll);
         }
     });
 }
@@ -326,7 +326,8 @@ fn sums<const TRACK: bool>(
     b: &Seps,
     o: &Forces,
     (hist, b0): (&mut History, usize),
-    now: f64,
+    (vx, vy): (&[f64], &[f64]),
+    pp: &PairParams,
     fx: &mut [f64],
     fy: &mut [f64],
     tq: &mut [f64],
@@ -358,7 +359,12 @@ fn sums<const TRACK: bool>(
     }
     if TRACK {
         for k in 0..len.min(BLOCK) {
-            hist.update(b0 + k, b.touch[k], (b.dx[k], b.dy[k]), now, coll);
+            // As `contact_forces`' Motion: j's image moves img·γ̇L faster along x.
+            let dv = || {
+                let (i, j) = (si[k] as usize, sj[k] as usize);
+                (vx[i] - vx[j] - b.img[k] * pp.shear_v, vy[i] - vy[j])
+            };
+            hist.update(b0 + k, b.touch[k], (b.dx[k], b.dy[k]), dv, pp.now, coll);
         }
     }
 }

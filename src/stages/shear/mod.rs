@@ -463,11 +463,17 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         );
     }
     let cohort = crate::stages::shear::stats::Cohort::of(&sim);
-    let summary = summarize(&cols, &p, sim.g.len(), opt, &cohort)?;
+    let mut summary = summarize(&cols, &p, sim.g.len(), opt, &cohort)?;
     steady.write(&sim, out)?;
+    let (making, breaking) = steady.angle_counts(&sim);
+    summary.extend(crate::stages::shear::stats::collision_angle_stats(
+        &making, &breaking,
+    ));
     let summary_json = serde_json::json!({
         "params": p, "options": opt, "steps": sim.step, "strain": sim.strain(),
         "box_side": sim.l, "averaged_from_strain": opt.transient * opt.strain, "blocks": opt.blocks,
+        // Eq. 27's ϑ over the steady window: bin k covers (−180° + 3.6° k, −180° + 3.6° (k + 1)].
+        "collision_angle_making": making, "collision_angle_breaking": breaking,
         "quantities": summary.iter().map(|(k, v)| (k.clone(), serde_json::json!({"mean": v.mean, "err": v.err}))).collect::<serde_json::Map<_, _>>(),
     });
     let mut flat = summary_json["quantities"].clone();

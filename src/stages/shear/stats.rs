@@ -212,3 +212,56 @@ pub(crate) fn summarize(
     );
     Ok(s)
 }
+
+/// The collision-angle statistics of the steady window (vagberg-sheared-disks Eq. 27,
+/// Figs. 8–9, 18–19) from the making and breaking counts (`ANGLE_BINS` bins of 3.6°):
+/// - `p_theta_90`, `p_theta_minus_90`: P(ϑ) per degree of both histograms together (the
+///   paper's P combines initiation and breaking), averaged over the two bins that meet
+///   at +90° (bins 74, 75) or −90° (bins 24, 25); error from the counts (Poisson);
+/// - `making_approaching_fraction`: the making events with |ϑ| > 90° (grains driven into
+///   each other; bins 0–24 and 75–99), and `breaking_separating_fraction`: the breaking
+///   events with |ϑ| < 90° (bins 25–74), each with its binomial error. The paper's
+///   geometry makes both 1; anything else measures how far a contact opens or closes
+///   within one time step.
+///
+/// Quantities that have no events are left out.
+pub(crate) fn collision_angle_stats(making: &[u64], breaking: &[u64]) -> BTreeMap<String, MeanErr> {
+    use crate::dem::shear::{ANGLE_BIN_DEG, ANGLE_BINS_AT_90, ANGLE_BINS_AT_MINUS_90};
+    let mut s = BTreeMap::new();
+    let total = (making.iter().sum::<u64>() + breaking.iter().sum::<u64>()) as f64;
+    if total > 0.0 {
+        for (key, bins) in [
+            ("p_theta_90", ANGLE_BINS_AT_90),
+            ("p_theta_minus_90", ANGLE_BINS_AT_MINUS_90),
+        ] {
+            let c: u64 = bins.iter().map(|&k| making[k] + breaking[k]).sum();
+            let norm = bins.len() as f64 * total * ANGLE_BIN_DEG;
+            s.insert(
+                key.to_string(),
+                MeanErr {
+                    mean: c as f64 / norm,
+                    err: (c as f64).sqrt() / norm,
+                },
+            );
+        }
+    }
+    let fraction = |h: &[u64], keep: &dyn Fn(usize) -> bool| {
+        let n = h.iter().sum::<u64>() as f64;
+        (n > 0.0).then(|| {
+            let k: u64 = (0..h.len()).filter(|&b| keep(b)).map(|b| h[b]).sum();
+            let f = k as f64 / n;
+            MeanErr {
+                mean: f,
+                err: (f * (1.0 - f) / n).sqrt(),
+            }
+        })
+    };
+    let outward = |b: usize| b >= ANGLE_BINS_AT_MINUS_90[1] && b <= ANGLE_BINS_AT_90[0];
+    if let Some(f) = fraction(making, &|b| !outward(b)) {
+        s.insert("making_approaching_fraction".into(), f);
+    }
+    if let Some(f) = fraction(breaking, &outward) {
+        s.insert("breaking_separating_fraction".into(), f);
+    }
+    s
+}

@@ -1,9 +1,9 @@
 //! Steady-state accumulations of a sheared-disk run beyond the series: the collision
-//! angle histograms at contact making and breaking (3.6° bins) and the velocity profile
+//! angle ϑ (vagberg-sheared-disks Eq. 27) at contact making and breaking (3.6° bins) and the velocity profile
 //! v_x(y) — both counted only after the transient.
 
 use crate::dem::base::codec::{Dec, Enc};
-use crate::dem::shear::{ANGLE_BINS, ShearSim};
+use crate::dem::shear::{ANGLE_BIN_DEG, ANGLE_BINS, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
 use polars::prelude::*;
@@ -155,6 +155,21 @@ impl Steady {
         })
     }
 
+    /// The collision-angle counts (ϑ of Eq. 27) of the steady window: (making, breaking),
+    /// [`ANGLE_BINS`] each.
+    pub fn angle_counts(&self, sim: &ShearSim) -> (Vec<u64>, Vec<u64>) {
+        let diff = |now: &[u64], then: &[u64]| {
+            now.iter()
+                .zip(then.iter().chain(std::iter::repeat(&0)))
+                .map(|(a, b)| a.saturating_sub(*b))
+                .collect::<Vec<u64>>()
+        };
+        (
+            diff(&sim.coll.angle_making, &self.making0),
+            diff(&sim.coll.angle_breaking, &self.breaking0),
+        )
+    }
+
     /// `collision_angles.parquet`, `profile.parquet` and `contact_velocities.parquet`.
     pub fn write(&self, sim: &ShearSim, out: &Path) -> Result<()> {
         if !self.started {
@@ -163,35 +178,33 @@ impl Steady {
                 "the run ended before its steady window began",
             ));
         }
-        let w = 180.0 / ANGLE_BINS as f64;
-        let diff = |now: &[u64], then: &[u64]| {
-            now.iter()
-                .zip(then)
-                .map(|(a, b)| (a - b) as f64)
-                .collect::<Vec<f64>>()
-        };
-        let (mk, br) = (
-            diff(&sim.coll.angle_making, &self.making0),
-            diff(&sim.coll.angle_breaking, &self.breaking0),
+        let (mk, br) = self.angle_counts(sim);
+        let (mk, br): (Vec<f64>, Vec<f64>) = (
+            mk.iter().map(|&c| c as f64).collect(),
+            br.iter().map(|&c| c as f64).collect(),
         );
+        let both: Vec<f64> = mk.iter().zip(&br).map(|(a, b)| a + b).collect();
         // Probability density per degree, so curves from runs of any length compare.
         let pdf = |c: &[f64]| {
             let t: f64 = c.iter().sum();
             c.iter()
-                .map(|x| if t > 0.0 { x / (t * w) } else { 0.0 })
+                .map(|x| if t > 0.0 { x / (t * ANGLE_BIN_DEG) } else { 0.0 })
                 .collect::<Vec<f64>>()
         };
-        let lo: Vec<f64> = (0..ANGLE_BINS).map(|k| k as f64 * w).collect();
-        let hi: Vec<f64> = lo.iter().map(|x| x + w).collect();
+        // Edges as k·360/100 − 180, exact at the multiples of 90°.
+        let edge = |k: usize| k as f64 * 360.0 / ANGLE_BINS as f64 - 180.0;
+        let lo: Vec<f64> = (0..ANGLE_BINS).map(edge).collect();
+        let hi: Vec<f64> = (1..=ANGLE_BINS).map(edge).collect();
         let mut df = DataFrame::new(
             ANGLE_BINS,
             vec![
-                Column::new("angle_lo_deg".into(), &lo),
-                Column::new("angle_hi_deg".into(), &hi),
+                Column::new("theta_lo_deg".into(), &lo),
+                Column::new("theta_hi_deg".into(), &hi),
                 Column::new("making".into(), &mk),
                 Column::new("breaking".into(), &br),
                 Column::new("making_pdf".into(), &pdf(&mk)),
                 Column::new("breaking_pdf".into(), &pdf(&br)),
+                Column::new("pdf".into(), &pdf(&both)),
             ],
         )
         .map_err(|e| Error::polars("building the angle table", e))?;

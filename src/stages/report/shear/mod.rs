@@ -2,11 +2,13 @@
 //! curves, Z beside 2τ_dur ν_coll, μ, rotation and R_v against φ, P^el, τ_dur/τ_e and
 //! ν_coll/γ̇ against φ and Q (`elastic`), and the
 //! Newtonian/Bagnoldian classification with its phase diagrams; for one run, its
-//! steady-state summary, P(ϑ) at contact making and breaking, contact velocities and
+//! steady-state summary, P(ϑ) of Eq. 27 at contact making and breaking (`angles`, with
+//! the sweep's P(ϑ) at three Q and P(90°) against Q), contact velocities and
 //! shear-band profiles and fields (`run_figures`); for a branch's
 //! strain-rate ramps, the hysteresis loop (`ramp`). A sweep with grid points missing (a
 //! killed one) is shown as far as it goes, naming what is missing.
 
+pub mod angles;
 pub mod classify;
 mod elastic;
 pub mod ramp;
@@ -48,6 +50,8 @@ pub struct SweepData {
     pub model: String,
     pub n: Option<u64>,
     pub strain: Option<f64>,
+    /// Each run's collision-angle P(ϑ) (`sweep_angles.parquet`), in grid order.
+    pub angles: Vec<angles::AnglePdf>,
 }
 
 /// Read `sweep.parquet` and `sweep.json` from a sweep's directory; grid points of
@@ -105,6 +109,7 @@ pub fn read_sweep(dir: &Path) -> Result<SweepData> {
         model: o["model"].as_str().unwrap_or("?").to_string(),
         n: o["n"].as_u64(),
         strain: o["strain"].as_f64(),
+        angles: angles::read_sweep_angles(dir)?,
     })
 }
 
@@ -470,6 +475,7 @@ pub fn sweep_section(
         )?;
     }
     elastic::add_figures(&mut f, &data.rows, &colour_of)?;
+    angles::add_sweep_figures(&mut f, &data.rows, &data.angles)?;
     // Classification.
     let c = classify(&data.rows);
     write_classification(out_dir, label, &c)?;
@@ -665,26 +671,7 @@ pub fn shear_section(
     }
     let af = dir.join("collision_angles.parquet");
     if af.exists() {
-        let t = read_table(&af, &[])?;
-        let (lo, hi) = (t.f64("angle_lo_deg")?, t.f64("angle_hi_deg")?);
-        let mid: Vec<f64> = lo.iter().zip(&hi).map(|(a, b)| 0.5 * (a + b)).collect();
-        let series = [("making", "making_pdf", 0), ("breaking", "breaking_pdf", 1)]
-            .into_iter()
-            .map(|(name, col, colour)| -> Result<XySeries> {
-                let y = t.f64(col)?;
-                Ok(XySeries {
-                    label: format!("contacts {name}"),
-                    points: mid.iter().zip(&y).map(|(x, y)| (*x, *y, 0.0)).collect(),
-                    markers_only: false,
-                    colour,
-                })
-            })
-            .collect::<Result<Vec<_>>>()?;
-        f.add(
-            &XyFigure { title: "P(ϑ) at contact making and breaking (Figs. 8, 18)".into(), x_desc: "ϑ (degrees)".into(), y_desc: "P(ϑ) (1/degree)".into(), x_log: false, y_log: false, series },
-            "angles",
-            "Distribution of the contact direction ϑ of r_ij when contacts form and when they break over the steady window: forming near 135° (the compressive axis), breaking near 45° (vagberg-sheared-disks Figs. 8, 18).".into(),
-        )?;
+        angles::add_run_figure(&mut f, &af)?;
     }
     run_figures::add(&mut f, dir, rate)?;
     Ok(Section {

@@ -1,0 +1,179 @@
+//! The collision-angle figures (vagberg-sheared-disks Sec. III.C, Eq. 27): ϑ is the angle
+//! by which v_ij must be rotated to lie along r_ij (cos ϑ = v̂_ij · r̂_ij, −180° < ϑ ≤ 180°),
+//! counted at every contact making and breaking. For one run, P(ϑ) with its making and
+//! breaking parts (Figs. 7–8, 18); for a sweep, P(ϑ) at three Q per φ (Figs. 8, 18) and
+//! P(90°) against Q (Figs. 9, 19).
+
+use super::{Figures, Row, key, versus_q};
+use crate::error::Result;
+use crate::io::table::read_table;
+use crate::stages::report::render::curves::{XyFigure, XySeries};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// One run's P(ϑ) (per degree, making and breaking together) at the bin centres.
+#[derive(Debug, Clone)]
+pub struct AnglePdf {
+    pub phi: f64,
+    pub q: f64,
+    pub rate: f64,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Read a sweep's `sweep_angles.parquet`, one [`AnglePdf`] per run, in table order; none
+/// when the file is absent (a sweep written before the angle of Eq. 27).
+pub fn read_sweep_angles(dir: &Path) -> Result<Vec<AnglePdf>> {
+    let f = dir.join(crate::stages::sweep::ANGLES);
+    if !f.exists() {
+        return Ok(Vec::new());
+    }
+    let t = read_table(&f, &[])?;
+    let (phi, q, rate) = (t.f64("phi")?, t.f64("q")?, t.f64("rate")?);
+    let (lo, hi, pdf) = (t.f64("theta_lo_deg")?, t.f64("theta_hi_deg")?, t.f64("pdf")?);
+    let mut out: Vec<AnglePdf> = Vec::new();
+    for i in 0..phi.len() {
+        let same = out
+            .last()
+            .is_some_and(|a| (a.phi, a.q, a.rate) == (phi[i], q[i], rate[i]));
+        if !same {
+            out.push(AnglePdf {
+                phi: phi[i],
+                q: q[i],
+                rate: rate[i],
+                points: Vec::new(),
+            });
+        }
+        let a = out.last_mut().expect("pushed above");
+        a.points.push((0.5 * (lo[i] + hi[i]), pdf[i]));
+    }
+    Ok(out)
+}
+
+/// The Q values drawn for one φ: the least, the middle and the largest of those run (all
+/// of them when there are three or fewer), as the paper shows one Q well above Q_c, one
+/// well below and one near it.
+fn three_q(mut qs: Vec<f64>) -> Vec<f64> {
+    qs.sort_by(f64::total_cmp);
+    qs.dedup();
+    if qs.len() <= 3 {
+        return qs;
+    }
+    vec![qs[0], qs[qs.len() / 2], qs[qs.len() - 1]]
+}
+
+/// Add P(ϑ) at three Q for each φ (at the sweep's smallest rate, the paper's
+/// γ̇ τ_e = 1e-5 being its slowest) and P(±90°) against Q.
+pub(super) fn add_sweep_figures(f: &mut Figures, rows: &[Row], pdfs: &[AnglePdf]) -> Result<()> {
+    if let Some(rate) = pdfs.iter().map(|a| a.rate).min_by(f64::total_cmp) {
+        let mut by_phi: BTreeMap<i64, Vec<&AnglePdf>> = BTreeMap::new();
+        for a in pdfs.iter().filter(|a| a.rate == rate) {
+            by_phi.entry(key(a.phi)).or_default().push(a);
+        }
+        for runs in by_phi.values() {
+            let phi = runs[0].phi;
+            let qs = three_q(runs.iter().map(|a| a.q).collect());
+            let series = runs
+                .iter()
+                .filter(|a| qs.contains(&a.q))
+                .enumerate()
+                .map(|(k, a)| XySeries {
+                    label: format!("Q = {}", a.q),
+                    points: a.points.iter().map(|(x, y)| (*x, *y, 0.0)).collect(),
+                    markers_only: false,
+                    colour: k,
+                })
+                .collect();
+            f.add(
+                &XyFigure {
+                    title: format!("P(ϑ) at φ = {phi}, three Q (Figs. 8, 18)"),
+                    x_desc: "ϑ (degrees), Eq. 27".into(),
+                    y_desc: "P(ϑ) (1/degree)".into(),
+                    x_log: false,
+                    y_log: false,
+                    series,
+                },
+                &format!("theta_phi_{}", key(phi)),
+                format!(
+                    "The collision angle ϑ (Eq. 27: the rotation that takes the relative velocity v_ij onto r_ij) at every contact making and breaking, as one histogram per degree, at φ = {phi} and γ̇ τ_e = {rate:e} for the least, a middle and the largest Q run: above Q_c collisions come from every direction, with minima at ±90°; below Q_c they are glancing, peaked at ±90° (vagberg-sheared-disks Figs. 8 for CD, 18 for CDrot). Making events lie at |ϑ| > 90°, breaking events at |ϑ| < 90°."
+                ),
+            )?;
+        }
+    }
+    let mut series = versus_q(rows, "p_theta_90");
+    if series.is_empty() {
+        return Ok(());
+    }
+    for s in &mut series {
+        s.label = format!("P(90°), {}", s.label);
+    }
+    let n = series.len();
+    for mut s in versus_q(rows, "p_theta_minus_90") {
+        s.label = format!("P(−90°), {}", s.label);
+        s.markers_only = true;
+        s.colour %= n.max(1);
+        series.push(s);
+    }
+    f.add(
+        &XyFigure {
+            title: "P(ϑ = 90°) against Q (Figs. 9, 19)".into(),
+            x_desc: "Q".into(),
+            y_desc: "P(90°) (1/degree)".into(),
+            x_log: true,
+            y_log: false,
+            series,
+        },
+        "p_theta_90",
+        "P(ϑ = 90°), the density of the collision angle (Eq. 27) at tangential collisions, against Q for each (φ, γ̇): the mean of the two 3.6° bins that meet at +90° (curves; open markers: the two at −90°), counting errors as bars. Near zero above Q_c (Bagnoldian: collisions from every direction), rising sharply below it (Newtonian: glancing contacts) (vagberg-sheared-disks Figs. 9 for CD, 19 for CDrot).".into(),
+    )
+}
+
+/// One run's P(ϑ) with its making and breaking parts, from its `collision_angles.parquet`.
+pub(super) fn add_run_figure(f: &mut Figures, file: &Path) -> Result<()> {
+    let t = read_table(file, &[])?;
+    let (lo, hi) = (t.f64("theta_lo_deg")?, t.f64("theta_hi_deg")?);
+    let mid: Vec<f64> = lo.iter().zip(&hi).map(|(a, b)| 0.5 * (a + b)).collect();
+    let (mk, br) = (t.f64("making")?, t.f64("breaking")?);
+    let total: f64 = mk.iter().chain(&br).sum();
+    // Each part as its share of P(ϑ), so the two add up to the paper's histogram.
+    let share = |c: &[f64]| -> Vec<f64> {
+        c.iter()
+            .map(|x| if total > 0.0 { x / (total * 3.6) } else { 0.0 })
+            .collect()
+    };
+    let series = [
+        ("P(ϑ), making and breaking", t.f64("pdf")?, 0),
+        ("contacts making", share(&mk), 1),
+        ("contacts breaking", share(&br), 2),
+    ]
+    .into_iter()
+    .map(|(label, y, colour)| XySeries {
+        label: label.into(),
+        points: mid.iter().zip(&y).map(|(x, y)| (*x, *y, 0.0)).collect(),
+        markers_only: colour != 0,
+        colour,
+    })
+    .collect();
+    f.add(
+        &XyFigure {
+            title: "P(ϑ), ϑ of Eq. 27, at contact making and breaking (Figs. 7–8, 18)".into(),
+            x_desc: "ϑ (degrees)".into(),
+            y_desc: "P(ϑ) (1/degree)".into(),
+            x_log: false,
+            y_log: false,
+            series,
+        },
+        "angles",
+        "The collision angle ϑ of Eq. 27 (the rotation that takes the relative velocity v_ij = v_i − v_j onto r_ij = r_i − r_j, −180° < ϑ ≤ 180°) over the steady window: the paper's P(ϑ), making and breaking together (line), and each part's share (markers). Contacts form with the grains driven together (|ϑ| > 90°) and break with them driven apart (|ϑ| < 90°) (vagberg-sheared-disks Figs. 7–8, 18).".into(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::three_q;
+
+    #[test]
+    fn three_q_keeps_the_ends_and_a_middle() {
+        assert_eq!(three_q(vec![5.0, 1.0]), [1.0, 5.0]);
+        assert_eq!(three_q(vec![20.0, 1.0, 5.0, 2.0, 1.0]), [1.0, 5.0, 20.0]);
+    }
+}
