@@ -917,3 +917,81 @@ fn a_contact_made_across_the_seam_has_the_image_velocity_in_its_angle() {
         }
     }
 }
+
+/// The collision angle's two limits: in a dilute elastic gas (φ = 0.6, Q = 20) impact
+/// parameters are spread evenly, so P(ϑ) vanishes at grazing (±90°) and its mass lies
+/// at head-on angles; in dense, strongly damped flow (φ = 0.76, Q = 0.1) contacts form
+/// and break glancing, peaked at ±90° (vagberg-sheared-disks Figs. 8–9).
+#[test]
+fn p_theta_90_is_small_in_a_dilute_gas_and_peaks_in_dense_damped_flow() {
+    let uniform = 1.0 / 360.0;
+    let mut p90 = Vec::new();
+    for (phi, q, rate) in [(0.6, 20.0, 1e-3), (0.76, 0.1, 1e-4)] {
+        let out = tmpdir("p90");
+        let opt = ShearOptions {
+            n: 256,
+            phi,
+            q,
+            rate,
+            model: Dissipation::Cd,
+            strain: 2.0,
+            quiet: true,
+            ..Default::default()
+        };
+        let s = run(&out, &opt).unwrap().summary;
+        p90.push(s["p_theta_90"].mean);
+    }
+    assert!(p90[0] < 0.3 * uniform, "dilute gas: P(90°) = {}", p90[0]);
+    assert!(p90[1] > 3.0 * uniform, "dense, damped: P(90°) = {}", p90[1]);
+}
+
+/// CDn (normal dissipation only) is Bagnoldian, p ∝ γ̇², where CD at the same φ and Q
+/// is not (vagberg-sheared-disks Sec. II, citing the CDn papers); it runs the reference
+/// loop, which the manifest says.
+#[test]
+fn cdn_is_bagnoldian_where_cd_is_not() {
+    let slope = |model: Dissipation| {
+        let p: Vec<f64> = [1e-3, 1e-4]
+            .iter()
+            .map(|&rate| {
+                let out = tmpdir("cdn");
+                let opt = ShearOptions {
+                    n: 256,
+                    phi: 0.82,
+                    q: 1.0,
+                    rate,
+                    model,
+                    strain: 1.0,
+                    quiet: true,
+                    ..Default::default()
+                };
+                let rep = run(&out, &opt).unwrap();
+                if model == Dissipation::Cdn {
+                    let m = std::fs::read_to_string(out.join("manifest.json")).unwrap();
+                    assert!(m.contains("\"force_kernel\": \"reference\""), "{m}");
+                }
+                rep.summary["p"].mean
+            })
+            .collect();
+        (p[0] / p[1]).log10()
+    };
+    let (cdn, cd) = (slope(Dissipation::Cdn), slope(Dissipation::Cd));
+    assert!((cdn - 2.0).abs() < 0.2, "CDn: d ln p / d ln γ̇ = {cdn}");
+    assert!(cd < 1.5, "CD: d ln p / d ln γ̇ = {cd}");
+}
+
+/// A checkpoint from before the collision angle of Eq. 27 (50 bins of r_ij's direction)
+/// is refused with the reason, never continued with the old counts under the new name.
+#[test]
+fn a_checkpoint_with_the_old_direction_histograms_is_refused_with_the_reason() {
+    let mut s = ShearSim::new(params(64, 0.5, Dissipation::Cd, 1e-3));
+    let good = s.save(&[]);
+    assert!(ShearSim::load(&good).is_ok());
+    s.coll.angle_making = vec![0; 50];
+    s.coll.angle_breaking = vec![0; 50];
+    let err = ShearSim::load(&s.save(&[])).err().expect("refused");
+    assert!(
+        err.contains("50 bins") && err.contains("Eq. 27") && err.contains("without --resume"),
+        "{err}"
+    );
+}

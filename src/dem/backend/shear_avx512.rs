@@ -324,7 +324,9 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         let groups = ((padded - k0) / 8).min(GROUPS);
         for g in 0..groups {
             // SAFETY: k0 + 8 g + 8 <= padded, and this function's contract.
-            let s = unsafe { separations8::<TRACK>(pos, vel_all, slots, k0 + 8 * g, &c, hist, pp, coll) };
+            let s = unsafe {
+                separations8::<TRACK>(pos, vel_all, slots, k0 + 8 * g, &c, hist, pp, coll)
+            };
             (a.dx[g], a.dy[g], a.img[g], a.r2[g], a.touch[g]) = s;
         }
         for g in 0..groups {

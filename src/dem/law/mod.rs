@@ -6,7 +6,7 @@
 //! | enum | variants | equations |
 //! | --- | --- | --- |
 //! | [`Normal`] | `Linear`, `PowerLaw`, `RelativePowerLaw` | li Eq. 4; vågberg Eq. 1 (α = 2, 5/2) |
-//! | [`Damping`] | `None`, `ViscousNormal`, `Cd`, `CdRot` | vågberg Eqs. 3, 5–6 |
+//! | [`Damping`] | `None`, `ViscousNormal`, `Cd`, `CdRot`, `CdNormal` | vågberg Eqs. 3, 5–6; CDn (Sec. II) |
 //! | [`Tangential`] | `None`, `CundallStrack` | li Eq. 7 |
 //! | [`ContactPoint`] | `Midway`, `RadiusRatio` | li Eq. 8; vågberg Eq. 7 |
 //!
@@ -65,6 +65,12 @@ pub enum Damping {
     /// CDrot: f_dis = −k_d Δv at the contact point (Eqs. 5–6), torques s × f_dis
     /// (Eq. 7).
     CdRot {
+        k_d: f64,
+    },
+    /// CDn: f_dis = −k_d ((v_i − v_j) · n̂) n̂, the normal part of CD's force only
+    /// (vågberg-sheared-disks Sec. II: k_d^(n) = k_d, k_d^(t) = 0, "CDn"), central, so
+    /// no torque; not clipped, as CD's is not.
+    CdNormal {
         k_d: f64,
     },
 }
@@ -181,7 +187,9 @@ impl ContactLaw {
         match self.damping {
             Damping::None => {}
             Damping::ViscousNormal { gamma_n } => non_negative("gamma_n", gamma_n)?,
-            Damping::Cd { k_d } | Damping::CdRot { k_d } => non_negative("k_d", k_d)?,
+            Damping::Cd { k_d } | Damping::CdRot { k_d } | Damping::CdNormal { k_d } => {
+                non_negative("k_d", k_d)?
+            }
         }
         if let Tangential::CundallStrack { k_t, mu } = self.tangential {
             positive("k_t", k_t)?;
@@ -398,6 +406,14 @@ impl ContactLaw {
                     ContactPoint::RadiusRatio => (-arm_i * f_t, -arm_j * f_t),
                 };
             }
+        }
+        if let Damping::CdNormal { k_d } = self.damping {
+            // Along n̂ only: no torque about either centre.
+            let vn = dvx * nx + dvy * ny;
+            let (ddx, ddy) = (-k_d * vn * nx, -k_d * vn * ny);
+            out.dis = (ddx, ddy);
+            out.fx += ddx;
+            out.fy += ddy;
         }
         if let Damping::Cd { k_d } | Damping::CdRot { k_d } = self.damping {
             // Moment arms s_ji (i to the contact) = −d R_i/d_ij, s_ij = d R_j/d_ij

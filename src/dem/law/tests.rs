@@ -67,6 +67,40 @@ fn vagberg_eq3_cd_damps_the_centres_relative_velocity() {
     assert!(close(c.dis.0, -0.15, 1e-15) && close(c.dis.1, 0.1, 1e-15));
 }
 
+/// CDn: only the normal part of v_i − v_j is damped, so a pair sliding past each other
+/// feels no dissipative force and no torque; one approaching feels −k_d v_n n̂.
+#[test]
+fn cdn_damps_only_the_normal_relative_velocity() {
+    let mut h = 0.0;
+    let law = vagberg(2.0, Damping::CdNormal { k_d: 0.5 });
+    let m = Motion {
+        dvx: 0.3,
+        dvy: -0.2,
+        w_i: 0.4,
+        w_j: -0.1,
+    };
+    let c = law.pair(D, R, m, &mut h, 0.0).unwrap();
+    // n̂ = x̂: v_n = 0.3, f_dis = (−0.15, 0); the tangential −0.2 and the spins do nothing.
+    let el = 1.0 / 1.2 / 12.0;
+    assert!(close(c.fx, el - 0.15, 1e-14), "{c:?}");
+    assert_eq!((c.fy, c.t_i, c.t_j), (0.0, 0.0, 0.0), "{c:?}");
+    assert_eq!(c.dis, (-0.15, 0.0));
+    // Along a diagonal normal the force stays along n̂.
+    let d = (0.8, 0.6);
+    let c = law.pair(d, R, m, &mut h, 0.0).unwrap();
+    let vn = 0.3 * 0.8 - 0.2 * 0.6;
+    assert!(close(c.dis.0, -0.5 * vn * 0.8, 1e-14) && close(c.dis.1, -0.5 * vn * 0.6, 1e-14));
+    assert!(
+        ContactLaw::new(
+            Normal::RelativePowerLaw { alpha: 2.0 },
+            Damping::CdNormal { k_d: -1.0 },
+            Tangential::None,
+            ContactPoint::RadiusRatio
+        )
+        .is_err()
+    );
+}
+
 #[test]
 fn vagberg_eqs5_to_7_cdrot_contact_point_velocity_and_torques() {
     let mut h = 0.0;
@@ -230,6 +264,7 @@ fn every_law_conserves_angular_momentum() {
         Damping::ViscousNormal { gamma_n: 0.3 },
         Damping::Cd { k_d: 0.7 },
         Damping::CdRot { k_d: 0.7 },
+        Damping::CdNormal { k_d: 0.7 },
     ];
     let tangentials = [
         Tangential::None,
@@ -267,7 +302,7 @@ fn every_law_conserves_angular_momentum() {
             }
         }
     }
-    assert_eq!(checked, 3 * 4 * 2 * 2 * 50);
+    assert_eq!(checked, 3 * 5 * 2 * 2 * 50);
 }
 
 #[test]

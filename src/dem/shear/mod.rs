@@ -26,10 +26,16 @@ use crate::dem::shear::slots::evaluate;
 use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
 use crate::rng::Rng;
 pub use params::{
-    ANGLE_BIN_DEG, ANGLE_BINS, ANGLE_BINS_AT_90, ANGLE_BINS_AT_MINUS_90, Collisions,
-    Dissipation, DurationHistogram, ShearParams, Virial, angle_bin, cohort_half,
-    collision_angle,
+    ANGLE_BIN_DEG, ANGLE_BINS, ANGLE_BINS_AT_90, ANGLE_BINS_AT_MINUS_90, Collisions, Dissipation,
+    DurationHistogram, ShearParams, Virial, angle_bin, cohort_half, collision_angle,
 };
+
+/// Whether the slot kernels implement `law`: CD or CDrot dissipation (any α). Any other
+/// law (CDn) runs the straight loop over the law's scalar reference.
+fn slot_law(law: &crate::dem::law::ContactLaw) -> bool {
+    use crate::dem::law::Damping;
+    matches!(law.damping, Damping::Cd { .. } | Damping::CdRot { .. })
+}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShearSim {
@@ -210,7 +216,7 @@ impl ShearSim {
         let (x, y, vx, vy, w) = (st.x, st.y, st.vx, st.vy, st.w);
         let pp = PairParams::new(p, self.l, b.offset(), *time);
         let st = (x, y, vx, vy, w, &g.radius[..]);
-        if *kernel == ShearKernel::Straight {
+        if *kernel == ShearKernel::Straight || !slot_law(&pp.law) {
             list.update(x, y, &g.radius, b);
             slots.invalidate();
             let (start, js, hist) = (&list.start[..], &list.j[..], &mut list.shear[..]);
@@ -237,7 +243,7 @@ impl ShearSim {
     /// hand-written kernels of the harmonic law), or `portable` (the slot loop over the
     /// scalar reference, for any other law or processor).
     pub fn kernel_name(&self) -> &'static str {
-        if self.kernel == ShearKernel::Straight {
+        if self.kernel == ShearKernel::Straight || !slot_law(&self.p.law()) {
             "reference"
         } else if crate::dem::shear::integrate::Packed::used_for(&self.p) {
             crate::dem::backend::simd::level().name()

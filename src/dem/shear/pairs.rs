@@ -39,7 +39,10 @@ impl PairParams {
         let (k_d, cdrot) = match law.damping {
             Damping::CdRot { k_d } => (k_d, true),
             Damping::Cd { k_d } => (k_d, false),
-            Damping::None | Damping::ViscousNormal { .. } => (0.0, false),
+            // Laws the vector kernels do not implement run the reference loop.
+            Damping::None | Damping::ViscousNormal { .. } | Damping::CdNormal { .. } => {
+                (0.0, false)
+            }
         };
         PairParams {
             law,

@@ -12,6 +12,10 @@ pub enum Dissipation {
     Cd,
     /// f_dis = −k_d (v_i^{Cj} − v_j^{Ci}) at the contact point, Eqs. 5–7.
     Cdrot,
+    /// f_dis = −k_d ((v_i − v_j) · n̂) n̂, normal dissipation only (the paper's CDn,
+    /// Sec. II; Bagnoldian at every φ and Q): the reference it contrasts CD and CDrot
+    /// with.
+    Cdn,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -60,8 +64,8 @@ impl ShearParams {
         }
         Ok(())
     }
-    /// The contact law: Eq. 2's repulsion (exponent α) with CD (Eq. 3) or CDrot
-    /// (Eqs. 5–7) dissipation, k_d = 1/Q, frictionless, in units where k_e = 1.
+    /// The contact law: Eq. 2's repulsion (exponent α) with CD (Eq. 3), CDrot
+    /// (Eqs. 5–7) or CDn dissipation, k_d = 1/Q, frictionless, in units where k_e = 1.
     pub fn law(&self) -> ContactLaw {
         let k_d = 1.0 / self.q;
         ContactLaw {
@@ -69,6 +73,7 @@ impl ShearParams {
             damping: match self.model {
                 Dissipation::Cdrot => Damping::CdRot { k_d },
                 Dissipation::Cd => Damping::Cd { k_d },
+                Dissipation::Cdn => Damping::CdNormal { k_d },
             },
             tangential: Tangential::None,
             point: ContactPoint::RadiusRatio,

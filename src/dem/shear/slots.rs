@@ -122,7 +122,19 @@ pub fn evaluate<const TRACK: bool>(
                 (true, false) => forces_cdrot_general(st, si, sj, inv, pp, &sep, f),
                 (false, false) => forces_cd_general(st, si, sj, inv, pp, &sep, f),
             }
-            sums::<TRACK>(si, sj, &sep, &frc, (hist, b0), (vx, vy), pp, fx, fy, tq, coll);
+            sums::<TRACK>(
+                si,
+                sj,
+                &sep,
+                &frc,
+                (hist, b0),
+                (vx, vy),
+                pp,
+                fx,
+                fy,
+                tq,
+                coll,
+            );
         }
     });
 }

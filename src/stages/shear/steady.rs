@@ -188,7 +188,13 @@ impl Steady {
         let pdf = |c: &[f64]| {
             let t: f64 = c.iter().sum();
             c.iter()
-                .map(|x| if t > 0.0 { x / (t * ANGLE_BIN_DEG) } else { 0.0 })
+                .map(|x| {
+                    if t > 0.0 {
+                        x / (t * ANGLE_BIN_DEG)
+                    } else {
+                        0.0
+                    }
+                })
                 .collect::<Vec<f64>>()
         };
         // Edges as k·360/100 − 180, exact at the multiples of 90°.

@@ -29,7 +29,11 @@ pub fn read_sweep_angles(dir: &Path) -> Result<Vec<AnglePdf>> {
     }
     let t = read_table(&f, &[])?;
     let (phi, q, rate) = (t.f64("phi")?, t.f64("q")?, t.f64("rate")?);
-    let (lo, hi, pdf) = (t.f64("theta_lo_deg")?, t.f64("theta_hi_deg")?, t.f64("pdf")?);
+    let (lo, hi, pdf) = (
+        t.f64("theta_lo_deg")?,
+        t.f64("theta_hi_deg")?,
+        t.f64("pdf")?,
+    );
     let mut out: Vec<AnglePdf> = Vec::new();
     for i in 0..phi.len() {
         let same = out
