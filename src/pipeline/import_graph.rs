@@ -311,11 +311,11 @@ fn scan(src: &str, module: &[String]) -> Refs {
             }
             Tok::Ident(w) if at_path_start && t.get(i + 1) == Some(&Tok::Punct('!')) => {
                 r.macro_calls.insert(w.clone());
-                if matches!(w.as_str(), "include_str" | "include_bytes" | "include") {
-                    if let (Some(Tok::Punct('(')), Some(Tok::Str(s))) = (t.get(i + 2), t.get(i + 3))
-                    {
-                        r.includes.push(s.clone());
-                    }
+                let args = (t.get(i + 2), t.get(i + 3));
+                if matches!(w.as_str(), "include_str" | "include_bytes" | "include")
+                    && let (Some(Tok::Punct('(')), Some(Tok::Str(s))) = args
+                {
+                    r.includes.push(s.clone());
                 }
                 i += 2;
             }
@@ -579,10 +579,10 @@ impl Resolver<'_> {
     /// The file defining the longest module prefix of what `p` stands for.
     fn file(&self, p: &[String], at: &[String], depth: usize) -> Option<String> {
         let abs = self.absolute(p, at, depth)?;
-        if let [name] = abs.as_slice() {
-            if let Some(f) = self.macros.get(name.as_str()) {
-                return Some(f.to_string());
-            }
+        if let [name] = abs.as_slice()
+            && let Some(f) = self.macros.get(name.as_str())
+        {
+            return Some(f.to_string());
         }
         (0..=abs.len())
             .rev()
