@@ -1,15 +1,23 @@
-//! Build-time hashes of the source, for cache keys that survive a rebuild: every file
-//! under `src/` and `data_schema/`, and `Cargo.lock` (the dependencies' exact
-//! versions), each with its SHA-256, embedded as `SOURCES` (see
-//! `src/pipeline/source_key.rs`, which decides which of them each stage kind's key
-//! covers). A stage's key then changes when the code it runs changes, not when any
-//! byte of the executable does (a typo fixed in the report code, another linker).
+//! Build-time hashes of the source, for cache keys that survive a rebuild. Embeds
+//! `SOURCES`, the SHA-256 of every file under `src/` and `data_schema/`, of
+//! `Cargo.lock` (the dependencies' exact versions) and of every file the code
+//! `include_bytes!`s, and `KIND_FILES`, for each stage kind the files its key covers:
+//! those reachable in the import graph (`src/pipeline/import_graph.rs`) from the
+//! kind's entry modules (`src/pipeline/kind_entries.rs`), and `Cargo.lock`. A stage's
+//! key then changes when the code it runs changes, not when any byte of the
+//! executable does (a typo fixed in the report code, another linker).
 
 use sha2::{Digest, Sha256};
+use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, PathBuf)>) {
+#[path = "src/pipeline/import_graph.rs"]
+#[allow(dead_code)]
+mod import_graph;
+include!("src/pipeline/kind_entries.rs");
+
+fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return;
     };
@@ -24,9 +32,18 @@ fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, PathBuf)>) {
                 .components()
                 .map(|c| c.as_os_str().to_string_lossy().into_owned())
                 .collect();
-            out.push((rel.join("/"), p));
+            out.push(rel.join("/"));
         }
     }
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .fold(String::new(), |mut s, b| {
+            let _ = write!(s, "{b:02x}");
+            s
+        })
 }
 
 fn main() {
@@ -36,22 +53,44 @@ fn main() {
         walk(&root, &root.join(d), &mut files);
         println!("cargo:rerun-if-changed={d}");
     }
-    if root.join("Cargo.lock").is_file() {
-        files.push(("Cargo.lock".into(), root.join("Cargo.lock")));
-    }
     println!("cargo:rerun-if-changed=Cargo.lock");
     println!("cargo:rerun-if-changed=build.rs");
-    files.sort();
+    let code: Vec<(String, String)> = files
+        .iter()
+        .filter(|f| f.ends_with(".rs"))
+        .map(|f| {
+            let text = std::fs::read_to_string(root.join(f)).unwrap_or_default();
+            (f.clone(), text)
+        })
+        .collect();
+    let graph = import_graph::graph(&code);
+    let mut hashed: BTreeSet<String> = files.into_iter().collect();
+    hashed.insert("Cargo.lock".into());
+    // What the code includes from elsewhere (a font): hashed, and watched.
+    for deps in graph.values() {
+        for d in deps.iter().filter(|d| !hashed.contains(*d)) {
+            println!("cargo:rerun-if-changed={d}");
+        }
+        hashed.extend(deps.iter().cloned());
+    }
+
     let mut text = String::from("/// (path, SHA-256) of every source file, sorted by path.\n");
     text.push_str("pub const SOURCES: &[(&str, &str)] = &[\n");
-    for (rel, p) in &files {
-        let bytes = std::fs::read(p).unwrap_or_default();
-        let h = Sha256::digest(&bytes);
-        let hex = h.iter().fold(String::new(), |mut s, b| {
-            let _ = write!(s, "{b:02x}");
-            s
-        });
-        let _ = writeln!(text, "    ({rel:?}, {hex:?}),");
+    for rel in &hashed {
+        let bytes = std::fs::read(root.join(rel)).unwrap_or_default();
+        let _ = writeln!(text, "    ({rel:?}, {:?}),", sha256_hex(&bytes));
+    }
+    text.push_str("];\n\n");
+    text.push_str("/// Each stage kind and the files its key covers, sorted.\n");
+    text.push_str("pub const KIND_FILES: &[(&str, &[&str])] = &[\n");
+    for (kind, entries) in KIND_ENTRIES {
+        let mut reach = import_graph::reachable(&graph, entries);
+        reach.insert("Cargo.lock".into());
+        let _ = writeln!(text, "    ({kind:?}, &[");
+        for f in &reach {
+            let _ = writeln!(text, "        {f:?},");
+        }
+        text.push_str("    ]),\n");
     }
     text.push_str("];\n");
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets it")).join("sources.rs");

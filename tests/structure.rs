@@ -248,3 +248,127 @@ fn flow_stress_scales_with_the_width() {
     ]);
     assert!(!ok && text.contains("run to ε = 0.2"), "{text}");
 }
+
+/// The `.meta.json` sidecar beside `table`, read, after checking that it names each of
+/// `inputs` with that file's SHA-256 (the README's promise for every table).
+fn sidecar_naming(table: &std::path::Path, inputs: &[&std::path::Path]) -> serde_json::Value {
+    let side = pillar_pipe::io::sidecar_path(table);
+    let text = std::fs::read_to_string(&side)
+        .unwrap_or_else(|e| panic!("no sidecar {}: {e}", side.display()));
+    for input in inputs {
+        let sha = pillar_pipe::io::sha256_file(input).unwrap();
+        assert!(
+            text.contains(&sha),
+            "{} lacks {sha}:\n{text}",
+            side.display()
+        );
+    }
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["provenance"]["tool"], "pillar-pipe", "{text}");
+    assert!(v["provenance"]["tool_version"].is_string(), "{text}");
+    assert!(v["provenance"]["parameters"].is_object(), "{text}");
+    v
+}
+
+/// A short pillar run on the `fast` preset, to ε = 0.2 with force snapshots.
+fn short_pillar(d: &std::path::Path) -> std::path::PathBuf {
+    let out = d.join("pillar");
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--n",
+        "120",
+        "--seed",
+        "2",
+        "--preset",
+        "fast",
+        "--strain",
+        "0.2",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    out
+}
+
+#[test]
+fn gofr_writes_a_sidecar_naming_its_input() {
+    let d = tmpdir("gofr-sidecar");
+    let pack = d.join("pack.parquet");
+    let (ok, text) = run(&[
+        "pack",
+        "--n",
+        "150",
+        "--seed",
+        "3",
+        "--quiet",
+        "-o",
+        pack.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let out = d.join("g.csv");
+    let (ok, text) = run(&[
+        "gofr",
+        pack.to_str().unwrap(),
+        "--r-max",
+        "2",
+        "--bins",
+        "20",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let v = sidecar_naming(&out, &[&pack]);
+    assert_eq!(v["table"], "gofr");
+    assert_eq!(v["provenance"]["parameters"]["bins"], 20);
+}
+
+#[test]
+fn outline_writes_a_sidecar_naming_its_inputs() {
+    let d = tmpdir("outline-sidecar");
+    let tracks = short_pillar(&d).join("tracks.parquet");
+    let out = d.join("o.parquet");
+    let (ok, text) = run(&[
+        "outline",
+        tracks.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let v = sidecar_naming(&out, &[&tracks]);
+    assert_eq!(v["table"], "outline");
+    assert!(v["provenance"]["against"].is_null());
+    let (ok, text) = run(&[
+        "outline",
+        tracks.to_str().unwrap(),
+        "--frame",
+        "0",
+        "--against",
+        tracks.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let v = sidecar_naming(&out, &[&tracks]);
+    assert_eq!(v["provenance"]["parameters"]["frame"], 0);
+    assert!(v["shape_distance_over_w0"].is_number(), "{v}");
+}
+
+#[test]
+fn bar_pressure_writes_a_sidecar_naming_its_inputs() {
+    let d = tmpdir("bar-pressure-sidecar");
+    let sim = short_pillar(&d);
+    let out = d.join("p.csv");
+    let (ok, text) = run(&[
+        "bar-pressure",
+        sim.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let inputs = ["stress_strain.parquet", "forces.parquet", "tracks.parquet"].map(|f| sim.join(f));
+    let v = sidecar_naming(&out, &inputs.each_ref().map(|p| p.as_path()));
+    assert_eq!(v["table"], "bar_pressure");
+    assert!(v["snapshots"].as_u64().unwrap() > 0, "{v}");
+}

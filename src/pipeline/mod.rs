@@ -11,6 +11,10 @@
 pub mod cache;
 pub mod exec;
 pub mod graph;
+#[cfg(test)]
+mod import_graph;
+#[cfg(test)]
+mod kind_entries;
 pub mod lock;
 pub mod params;
 pub mod parse;

@@ -4,12 +4,11 @@
 //! jobs built separately, a rebuilt binary), and fixing report code keeps hour-long
 //! simulations cached.
 //!
-//! Every file counts for every kind unless listed below as unable to change that kind's
-//! result, so a new module is covered until someone says otherwise: the rules only
-//! ever leave out code that the kind does not run (the simulators for analysis stages,
-//! the report for everything but the report, the fit for the stages before it), and
-//! code that changes no stage's numbers (the command line, benchmarks, the run
-//! bookkeeping, unit tests).
+//! Which files count for a kind is read from the code, not kept by hand: those
+//! reachable in the import graph (`import_graph.rs`) from the kind's entry modules
+//! (`kind_entries.rs`), so a module a stage starts to use counts as soon as it is
+//! named, and code no stage names (the command line, benchmarks, the run bookkeeping,
+//! unit tests) counts for none (issue 33).
 
 use super::Kind;
 use crate::io::hash::sha256_bytes;
@@ -17,89 +16,23 @@ use crate::io::hash::sha256_bytes;
 mod generated {
     include!(concat!(env!("OUT_DIR"), "/sources.rs"));
 }
-pub use generated::SOURCES;
+pub use generated::{KIND_FILES, SOURCES};
 
-/// Files no stage's result depends on: argument parsing, benchmarks, the run
-/// bookkeeping (locks, records, views, executors), unit tests, the quickstart command.
-fn never(path: &str) -> bool {
-    let pipeline_bookkeeping = path.starts_with("src/pipeline/")
-        && !matches!(path, "src/pipeline/exec.rs" | "src/pipeline/params.rs");
-    path == "src/main.rs"
-        || path.starts_with("src/cli_")
-        || path.starts_with("src/bench")
-        || path == "src/interrupt.rs"
-        || path == "src/stages/quickstart.rs"
-        || path.ends_with("/tests.rs")
-        || pipeline_bookkeeping
-}
-
-/// What both simulators are made of (contact laws, grains, pair lists, the fast
-/// paths), and the simulate stage's table plumbing that the sheared disks reuse.
-fn simulator_core(p: &str) -> bool {
-    (p.starts_with("src/dem/")
-        && !p.starts_with("src/dem/pillar/")
-        && !p.starts_with("src/dem/shear/"))
-        || p.starts_with("src/stages/simulate/")
-}
-
-fn pillar_simulator(p: &str) -> bool {
-    p.starts_with("src/dem/pillar/") || p == "src/stages/pack.rs"
-}
-
-fn shear_simulator(p: &str) -> bool {
-    p.starts_with("src/dem/shear/") || p.starts_with("src/stages/shear/")
-}
-
-/// A sweep's own code only gathers its points' summaries into a table; the points
-/// are `shear` stages, whose keys (in the sweep's) stand for the simulator.
-fn sweep(p: &str) -> bool {
-    p == "src/stages/sweep.rs"
-}
-
-fn report(p: &str) -> bool {
-    p.starts_with("src/stages/report/")
-}
-
-fn fit(p: &str) -> bool {
-    p.starts_with("src/fit/") || p.starts_with("src/stages/fit/")
-}
-
-fn kinematics(p: &str) -> bool {
-    p.starts_with("src/kinematics/") || p == "src/stages/kinematics.rs"
-}
-
-/// Code that only some kinds run: (is a file in this group, the kinds that run it).
-type Group = (fn(&str) -> bool, &'static [Kind]);
-const GROUPS: &[Group] = &[
-    (simulator_core, &[Kind::Simulate, Kind::Shear, Kind::Ramp]),
-    (pillar_simulator, &[Kind::Simulate]),
-    (shear_simulator, &[Kind::Shear, Kind::Ramp]),
-    (sweep, &[Kind::Sweep]),
-    (report, &[Kind::Report]),
-    // Eq. 19 and the Sec. IV protocol; compare reads fit types, the report draws the model.
-    (fit, &[Kind::Fit, Kind::Compare, Kind::Report]),
-    // The kernels; the fit's protocol runs them too.
-    (
-        kinematics,
-        &[Kind::Kinematics, Kind::Fit, Kind::Compare, Kind::Report],
-    ),
-];
-
-/// Whether the file at `path` can change the result of a stage of `kind`.
-pub fn covers(kind: Kind, path: &str) -> bool {
-    if never(path) {
-        return false;
-    }
-    GROUPS
+/// The files (sorted) whose contents make up `kind`'s source hash.
+pub fn files(kind: Kind) -> &'static [&'static str] {
+    KIND_FILES
         .iter()
-        .find(|(is, _)| is(path))
-        .is_none_or(|(_, kinds)| kinds.contains(&kind))
+        .find(|(k, _)| *k == kind.name())
+        .map_or(&[], |(_, f)| f)
 }
 
-/// SHA-256 over the (path, hash) pairs of `sources` that `kind` depends on.
-pub fn source_hash_for(kind: Kind, sources: &[(&str, &str)]) -> String {
+/// SHA-256 over the (path, hash) pairs of `sources` whose path is in `files` (sorted).
+pub fn source_hash_for(files: &[&str], sources: &[(&str, &str)]) -> String {
     let mut text = String::new();
-    for (path, hash) in sources.iter().filter(|(p, _)| covers(kind, p)) {
+    for (path, hash) in sources
+        .iter()
+        .filter(|(p, _)| files.binary_search(p).is_ok())
+    {
         text.push_str(path);
         text.push(' ');
         text.push_str(hash);
@@ -114,7 +47,7 @@ pub fn source_hash(kind: Kind) -> &'static str {
     let all = HASHES.get_or_init(|| {
         Kind::ALL
             .iter()
-            .map(|k| source_hash_for(*k, SOURCES))
+            .map(|k| source_hash_for(files(*k), SOURCES))
             .collect()
     });
     let i = Kind::ALL.iter().position(|k| *k == kind).unwrap_or(0);
@@ -123,118 +56,187 @@ pub fn source_hash(kind: Kind) -> &'static str {
 
 #[cfg(test)]
 mod tests {
+    use super::super::import_graph;
+    use super::super::kind_entries::KIND_ENTRIES;
     use super::*;
+    use std::path::Path;
 
-    /// A source tree with one file in each part that matters, each at version `v[i]`.
-    fn tree(report: &str, dem: &str, fit: &str, cli: &str) -> Vec<(&'static str, String)> {
-        vec![
-            ("Cargo.lock", "lock".into()),
-            ("src/cli_runs.rs", cli.into()),
-            ("src/dem/shear/mod.rs", dem.into()),
-            ("src/fit/model.rs", fit.into()),
-            ("src/io/table.rs", "io".into()),
-            ("src/kinematics/mod.rs", "kin".into()),
-            ("src/stages/report/render/figures.rs", report.into()),
-            ("src/stages/report/fit.rs", report.into()),
-            ("src/stages/shear/steady.rs", dem.into()),
-            ("src/stages/simulate/setup.rs", dem.into()),
-        ]
+    fn root() -> &'static Path {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
     }
 
-    /// A tree whose pillar simulator, sheared-disk simulator and sweep table code are
-    /// at the given versions.
-    fn sim_tree(pillar: &str, shear: &str, sweep: &str) -> Vec<(&'static str, String)> {
-        vec![
-            ("Cargo.lock", "lock".into()),
-            ("src/dem/pillar/kernels.rs", pillar.into()),
-            ("src/stages/pack.rs", pillar.into()),
-            ("src/dem/shear/pairs.rs", shear.into()),
-            ("src/stages/shear/stats.rs", shear.into()),
-            ("src/stages/sweep.rs", sweep.into()),
-            ("src/dem/law/mod.rs", "law".into()),
-        ]
+    fn has(kind: Kind, path: &str) -> bool {
+        files(kind).contains(&path)
     }
 
     #[test]
-    fn each_simulator_changes_its_own_kind() {
-        let base = keys(&sim_tree("p1", "s1", "w1"));
-        assert_eq!(
-            changed(&base, &keys(&sim_tree("p2", "s1", "w1"))),
-            ["simulate"]
+    fn every_kind_has_entries_and_files() {
+        let names: Vec<&str> = KIND_ENTRIES.iter().map(|(k, _)| *k).collect();
+        assert_eq!(names, Kind::ALL.map(Kind::name));
+        for kind in Kind::ALL {
+            let f = files(kind);
+            assert!(f.windows(2).all(|w| w[0] < w[1]), "{}", kind.name());
+            assert!(f.contains(&"Cargo.lock"), "{}", kind.name());
+            for (k, entries) in KIND_ENTRIES {
+                if *k == kind.name() {
+                    assert!(entries.iter().all(|e| f.contains(e)));
+                }
+            }
+            println!("{}: {} files", kind.name(), f.len());
+        }
+    }
+
+    /// The report's size scan calls `stages::sizes::scan` → `stages::shear::block_stats`:
+    /// a change in how block errors are computed must change the report's key.
+    #[test]
+    fn the_report_covers_the_size_scan_and_block_errors() {
+        assert!(has(Kind::Report, "src/stages/sizes.rs"));
+        assert!(has(Kind::Report, "src/stages/shear/stats.rs"));
+        let stats = std::fs::read_to_string(root().join("src/stages/shear/stats.rs")).unwrap();
+        assert!(stats.contains("fn block_stats"), "block_stats moved");
+    }
+
+    #[test]
+    fn kinds_leave_out_what_they_do_not_run() {
+        for f in files(Kind::Kinematics) {
+            assert!(!f.starts_with("src/dem/"), "kinematics covers {f}");
+            assert!(
+                !f.starts_with("src/stages/report/"),
+                "kinematics covers {f}"
+            );
+        }
+        for f in files(Kind::Simulate) {
+            assert!(!f.starts_with("src/stages/report/"), "simulate covers {f}");
+        }
+        for kind in Kind::ALL {
+            for f in files(kind) {
+                let cli = f.starts_with("src/cli_") || f.starts_with("src/bench");
+                let bookkeeping = f.starts_with("src/pipeline/");
+                assert!(
+                    *f != "src/main.rs" && !cli && !bookkeeping && !f.ends_with("/tests.rs"),
+                    "{} covers {f}",
+                    kind.name()
+                );
+            }
+        }
+    }
+
+    /// The file a `crate::a::b::c` path names by the longest module prefix, looked up on
+    /// disk (independently of the scanner).
+    fn module_file(segments: &[&str]) -> Option<String> {
+        (1..=segments.len()).rev().find_map(|k| {
+            let m = segments[..k].join("/");
+            [format!("src/{m}.rs"), format!("src/{m}/mod.rs")]
+                .into_iter()
+                .find(|f| root().join(f).is_file())
+        })
+    }
+
+    /// Each kind covers every module its entry's `use crate::…` lines name, and not
+    /// some module that has nothing to do with it.
+    #[test]
+    fn entries_imports_counted_and_unrelated_left_out() {
+        let unrelated = [
+            (Kind::Ingest, "src/stages/report/mod.rs"),
+            (Kind::Simulate, "src/dem/shear/mod.rs"),
+            (Kind::Kinematics, "src/dem/pillar/mod.rs"),
+            (Kind::Fit, "src/dem/shear/mod.rs"),
+            (Kind::Compare, "src/stages/simulate/mod.rs"),
+            (Kind::Report, "src/io/lammps.rs"),
+            (Kind::Shear, "src/stages/report/mod.rs"),
+            (Kind::Sweep, "src/stages/report/mod.rs"),
+            (Kind::Ramp, "src/fit/mod.rs"),
+        ];
+        for (kind, entries) in KIND_ENTRIES {
+            let kind = Kind::from_name(kind).unwrap();
+            for entry in *entries {
+                let text = std::fs::read_to_string(root().join(entry)).unwrap();
+                for line in text.lines().map(str::trim) {
+                    let Some(path) = line.strip_prefix("use crate::") else {
+                        continue;
+                    };
+                    let path = path.split(['{', ';', ' ']).next().unwrap();
+                    let segments: Vec<&str> = path.split("::").filter(|s| !s.is_empty()).collect();
+                    let f = module_file(&segments).unwrap_or_else(|| panic!("{line}"));
+                    assert!(has(kind, &f), "{} leaves out {f} ({line})", kind.name());
+                }
+            }
+        }
+        for (kind, f) in unrelated {
+            assert!(root().join(f).is_file(), "{f} moved");
+            assert!(!has(kind, f), "{} covers {f}", kind.name());
+        }
+    }
+
+    /// What the build embedded is what the scanner makes of the tree as it is now.
+    #[test]
+    fn the_embedded_sets_match_the_tree() {
+        fn walk(dir: &Path, out: &mut Vec<(String, String)>) {
+            for e in std::fs::read_dir(dir).unwrap().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    walk(&p, out);
+                } else if p.extension().is_some_and(|x| x == "rs") {
+                    let rel = p.strip_prefix(root()).unwrap();
+                    let rel: Vec<String> = rel
+                        .components()
+                        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                        .collect();
+                    out.push((rel.join("/"), std::fs::read_to_string(&p).unwrap()));
+                }
+            }
+        }
+        let mut code = Vec::new();
+        walk(&root().join("src"), &mut code);
+        let g = import_graph::graph(&code);
+        for (kind, entries) in KIND_ENTRIES {
+            let mut want = import_graph::reachable(&g, entries);
+            want.insert("Cargo.lock".into());
+            let got = files(Kind::from_name(kind).unwrap());
+            assert_eq!(got, want.iter().map(String::as_str).collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn a_kinds_hash_follows_its_files_only() {
+        let sources = |report: &'static str, lock: &'static str| {
+            vec![
+                ("Cargo.lock", lock),
+                ("src/cli_runs.rs", "c"),
+                ("src/stages/report/mod.rs", report),
+                ("src/stages/sizes.rs", "s"),
+            ]
+        };
+        let report = [
+            "Cargo.lock",
+            "src/stages/report/mod.rs",
+            "src/stages/sizes.rs",
+        ];
+        let kin = ["Cargo.lock", "src/stages/kinematics.rs"];
+        let base = sources("r1", "l1");
+        let edited = sources("r2", "l1");
+        assert_ne!(
+            source_hash_for(&report, &base),
+            source_hash_for(&report, &edited)
         );
-        assert_eq!(
-            changed(&base, &keys(&sim_tree("p1", "s2", "w1"))),
-            ["shear", "ramp"]
+        assert_eq!(source_hash_for(&kin, &base), source_hash_for(&kin, &edited));
+        let relocked = sources("r1", "l2");
+        assert_ne!(
+            source_hash_for(&kin, &base),
+            source_hash_for(&kin, &relocked)
         );
-        assert_eq!(
-            changed(&base, &keys(&sim_tree("p1", "s1", "w2"))),
-            ["sweep"]
-        );
-        let mut t = sim_tree("p1", "s1", "w1");
-        t[6].1 = "law2".into();
-        assert_eq!(changed(&base, &keys(&t)), ["simulate", "shear", "ramp"]);
-    }
-
-    fn keys(t: &[(&'static str, String)]) -> Vec<String> {
-        let v: Vec<(&str, &str)> = t.iter().map(|(p, h)| (*p, h.as_str())).collect();
-        Kind::ALL.iter().map(|k| source_hash_for(*k, &v)).collect()
-    }
-
-    fn changed(a: &[String], b: &[String]) -> Vec<&'static str> {
-        Kind::ALL
-            .iter()
-            .zip(a.iter().zip(b))
-            .filter(|(_, (x, y))| x != y)
-            .map(|(k, _)| k.name())
-            .collect()
-    }
-
-    #[test]
-    fn report_code_changes_only_the_report() {
-        let base = keys(&tree("r1", "d1", "f1", "c1"));
-        let edited = keys(&tree("r2", "d1", "f1", "c1"));
-        assert_eq!(changed(&base, &edited), ["report"]);
-    }
-
-    #[test]
-    fn simulator_code_changes_the_simulation() {
-        let base = keys(&tree("r1", "d1", "f1", "c1"));
-        let edited = keys(&tree("r1", "d2", "f1", "c1"));
-        // The analysis stages downstream of a simulation are recomputed through their
-        // upstream key (the simulation's), not through their own code; the tree's
-        // files are shared code and both simulators' stages.
-        assert_eq!(changed(&base, &edited), ["simulate", "shear", "ramp"]);
-    }
-
-    #[test]
-    fn fit_code_changes_fit_compare_report() {
-        let base = keys(&tree("r1", "d1", "f1", "c1"));
-        let edited = keys(&tree("r1", "d1", "f2", "c1"));
-        assert_eq!(changed(&base, &edited), ["fit", "compare", "report"]);
-    }
-
-    #[test]
-    fn command_line_and_lock_file() {
-        let base = keys(&tree("r1", "d1", "f1", "c1"));
-        assert!(changed(&base, &keys(&tree("r1", "d1", "f1", "c2"))).is_empty());
-        let mut t = tree("r1", "d1", "f1", "c1");
-        t[0].1 = "lock2".into();
-        assert_eq!(changed(&base, &keys(&t)).len(), Kind::ALL.len());
-    }
-
-    #[test]
-    fn a_new_module_counts_for_every_kind() {
-        let base = keys(&tree("r1", "d1", "f1", "c1"));
-        let mut t = tree("r1", "d1", "f1", "c1");
-        t.push(("src/newthing/mod.rs", "n".into()));
-        assert_eq!(changed(&base, &keys(&t)).len(), Kind::ALL.len());
     }
 
     #[test]
     fn this_build_embeds_its_sources() {
-        assert!(SOURCES.iter().any(|(p, _)| *p == "src/pipeline/exec.rs"));
         assert!(SOURCES.iter().any(|(p, _)| *p == "Cargo.lock"));
         assert!(SOURCES.iter().all(|(_, h)| h.len() == 64));
+        // Every covered file has a hash.
+        for kind in Kind::ALL {
+            for f in files(kind) {
+                assert!(SOURCES.iter().any(|(p, _)| p == f), "{f} has no hash");
+            }
+        }
         assert_ne!(source_hash(Kind::Simulate), source_hash(Kind::Report));
     }
 }

@@ -6,6 +6,7 @@
 use crate::error::{Error, Result};
 use crate::io::csvdiag::Expect;
 use crate::io::table::{read_table, write_table};
+use crate::io::{sha256_file, write_with_sidecar};
 use crate::structure::pressure::{PressureProfile, bar_pressure, mean_profile};
 use polars::prelude::{Column, DataFrame};
 use std::collections::HashMap;
@@ -103,7 +104,8 @@ pub fn run_profile(
     Ok((mean, n))
 }
 
-/// [`run_profile`], written to `output` as an (x_over_w, p) table.
+/// [`run_profile`], written to `output` as an (x_over_w, p) table with its `.meta.json`
+/// sidecar (the run's three tables it read, each with its SHA-256).
 pub fn run(
     dir: &Path,
     window: (f64, f64),
@@ -122,6 +124,25 @@ pub fn run(
         ],
     )
     .map_err(|e| Error::polars("the bar pressure table", e))?;
-    write_table(&mut df, output)?;
+    let mut sources = Vec::new();
+    for name in ["stress_strain.parquet", "forces.parquet", "tracks.parquet"] {
+        let f = dir.join(name);
+        sources.push(serde_json::json!({
+            "source": f.display().to_string(), "source_sha256": sha256_file(&f)?,
+        }));
+    }
+    let sidecar = serde_json::json!({
+        "table": "bar_pressure",
+        "snapshots": n,
+        "w_over_d": p.width,
+        "provenance": {
+            "tool": crate::stages::TOOL, "tool_version": crate::stages::VERSION,
+            "run": dir.display().to_string(),
+            "sources": sources,
+            "parameters": {"strain_window": [window.0, window.1], "bins": bins},
+        },
+    });
+    let sidecar = serde_json::to_string_pretty(&sidecar).expect("json");
+    write_with_sidecar(output, &sidecar, || write_table(&mut df, output))?;
     Ok((p, n))
 }

@@ -4,15 +4,16 @@
 
 use crate::error::{Error, Result};
 use crate::geom::Vec2;
-use crate::io::read_tracks;
 use crate::io::table::write_table;
+use crate::io::{read_tracks, sha256_file, write_with_sidecar};
 use crate::structure::{PairDistribution, pair_distribution};
 use crate::tracks::{SMALL, Tracks};
 use polars::prelude::*;
 use std::path::Path;
 
 /// g(r) of frame `frame` (default: the first) of the tracks at `input`, up to
-/// `r_max_over_d` D in `bins` bins, written to `output` (Parquet or CSV by extension).
+/// `r_max_over_d` D in `bins` bins, written to `output` (Parquet or CSV by extension)
+/// with its `.meta.json` sidecar.
 pub fn run(
     input: &Path,
     output: &Path,
@@ -35,7 +36,18 @@ pub fn run(
         ],
     )
     .map_err(|e| Error::polars("the g(r) table", e))?;
-    write_table(&mut df, output)?;
+    let sidecar = serde_json::json!({
+        "table": "gofr",
+        "frame": f,
+        "d_large": d,
+        "provenance": {
+            "tool": crate::stages::TOOL, "tool_version": crate::stages::VERSION,
+            "source": input.display().to_string(), "source_sha256": sha256_file(input)?,
+            "parameters": {"frame": frame, "r_max_over_d": r_max_over_d, "bins": bins},
+        },
+    });
+    let sidecar = serde_json::to_string_pretty(&sidecar).expect("json");
+    write_with_sidecar(output, &sidecar, || write_table(&mut df, output))?;
     Ok((g, f, d))
 }
 

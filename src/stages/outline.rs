@@ -4,8 +4,8 @@
 
 use crate::error::{Error, Result};
 use crate::geom::Vec2;
-use crate::io::read_tracks;
 use crate::io::table::write_table;
+use crate::io::{read_tracks, sha256_file, write_with_sidecar};
 use crate::structure::{Outline, shape_distance};
 use crate::tracks::Tracks;
 use polars::prelude::*;
@@ -71,7 +71,7 @@ pub fn outline_of_tracks(t: &Tracks, source: &str, frame: Option<i64>) -> Result
 
 /// Write the outline of `input` at `frame`, in units of W0 with x from the first frame's
 /// centre and y from the lowest grain edge; with `against`, also the shape distance to
-/// that pillar's outline at `against_frame`.
+/// that pillar's outline at `against_frame`; the table gets its `.meta.json` sidecar.
 pub fn run(
     input: &Path,
     frame: Option<i64>,
@@ -91,13 +91,33 @@ pub fn run(
         ],
     )
     .map_err(|e| Error::polars("the outline table", e))?;
-    write_table(&mut df, output)?;
-    let distance = match against {
-        None => None,
+    let (distance, against_meta) = match against {
+        None => (None, serde_json::Value::Null),
         Some((path, f)) => {
             let b = outline_of(path, f)?;
-            Some(shape_distance(&a.outline, a.w0, &b.outline, b.w0))
+            let meta = serde_json::json!({
+                "source": path.display().to_string(), "source_sha256": sha256_file(path)?,
+                "frame": b.frame, "w0": b.w0,
+            });
+            (
+                Some(shape_distance(&a.outline, a.w0, &b.outline, b.w0)),
+                meta,
+            )
         }
     };
+    let sidecar = serde_json::json!({
+        "table": "outline",
+        "frame": a.frame,
+        "w0": a.w0,
+        "shape_distance_over_w0": distance,
+        "provenance": {
+            "tool": crate::stages::TOOL, "tool_version": crate::stages::VERSION,
+            "source": input.display().to_string(), "source_sha256": sha256_file(input)?,
+            "against": against_meta,
+            "parameters": {"frame": frame, "against_frame": against.and_then(|(_, f)| f)},
+        },
+    });
+    let sidecar = serde_json::to_string_pretty(&sidecar).expect("json");
+    write_with_sidecar(output, &sidecar, || write_table(&mut df, output))?;
     Ok((a, distance))
 }
