@@ -209,6 +209,10 @@ enum Cmd {
         /// Check cached outputs' SHA-256 before using them (by default only their sizes).
         #[arg(long)]
         verify: bool,
+        /// Stages computed at once by the local executor (independent stages, e.g. a
+        /// sweep's grid points); default: the machine's cores. 1 runs them one by one.
+        #[arg(long, short = 'j', value_parser = clap::value_parser!(u64).range(1..))]
+        jobs: Option<u64>,
         #[command(flatten)]
         exec: cli_runs::ExecutorArgs,
     },
@@ -644,6 +648,7 @@ fn run(cli: Cli) -> Result<()> {
             runs_dir,
             dry_run,
             verify,
+            jobs,
             exec,
         } => run_pipeline(pillar_pipe::pipeline::RunOptions {
             pipeline,
@@ -655,6 +660,7 @@ fn run(cli: Cli) -> Result<()> {
             verify,
             executor: exec.executor.clone(),
             slurm: exec.slurm(),
+            jobs: jobs.map(|j| j as usize),
         })?,
         Cmd::SlurmJob { spec } => {
             std::process::exit(pillar_pipe::pipeline::slurm::job::main(&spec));

@@ -281,6 +281,18 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
                 s["p_el"] = q(phi * rate / qf);
                 s["tau_dur"] = q(1.0 + phi);
                 s["nu_coll"] = q(0.3 * rate);
+                // Collision angles (Eq. 27): making in bin 80, breaking in bin 60, and
+                // grazing ones (bins 74, 75) more often at small Q.
+                let mut mk = vec![0u64; 100];
+                let mut br = vec![0u64; 100];
+                mk[80] = 100;
+                br[60] = 100;
+                mk[75] = (50.0 / qf) as u64;
+                br[74] = (50.0 / qf) as u64;
+                let total = 200.0 + 2.0 * (50.0 / qf).floor();
+                s["p_theta_90"] = q((50.0 / qf).floor() / (total * 3.6));
+                s["collision_angle_making"] = serde_json::json!(mk);
+                s["collision_angle_breaking"] = serde_json::json!(br);
                 points.push(((phi, qf, rate), s));
             }
         }
@@ -296,7 +308,21 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
             ..Default::default()
         },
     );
+    let angles =
+        pillar_pipe::io::table::read_table(&sweep.join("sweep_angles.parquet"), &[]).unwrap();
+    assert_eq!(
+        angles.columns(),
+        pillar_pipe::schema::load("sweep_angles").names()
+    );
+    let pdf = angles.f64("pdf").unwrap();
+    assert_eq!(pdf.len(), 8 * 100);
+    // Run 0 (φ = 0.78, Q = 1): 100 + 50 making, 100 + 50 breaking, in four bins.
+    assert!((pdf[80] - 100.0 / (300.0 * 3.6)).abs() < 1e-12);
+    assert!((pdf[75] - 50.0 / (300.0 * 3.6)).abs() < 1e-12);
     for fig in [
+        "p_theta_90",
+        "theta_phi_0p78",
+        "theta_phi_0p82",
         "p_el",
         "p_el_vs_q",
         "tau_dur",
@@ -309,6 +335,8 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
         assert_figure(&out, &fig);
     }
     for caption in [
+        "Figs. 9 for CD, 19 for CDrot",
+        "Figs. 8 for CD, 18 for CDrot",
         "Fig. 22",
         "Fig. 10",
         "Figs. 6(a,c), 14(a,c)",
@@ -374,4 +402,69 @@ fn report_of_one_run_draws_contacts_profiles_and_fields() {
         assert!(html.contains(caption), "{caption}");
     }
     assert!(html.contains("<th>correlation r</th>"), "the moments table");
+}
+
+/// `run --jobs 2` computes a sweep's independent grid points side by side (the second
+/// starts before the first is done) and gives what a serial run gives: the same stages,
+/// keys and manifest order, the same tables byte for byte (issue 35).
+#[test]
+fn independent_stages_run_at_once_with_the_numbers_of_a_serial_run() {
+    let d = tmpdir("jobs");
+    let file = d.join("s.toml");
+    std::fs::write(
+        &file,
+        "[pipeline]\nname = \"jobs\"\n\n[flow.sweep]\nphi = [0.80, 0.82]\nq = [1]\nrate = [1e-3]\n\
+         n = 256\nstrain = 3\n",
+    )
+    .unwrap();
+    let f = file.to_str().unwrap();
+    let (a, b) = (d.join("runs-a"), d.join("runs-b"));
+    let out = run_ok(&["run", f, "--jobs", "2"], &a);
+    run_ok(&["run", f, "--jobs", "1", "--quiet"], &b);
+    let lines: Vec<&str> = out.lines().collect();
+    let first_done = lines.iter().position(|l| l.contains("computed")).unwrap();
+    let second_running = lines
+        .iter()
+        .position(|l| l.starts_with("[2/3]") && l.contains("running"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(second_running < first_done, "not side by side:\n{out}");
+    let (ma, mb) = (latest(&a), latest(&b));
+    let stages = |m: &Value| -> Vec<(String, String)> {
+        m["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| (s["name"].to_string(), s["key"].to_string()))
+            .collect()
+    };
+    assert_eq!(stages(&ma), stages(&mb));
+    assert_eq!(computed(&ma).len(), 3, "{ma}");
+    for s in ma["stages"].as_array().unwrap() {
+        let rel = s["dir"].as_str().unwrap();
+        for (name, file) in s["outputs"].as_object().unwrap() {
+            let file = file.as_str().unwrap();
+            if !file.ends_with(".parquet") {
+                continue;
+            }
+            let (x, y) = (a.join(rel).join(file), b.join(rel).join(file));
+            assert_eq!(
+                std::fs::read(&x).unwrap(),
+                std::fs::read(&y).unwrap(),
+                "{name}: {}",
+                x.display()
+            );
+        }
+    }
+    // One at a time gives the usual order of lines.
+    let out = run_ok(&["run", f, "--jobs", "1", "--force", "all"], &b);
+    let order: Vec<&str> = out
+        .lines()
+        .filter(|l| l.starts_with('[') && (l.contains("running") || l.contains("computed")))
+        .map(|l| l.split_whitespace().nth(2).unwrap_or(""))
+        .collect();
+    assert_eq!(order.len(), 6, "{out}");
+    assert!(
+        out.lines().nth(1).is_some_and(|l| l.contains("computed")),
+        "{out}"
+    );
 }

@@ -15,6 +15,7 @@ pub mod graph;
 mod import_graph;
 #[cfg(test)]
 mod kind_entries;
+pub mod local;
 pub mod lock;
 pub mod params;
 pub mod parse;

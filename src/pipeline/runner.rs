@@ -1,11 +1,12 @@
 //! `pillar-pipe run`: load the pipeline, compute every stage's cache key, reuse or
-//! compute each stage in order, then record the run under `runs/<id>/`.
+//! compute each stage (locally, several at once: `local`; or as Slurm jobs), then record
+//! the run under `runs/<id>/`.
 
 use super::cache::{Cache, CacheEvent, Check, Claim, StageRecord, stage_key};
 use super::exec::{Ctx, Done, execute};
 use super::lock::LockEvent;
-use super::record::{manifest, place_reports, write_manifest};
-use super::runs::{self, RunManifest, StageRun};
+use super::record::{manifest, write_manifest};
+use super::runs::{self, RunManifest};
 use super::{Pipeline, Stage};
 use crate::error::{Error, Result};
 use crate::io::sha256_file;
@@ -31,6 +32,8 @@ pub struct RunOptions {
     pub executor: Option<String>,
     /// Slurm settings given on the command line (they override the file's).
     pub slurm: super::slurm::SlurmOptions,
+    /// Stages run at once by the local executor; `None`: the machine's cores.
+    pub jobs: Option<usize>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -214,118 +217,18 @@ pub fn run(opt: &RunOptions, on_event: &mut dyn FnMut(&StageEvent)) -> Result<Ru
         super::slurm::head::run(&h, &mut m, on_event)?;
         return Ok(m);
     }
-    let mut done: BTreeMap<String, Done> = BTreeMap::new();
-    for (i, s) in p.stages.iter().enumerate() {
-        let k = &keyed[&s.name];
-        let kind = s.kind.name();
-        let dir = cache.path(kind, &k.key);
-        let t = Instant::now();
-        let how = if opt.verify {
-            Check::Sha256
-        } else {
-            Check::Sizes
-        };
-        let outcome = claim_and_compute(
-            &p,
-            s,
-            k,
-            &cache,
-            &done,
-            force.contains(&s.name),
-            how,
-            &Job {
-                quiet: opt.quiet,
-                run_id: &id,
-                slurm_job: None,
-            },
-            &mut |status, note| {
-                on_event(&StageEvent {
-                    index: i + 1,
-                    total,
-                    stage: s,
-                    status,
-                    elapsed_s: 0.0,
-                    dir: &dir,
-                    note,
-                })
-            },
-        );
-        let (record, cached, because) = match outcome {
-            Ok(o) => (Ok(o.record), o.cached, o.because),
-            Err(e) => (Err(e), false, None),
-        };
-        let record = match record {
-            Ok(r) => r,
-            Err(Error::Interrupted { signal, what }) => {
-                let what = format!(
-                    "stage '{}' ({kind}): {what}; {}",
-                    s.name,
-                    interrupted_note(i, total)
-                );
-                return Err(stop_interrupted(&mut m, &run_dir, t0, signal, what));
-            }
-            Err(e) => {
-                let msg = format!("stage '{}' ({kind}) failed: {e}", s.name);
-                m.status = "failed".into();
-                m.failed_stage = Some(s.name.clone());
-                m.error = Some(msg.clone());
-                m.elapsed_s = t0.elapsed().as_secs_f64();
-                write_manifest(&run_dir, &m)?;
-                return Err(Error::Other(msg));
-            }
-        };
-        let elapsed_s = t.elapsed().as_secs_f64();
-        on_event(&StageEvent {
-            index: i + 1,
-            total,
-            stage: s,
-            status: if cached {
-                Status::Cached
-            } else {
-                Status::Computed
-            },
-            elapsed_s,
-            dir: &dir,
-            note: None,
-        });
-        if !record.metrics.as_object().is_none_or(|o| o.is_empty()) {
-            m.metrics.insert(s.name.clone(), record.metrics.clone());
-        }
-        m.stages.push(StageRun {
-            name: s.name.clone(),
-            kind: kind.into(),
-            key: k.key.clone(),
-            dir: dir
-                .strip_prefix(&runs_dir)
-                .unwrap_or(&dir)
-                .display()
-                .to_string(),
-            cached,
-            verified: if cached { how.name() } else { "computed" }.into(),
-            recomputed_because: because,
-            elapsed_s,
-            compute_s: record.elapsed_s,
-            outputs: record.outputs.clone(),
-            slurm: None,
-        });
-        done.insert(s.name.clone(), Done { record, dir });
-        m.elapsed_s = t0.elapsed().as_secs_f64();
-        write_manifest(&run_dir, &m)?;
-        if let Some(signal) = crate::interrupt::requested()
-            && i + 1 < total
-        {
-            let what = format!(
-                "after stage '{}'; {}",
-                s.name,
-                interrupted_note(i + 1, total)
-            );
-            return Err(stop_interrupted(&mut m, &run_dir, t0, signal, what));
-        }
-    }
-    m.report = place_reports(&p, &done, &run_dir)?;
-    m.status = "ok".into();
-    m.elapsed_s = t0.elapsed().as_secs_f64();
-    write_manifest(&run_dir, &m)?;
+    let local = super::local::LocalRun {
+        p: &p,
+        keyed: &keyed,
+        force: &force,
+        cache: &cache,
+        runs_dir: &runs_dir,
+        run_dir: &run_dir,
+        run_id: &id,
+        opt,
+        t0,
+    };
+    super::local::run(&local, &mut m, on_event)?;
     Ok(m)
 }
 
@@ -450,7 +353,7 @@ pub fn claim_and_compute(
     })
 }
 
-fn interrupted_note(finished: usize, total: usize) -> String {
+pub(crate) fn interrupted_note(finished: usize, total: usize) -> String {
     format!(
         "{finished} of {total} stages finished and cached; running the pipeline again continues \
          (a simulation from its last checkpoint)"
@@ -458,7 +361,7 @@ fn interrupted_note(finished: usize, total: usize) -> String {
 }
 
 /// Record a run stopped by a signal in its manifest and make the error that says so.
-fn stop_interrupted(
+pub(crate) fn stop_interrupted(
     m: &mut RunManifest,
     run_dir: &Path,
     t0: Instant,
