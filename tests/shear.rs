@@ -921,12 +921,20 @@ fn a_contact_made_across_the_seam_has_the_image_velocity_in_its_angle() {
 /// The collision angle's two limits: in a dilute elastic gas (φ = 0.6, Q = 20) impact
 /// parameters are spread evenly, so P(ϑ) vanishes at grazing (±90°) and its mass lies
 /// at head-on angles; in dense, strongly damped flow (φ = 0.76, Q = 0.1) contacts form
-/// and break glancing, peaked at ±90° (vagberg-sheared-disks Figs. 8–9).
+/// and break glancing, peaked at ±90° (vagberg-sheared-disks Figs. 8–9). The issue's
+/// check at φ = 0.82 in CD: near zero well above Q_c (Q = 300), a clear peak below it
+/// (Q = 3).
 #[test]
 fn p_theta_90_is_small_in_a_dilute_gas_and_peaks_in_dense_damped_flow() {
     let uniform = 1.0 / 360.0;
     let mut p90 = Vec::new();
-    for (phi, q, rate) in [(0.6, 20.0, 1e-3), (0.76, 0.1, 1e-4)] {
+    let cases = [
+        (0.6, 20.0, 1e-3),
+        (0.76, 0.1, 1e-4),
+        (0.82, 300.0, 1e-3),
+        (0.82, 3.0, 1e-3),
+    ];
+    for (phi, q, rate) in cases {
         let out = tmpdir("p90");
         let opt = ShearOptions {
             n: 256,
@@ -943,6 +951,8 @@ fn p_theta_90_is_small_in_a_dilute_gas_and_peaks_in_dense_damped_flow() {
     }
     assert!(p90[0] < 0.3 * uniform, "dilute gas: P(90°) = {}", p90[0]);
     assert!(p90[1] > 3.0 * uniform, "dense, damped: P(90°) = {}", p90[1]);
+    assert!(p90[2] < 0.3 * uniform, "φ = 0.82, Q = 300: P(90°) = {}", p90[2]);
+    assert!(p90[3] > 3.0 * uniform, "φ = 0.82, Q = 3: P(90°) = {}", p90[3]);
 }
 
 /// CDn (normal dissipation only) is Bagnoldian, p ∝ γ̇², where CD at the same φ and Q
