@@ -951,8 +951,16 @@ fn p_theta_90_is_small_in_a_dilute_gas_and_peaks_in_dense_damped_flow() {
     }
     assert!(p90[0] < 0.3 * uniform, "dilute gas: P(90°) = {}", p90[0]);
     assert!(p90[1] > 3.0 * uniform, "dense, damped: P(90°) = {}", p90[1]);
-    assert!(p90[2] < 0.3 * uniform, "φ = 0.82, Q = 300: P(90°) = {}", p90[2]);
-    assert!(p90[3] > 3.0 * uniform, "φ = 0.82, Q = 3: P(90°) = {}", p90[3]);
+    assert!(
+        p90[2] < 0.3 * uniform,
+        "φ = 0.82, Q = 300: P(90°) = {}",
+        p90[2]
+    );
+    assert!(
+        p90[3] > 3.0 * uniform,
+        "φ = 0.82, Q = 3: P(90°) = {}",
+        p90[3]
+    );
 }
 
 /// CDn (normal dissipation only) is Bagnoldian, p ∝ γ̇², where CD at the same φ and Q

@@ -1,4 +1,5 @@
-//! A sweep's elastic pressure and collision figures (vagberg-sheared-disks): P^el against
+//! A sweep's elastic pressure and collision figures (vagberg-sheared-disks): η_p^el and
+//! B_p^el against φ and Q (Figs. 2, 11, 16), var[θ̇/γ̇] (Fig. 20b), P^el against
 //! φ (Figs. 15, 22) and against Q (Figs. 1, 10), and τ_dur/τ_e and ν_coll/γ̇ against φ and
 //! against Q (Figs. 6, 14). Units d_s = m = τ_e = 1, so P^el = (τ_e²/m) p^el (Eq. 18) is
 //! the run's `p_el`, τ_dur/τ_e its `tau_dur` and ν_coll/γ̇ its `nu_coll` (contacts begun
@@ -24,7 +25,43 @@ fn with_rate_normalised(rows: &[Row]) -> Vec<Row> {
 
 /// What each figure shows: (quantity, file, title, y axis, y log, caption against φ,
 /// caption against Q).
-const QUANTITIES: [(&str, &str, &str, &str, bool, &str, &str); 3] = [
+type Quantity = (
+    &'static str,
+    &'static str,
+    &'static str,
+    &'static str,
+    bool,
+    &'static str,
+    &'static str,
+);
+const QUANTITIES: &[Quantity] = &[
+    (
+        "eta_p_el",
+        "eta_p_el",
+        "η_p^el = p^el/(k_d dγ/dt)",
+        "η_p^el = P^el / (dγ/dt τ_0)",
+        true,
+        "The elastic pressure analog of viscosity η_p^el = p^el/(k_d γ̇) against φ for each (Q, γ̇): independent of γ̇ as γ̇ → 0 where the flow is Newtonian (vagberg-sheared-disks Fig. 16(a,c), CDrot at Q = 1 and 20).",
+        "η_p^el = p^el/(k_d γ̇) against Q for each (φ, γ̇): independent of γ̇ below Q_c (Newtonian), rising as 1/γ̇ above it (vagberg-sheared-disks Fig. 2(a,c) for CD, Fig. 11(a,c) for CDrot).",
+    ),
+    (
+        "b_p_el",
+        "b_p_el",
+        "B_p^el = p^el/(m (dγ/dt)²)",
+        "B_p^el = P^el / (dγ/dt τ_e)²",
+        true,
+        "The elastic Bagnold coefficient B_p^el = p^el/(m γ̇²) against φ for each (Q, γ̇): independent of γ̇ where the flow is Bagnoldian (vagberg-sheared-disks Fig. 16(b,d)).",
+        "B_p^el = p^el/(m γ̇²) against Q for each (φ, γ̇): independent of γ̇ above Q_c (Bagnoldian), roughly linear in Q there (vagberg-sheared-disks Fig. 2(b,d) for CD, Fig. 11(b,d) for CDrot).",
+    ),
+    (
+        "theta_dot_over_gamma_dot_var",
+        "rotation_var",
+        "var[θ̇_i/(dγ/dt)] (Fig. 20b, Eq. 28)",
+        "var[θ̇_i / (dγ/dt)]",
+        true,
+        "The variance over particles of the spin in units of γ̇ (Eq. 28) against φ for each (Q, γ̇): small where disks roll with the affine rotation, growing where contacts are long-lived (vagberg-sheared-disks Fig. 20(b), CDrot).",
+        "var[θ̇_i/γ̇] (Eq. 28) against Q for each (φ, γ̇).",
+    ),
     (
         "p_el",
         "p_el",
@@ -68,7 +105,7 @@ pub(super) fn add_figures(
         v.dedup();
         v.len()
     };
-    for (quantity, file, title, y, log, cap_phi, cap_q) in QUANTITIES {
+    for &(quantity, file, title, y, log, cap_phi, cap_q) in QUANTITIES {
         let series = versus_phi(&rows, quantity, "", false, colour_of);
         if series.is_empty() {
             continue;

@@ -13,6 +13,7 @@ pub mod classify;
 mod elastic;
 pub mod ramp;
 pub mod run_figures;
+pub mod stress_space;
 
 use crate::error::{Error, Result};
 use crate::io::table::read_table;
@@ -596,6 +597,7 @@ pub fn sweep_section(
             )?;
         }
     }
+    stress_space::add_figures(&mut f, &data.rows, &c)?;
     Ok(Section {
         id: format!("sweep-{}", slug(label)),
         title: format!("Sweep {label}: flow curves and phase diagram"),
