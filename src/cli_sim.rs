@@ -77,15 +77,16 @@ fn resume_with<O>(
     let (opt, taken) = adopt(dir, &opt, given)
         .with_context(|| format!("simulate {what}: resume {}", dir.display()))?;
     let list: Vec<String> = taken.iter().map(|(k, v)| format!("{k} = {v}")).collect();
-    eprintln!(
-        "resume      {} with the run's options{}",
-        dir.display(),
-        if list.is_empty() {
-            " (the defaults)".to_string()
-        } else {
-            format!(": {}", list.join(", "))
-        }
-    );
+    if list.is_empty() {
+        eprintln!(
+            "resume      no option taken from the run: it ran with the defaults and those given"
+        );
+    } else {
+        eprintln!(
+            "resume      options taken from the run: {}",
+            list.join(", ")
+        );
+    }
     Ok(opt)
 }
 

@@ -307,7 +307,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         let then = resume::recorded(&ckpt, &r.physics)?;
         let diffs = resume::differences(&then, &physics, &default_physics());
         let note = if diffs.iter().any(|d| d.key == "from_step") {
-            " (from_step: the ramp continued another run's state; give that run again with --from)"
+            " (from_step: the ramp continued another run's state; give its --ramp and --from DIR again)"
         } else {
             ""
         };
