@@ -1079,7 +1079,7 @@ fn a_checkpoint_with_the_old_direction_histograms_is_refused_with_the_reason() {
     assert!(ShearSim::load(&good).is_ok());
     s.coll.angle_making = vec![0; 50];
     s.coll.angle_breaking = vec![0; 50];
-    let err = ShearSim::load(&s.save(&[])).err().expect("refused");
+    let err = ShearSim::load(&s.save(&[])).expect_err("refused");
     assert!(
         err.contains("50 bins") && err.contains("Eq. 27") && err.contains("without --resume"),
         "{err}"

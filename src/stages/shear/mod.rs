@@ -195,32 +195,6 @@ fn default_physics() -> serde_json::Map<String, serde_json::Value> {
     resume::physics(serde_json::to_value(ShearOptions::default()).expect("json"))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Every new `ShearOptions` field is absent from the checkpoints written before it;
-    /// they resume while it holds its default.
-    #[test]
-    fn checkpoints_without_a_new_option_resume_while_it_is_default() {
-        let now = default_physics();
-        let mut then = now.clone();
-        then.remove("window");
-        assert!(resume::differences(&then, &now, &default_physics()).is_empty());
-        let mut wider = now.clone();
-        wider.insert("window".into(), serde_json::json!(500.0));
-        let d = resume::differences(&then, &wider, &default_physics());
-        assert_eq!(d.len(), 1);
-        assert_eq!(d[0].to_string(), "window: then not set, now 500.0");
-        // A run-only option may differ.
-        let mut quiet = serde_json::to_value(ShearOptions::default()).unwrap();
-        quiet["quiet"] = serde_json::json!(true);
-        quiet["checkpoint_every"] = serde_json::json!(100);
-        let quiet = resume::physics(quiet);
-        assert!(resume::differences(&then, &quiet, &default_physics()).is_empty());
-    }
-}
-
 /// The options `--resume DIR` runs with when the command line gave only the keys in
 /// `given`: the others are the interrupted run's. Also returns the options so taken whose
 /// value differs from `opt`'s.
@@ -558,4 +532,30 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let _ = std::fs::remove_dir_all(&parts_dir);
     crate::stages::manifest::write(out, "simulate shear", opt, body)?;
     Ok(rep)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every new `ShearOptions` field is absent from the checkpoints written before it;
+    /// they resume while it holds its default.
+    #[test]
+    fn checkpoints_without_a_new_option_resume_while_it_is_default() {
+        let now = default_physics();
+        let mut then = now.clone();
+        then.remove("window");
+        assert!(resume::differences(&then, &now, &default_physics()).is_empty());
+        let mut wider = now.clone();
+        wider.insert("window".into(), serde_json::json!(500.0));
+        let d = resume::differences(&then, &wider, &default_physics());
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].to_string(), "window: then not set, now 500.0");
+        // A run-only option may differ.
+        let mut quiet = serde_json::to_value(ShearOptions::default()).unwrap();
+        quiet["quiet"] = serde_json::json!(true);
+        quiet["checkpoint_every"] = serde_json::json!(100);
+        let quiet = resume::physics(quiet);
+        assert!(resume::differences(&then, &quiet, &default_physics()).is_empty());
+    }
 }
