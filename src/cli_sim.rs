@@ -1,17 +1,103 @@
 //! CLI wiring for the simulators: `simulate pillar|shear` and `pack`.
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, Subcommand};
+use clap::parser::ValueSource;
+use clap::{ArgMatches, Args, FromArgMatches, Subcommand};
 use pillar_pipe::stages::simulate::{SimulateOptions, run};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 
 #[derive(Subcommand)]
 pub enum SimulateCmd {
     /// Granular pillar compressed by a bar (li-granular-pillars Sec. II).
-    Pillar(PillarArgs),
+    Pillar(Given<PillarArgs>),
     /// Frictionless disks sheared with Lees–Edwards boundaries (vagberg-sheared-disks).
-    Shear(ShearArgs),
+    Shear(Given<ShearArgs>),
+}
+
+/// Parsed arguments and the ids of those the user typed: `--resume DIR` takes every
+/// option not typed from the interrupted run rather than from clap's defaults, which
+/// the parsed struct alone cannot tell apart from typed values.
+pub struct Given<A> {
+    args: A,
+    given: BTreeSet<String>,
+}
+
+impl<A: FromArgMatches + Args> FromArgMatches for Given<A> {
+    fn from_arg_matches(m: &ArgMatches) -> clap::error::Result<Self> {
+        // The derive's group of all the struct's args is "typed" whenever one is.
+        let group = A::group_id();
+        let given = m
+            .ids()
+            .filter(|id| Some(*id) != group.as_ref())
+            .filter(|id| {
+                matches!(
+                    m.value_source(id.as_str()),
+                    Some(ValueSource::CommandLine | ValueSource::EnvVariable)
+                )
+            })
+            .map(|id| id.as_str().to_string())
+            .collect();
+        Ok(Given {
+            args: A::from_arg_matches(m)?,
+            given,
+        })
+    }
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> clap::error::Result<()> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl<A: Args> Args for Given<A> {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        A::augment_args(cmd)
+    }
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        A::augment_args_for_update(cmd)
+    }
+    fn group_id() -> Option<clap::Id> {
+        A::group_id()
+    }
+}
+
+/// For `--resume DIR`: the options with those not typed taken from the interrupted run,
+/// one line saying which were, and a refusal that says how to start anew instead.
+fn resume_with<O>(
+    what: &str,
+    dir: &std::path::Path,
+    opt: O,
+    given: &BTreeSet<String>,
+    adopt: impl FnOnce(
+        &std::path::Path,
+        &O,
+        &BTreeSet<String>,
+    ) -> pillar_pipe::error::Result<(O, Vec<(String, serde_json::Value)>)>,
+) -> Result<O> {
+    let (opt, taken) = adopt(dir, &opt, given)
+        .with_context(|| format!("simulate {what}: resume {}", dir.display()))?;
+    let list: Vec<String> = taken.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+    if list.is_empty() {
+        eprintln!(
+            "resume      no option taken from the run: it ran with the defaults and those given"
+        );
+    } else {
+        eprintln!(
+            "resume      options taken from the run: {}",
+            list.join(", ")
+        );
+    }
+    Ok(opt)
+}
+
+/// A refused resume (options typed that differ from the run's) with how to start anew.
+fn resume_refusal(what: &str, e: pillar_pipe::error::Error) -> anyhow::Error {
+    match e {
+        pillar_pipe::error::Error::Param { ref name, .. } if name == "resume" => anyhow::anyhow!(
+            "{e}\n  leave these options out to continue the run as it was, or start a new run with them: pillar-pipe simulate {what} … -o NEW_DIR"
+        ),
+        e => e.into(),
+    }
 }
 
 #[derive(Args)]
@@ -189,13 +275,28 @@ pub struct PackArgs {
 }
 
 pub fn simulate(cmd: SimulateCmd) -> Result<()> {
-    let a = match cmd {
+    let Given { args: a, given } = match cmd {
         SimulateCmd::Pillar(a) => a,
         SimulateCmd::Shear(s) => return shear(s),
     };
     let json = a.json;
-    let (out, opt) = pillar_options(a)?;
-    let rep = run(&out, &opt).with_context(|| format!("simulate pillar into {}", out.display()))?;
+    let (out, mut opt) = pillar_options(a)?;
+    if opt.resume {
+        let given = given
+            .into_iter()
+            .map(|id| if id == "params" { "set".into() } else { id })
+            .collect();
+        opt = resume_with(
+            "pillar",
+            &out,
+            opt,
+            &given,
+            pillar_pipe::stages::simulate::options_for_resume,
+        )?;
+    }
+    let rep = run(&out, &opt)
+        .map_err(|e| resume_refusal("pillar", e))
+        .with_context(|| format!("simulate pillar into {}", out.display()))?;
     if json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
         return Ok(());
@@ -229,14 +330,25 @@ pub fn pack(a: PackArgs) -> Result<()> {
     Ok(())
 }
 
-fn shear(a: ShearArgs) -> Result<()> {
+fn shear(a: Given<ShearArgs>) -> Result<()> {
     use pillar_pipe::stages::shear::run;
-    let (n, phi, q, rate, model) = (a.n, a.phi, a.q, a.rate, a.model);
-    let (out, opt) = shear_options(a)?;
-    let rep = run(&out, &opt).with_context(|| format!("simulate shear into {}", out.display()))?;
+    let Given { args: a, given } = a;
+    let (out, mut opt) = shear_options(a)?;
+    if opt.resume {
+        opt = resume_with(
+            "shear",
+            &out,
+            opt,
+            &given,
+            pillar_pipe::stages::shear::options_for_resume,
+        )?;
+    }
+    let rep = run(&out, &opt)
+        .map_err(|e| resume_refusal("shear", e))
+        .with_context(|| format!("simulate shear into {}", out.display()))?;
     println!(
         "shear       {} disks, φ = {}, Q = {}, γ̇ = {:e}, {:?}: {} steps, {} frames, {:.1} s",
-        n, phi, q, rate, model, rep.steps, rep.frames, rep.elapsed_s
+        opt.n, opt.phi, opt.q, opt.rate, opt.model, rep.steps, rep.frames, rep.elapsed_s
     );
     for (k, v) in &rep.summary {
         println!("  {k:30} {:>12.5e} ± {:.2e}", v.mean, v.err);
@@ -421,7 +533,7 @@ mod tests {
         let SimulateCmd::Pillar(a) = cmd else {
             panic!("pillar")
         };
-        let (_, opt) = pillar_options(a).unwrap();
+        let (_, opt) = pillar_options(a.args).unwrap();
         let skip = ["resume", "quiet", "threads", "halt_after"];
         assert_eq!(
             physics(&opt, &skip),
@@ -437,12 +549,34 @@ mod tests {
         let SimulateCmd::Shear(a) = cmd else {
             panic!("shear")
         };
-        let (_, opt) = shear_options(a).unwrap();
+        let (_, opt) = shear_options(a.args).unwrap();
         let skip = ["resume", "quiet", "halt_after"];
         assert_eq!(
             physics(&opt, &skip),
             physics(ShearOptions::default(), &skip),
             "simulate shear: the command line's defaults differ from ShearOptions::default()"
         );
+    }
+
+    /// Only what was typed counts as given: defaults, including those of flags, are
+    /// left to the interrupted run.
+    #[test]
+    fn given_holds_the_typed_options_only() {
+        let Cmd { cmd } = Cmd::parse_from([
+            "t", "pillar", "--strain", "0.5", "--param", "k_n=3", "--quiet", "--resume", "d",
+        ]);
+        let SimulateCmd::Pillar(a) = cmd else {
+            panic!("pillar")
+        };
+        let want: BTreeSet<String> = ["strain", "params", "quiet", "resume"]
+            .into_iter()
+            .map(String::from)
+            .collect();
+        assert_eq!(a.given, want);
+        let Cmd { cmd } = Cmd::parse_from(["t", "shear", "--resume", "d"]);
+        let SimulateCmd::Shear(a) = cmd else {
+            panic!("shear")
+        };
+        assert_eq!(a.given, BTreeSet::from(["resume".to_string()]));
     }
 }

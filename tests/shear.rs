@@ -371,6 +371,96 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
     assert_eq!(m["length_unit"], "d_s");
 }
 
+/// `--resume DIR` alone continues with the run's own options (issue 33, item 4): a run
+/// with non-default N, φ, γ̇, strain and seed, halted twice, ends with an uninterrupted
+/// run's tables byte for byte; a typed option that differs is refused by name.
+#[test]
+fn resume_alone_continues_with_the_runs_own_options() {
+    let bin = env!("CARGO_BIN_EXE_pillar-pipe");
+    let (a, b) = (tmpdir("alone-a"), tmpdir("alone-b"));
+    let b_s = b.to_str().unwrap();
+    let run_cli = |args: &[&str]| {
+        let o = Command::new(bin).args(args).output().unwrap();
+        (
+            o.status.success(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            ),
+        )
+    };
+    let base = [
+        "simulate", "shear", "--n", "128", "--phi", "0.8", "--rate", "1e-2", "--strain", "0.6",
+        "--seed", "5", "--quiet",
+    ];
+    let (ok, text) = run_cli(&[&base[..], &["-o", a.to_str().unwrap()]].concat());
+    assert!(ok, "{text}");
+    let halted = [
+        &base[..],
+        &[
+            "--checkpoint-every",
+            "300",
+            "--halt-after",
+            "500",
+            "-o",
+            b_s,
+        ],
+    ]
+    .concat();
+    let (ok, text) = run_cli(&halted);
+    assert!(!ok && text.contains("halted"), "{text}");
+    let (ok, text) = run_cli(&["simulate", "shear", "--phi", "0.81", "--resume", b_s]);
+    assert!(
+        !ok && text.contains("phi: then 0.8, now 0.81") && text.contains("-o NEW_DIR"),
+        "{text}"
+    );
+    // Run-only options may differ.
+    let (ok, text) = run_cli(&[
+        "simulate",
+        "shear",
+        "--checkpoint-every",
+        "200",
+        "--checkpoint-interval",
+        "0",
+        "--halt-after",
+        "800",
+        "--resume",
+        b_s,
+    ]);
+    assert!(
+        !ok && text.contains("halted") && text.contains("seed = 5"),
+        "{text}"
+    );
+    let (ok, text) = run_cli(&["simulate", "shear", "--resume", b_s]);
+    assert!(
+        ok && text.contains("phi = 0.8") && text.contains("seed = 5"),
+        "{text}"
+    );
+    for t in [
+        "series.parquet",
+        "tracks.parquet",
+        "collision_angles.parquet",
+        "profile.parquet",
+        "contact_velocities.parquet",
+        "fields.parquet",
+    ] {
+        assert!(
+            std::fs::read(a.join(t)).unwrap() == std::fs::read(b.join(t)).unwrap(),
+            "{t} differs byte for byte"
+        );
+    }
+    // The summary also lists the options, whose run-only ones differ here.
+    let summary = |d: &std::path::Path| {
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap())
+                .unwrap();
+        v.as_object_mut().unwrap().remove("options");
+        v
+    };
+    assert_eq!(summary(&a), summary(&b));
+}
+
 #[test]
 fn sweep_runs_the_grid_once_and_tabulates_it() {
     let bin = env!("CARGO_BIN_EXE_pillar-pipe");
@@ -1007,7 +1097,7 @@ fn a_checkpoint_with_the_old_direction_histograms_is_refused_with_the_reason() {
     assert!(ShearSim::load(&good).is_ok());
     s.coll.angle_making = vec![0; 50];
     s.coll.angle_breaking = vec![0; 50];
-    let err = ShearSim::load(&s.save(&[])).err().expect("refused");
+    let err = ShearSim::load(&s.save(&[])).expect_err("refused");
     assert!(
         err.contains("50 bins") && err.contains("Eq. 27") && err.contains("without --resume"),
         "{err}"

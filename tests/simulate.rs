@@ -189,6 +189,74 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
     );
 }
 
+/// `--resume DIR` alone continues with the run's own options, not the command line's
+/// defaults; a typed option must match the run's unless it only says how the run
+/// proceeds (issue 33, item 4).
+#[test]
+fn resume_alone_continues_with_the_runs_own_options() {
+    let dir = tmpdir("resume-alone");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let (a_s, b_s) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let opts = [
+        "simulate", "pillar", "--n", "120", "--seed", "7", "--strain", "0.05", "--quiet",
+    ];
+    let with = |extra: &[&str]| run(&[&opts[..], extra].concat());
+    let (ok, text) = with(&["-o", a_s]);
+    assert!(ok, "{text}");
+    let (ok, text) = with(&[
+        "--checkpoint-every",
+        "4000",
+        "--halt-after",
+        "5000",
+        "-o",
+        b_s,
+    ]);
+    assert!(!ok && text.contains("halted"), "{text}");
+    let (ok, text) = run(&[
+        "simulate", "pillar", "--strain", "0.06", "--seed", "7", "--resume", b_s,
+    ]);
+    assert!(
+        !ok && text.contains("strain: then 0.05, now 0.06")
+            && !text.contains("seed: then")
+            && text.contains("-o NEW_DIR"),
+        "{text}"
+    );
+    assert!(b.join("checkpoint.bin").exists() && !b.join("manifest.json").exists());
+    // Run-only options may differ; a typed option equal to the run's is no difference.
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--seed",
+        "7",
+        "--checkpoint-every",
+        "3000",
+        "--checkpoint-interval",
+        "0",
+        "--halt-after",
+        "9000",
+        "--resume",
+        b_s,
+    ]);
+    assert!(
+        !ok && text.contains("halted")
+            && text.contains("taken from the run: n = 120, strain = 0.05"),
+        "{text}"
+    );
+    let (ok, text) = run(&["simulate", "pillar", "--resume", b_s]);
+    assert!(
+        ok && text.contains("taken from the run: n = 120, seed = 7, strain = 0.05"),
+        "{text}"
+    );
+    assert_eq!(contents(&a), contents(&b));
+    for t in ["tracks", "bar_forces", "stress_strain", "forces"] {
+        let f = format!("{t}.parquet");
+        assert!(
+            std::fs::read(a.join(&f)).unwrap() == std::fs::read(b.join(&f)).unwrap(),
+            "{f} differs byte for byte"
+        );
+    }
+}
+
 #[test]
 fn killed_run_resumes_to_the_same_result() {
     let dir = tmpdir("kill");

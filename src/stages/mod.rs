@@ -34,6 +34,7 @@ pub mod gofr;
 pub mod pack;
 pub mod quickstart;
 pub mod report;
+pub mod resume;
 pub mod shear;
 pub mod shear_lines;
 pub mod simulate;

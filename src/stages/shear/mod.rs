@@ -13,6 +13,7 @@ use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
 use crate::io::{atomic_write_str, sidecar_path};
+use crate::stages::resume;
 pub use crate::stages::shear::ramp::STATE;
 use crate::stages::shear::ramp::{finish_ramp, ramp_plan, start_from};
 pub use crate::stages::shear::stats::MeanErr;
@@ -188,6 +189,30 @@ pub fn read_checkpoint(ckpt: &Path) -> Result<Resumed> {
     })
 }
 
+/// The default options as a checkpoint records them: what an option recorded on one side
+/// only must hold for a resume.
+fn default_physics() -> serde_json::Map<String, serde_json::Value> {
+    resume::physics(serde_json::to_value(ShearOptions::default()).expect("json"))
+}
+
+/// The options `--resume DIR` runs with when the command line gave only the keys in
+/// `given`: the others are the interrupted run's. Also returns the options so taken whose
+/// value differs from `opt`'s.
+pub fn options_for_resume(
+    dir: &Path,
+    opt: &ShearOptions,
+    given: &std::collections::BTreeSet<String>,
+) -> Result<(ShearOptions, Vec<(String, serde_json::Value)>)> {
+    let ckpt = dir.join("checkpoint.bin");
+    let r = read_checkpoint(&ckpt)?;
+    let then = resume::recorded(&ckpt, &r.physics)?;
+    let (mut o, taken) = resume::adopt(opt, &then, given)?;
+    // Not serialised, so not recorded: they stay as given.
+    o.halt_after = opt.halt_after;
+    o.from_state.clone_from(&opt.from_state);
+    Ok((o, taken))
+}
+
 /// The run's physical parameters, or what is wrong with the options (checked before a
 /// run starts, and by a pipeline before any stage runs).
 pub fn params_of(opt: &ShearOptions) -> std::result::Result<ShearParams, String> {
@@ -237,33 +262,30 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     // Steps and strain are counted on from a state's; the ramp's schedule starts at it.
     let (step0, strain0) = origin.as_ref().map_or((0, 0.0), |s| (s.step, s.strain()));
     let physics = {
-        let mut v = serde_json::to_value(opt).expect("json");
-        for k in crate::stages::simulate::RUN_ONLY {
-            v.as_object_mut().expect("object").remove(k);
-        }
+        let mut v = resume::physics(serde_json::to_value(opt).expect("json"));
         // A continued ramp's schedule counts from the state's step: a resume must
         // start from the same one (a run from random positions records nothing, so
         // its older checkpoints still resume).
         if opt.from_state.is_some() {
-            v["from_step"] = serde_json::json!(step0);
+            v.insert("from_step".into(), serde_json::json!(step0));
         }
-        v.to_string()
+        v
     };
+    let physics_json = serde_json::Value::Object(physics.clone()).to_string();
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); SERIES.len()];
     let mut tracks = empty_tracks();
     let (mut frame, mut parts) = (0i64, 0u64);
     let mut steady = Steady::default();
     let mut sim = if opt.resume {
         let r = read_checkpoint(&ckpt)?;
-        if r.physics != physics {
-            return Err(Error::param(
-                "resume",
-                format!(
-                    "the options differ from the interrupted run's:\n  then: {}\n  now:  {physics}",
-                    r.physics
-                ),
-            ));
-        }
+        let then = resume::recorded(&ckpt, &r.physics)?;
+        let diffs = resume::differences(&then, &physics, &default_physics());
+        let note = if diffs.iter().any(|d| d.key == "from_step") {
+            " (from_step: the ramp continued another run's state; give its --ramp and --from DIR again)"
+        } else {
+            ""
+        };
+        resume::refuse_differences(&diffs, note)?;
         let sim = r.sim;
         (frame, parts, cols, steady) = (r.frame, r.parts, r.cols, r.steady);
         for (f, xy) in r.boxes {
@@ -370,7 +392,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             flush_tracks(&mut tracks, &parts_dir, parts)?;
             parts += 1;
             let mut e = Enc::default();
-            e.bytes(physics.as_bytes());
+            e.bytes(physics_json.as_bytes());
             e.u64(frame as u64);
             e.u64(parts);
             for c in &cols {
@@ -510,4 +532,30 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let _ = std::fs::remove_dir_all(&parts_dir);
     crate::stages::manifest::write(out, "simulate shear", opt, body)?;
     Ok(rep)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every new `ShearOptions` field is absent from the checkpoints written before it;
+    /// they resume while it holds its default.
+    #[test]
+    fn checkpoints_without_a_new_option_resume_while_it_is_default() {
+        let now = default_physics();
+        let mut then = now.clone();
+        then.remove("window");
+        assert!(resume::differences(&then, &now, &default_physics()).is_empty());
+        let mut wider = now.clone();
+        wider.insert("window".into(), serde_json::json!(500.0));
+        let d = resume::differences(&then, &wider, &default_physics());
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].to_string(), "window: then not set, now 500.0");
+        // A run-only option may differ.
+        let mut quiet = serde_json::to_value(ShearOptions::default()).unwrap();
+        quiet["quiet"] = serde_json::json!(true);
+        quiet["checkpoint_every"] = serde_json::json!(100);
+        let quiet = resume::physics(quiet);
+        assert!(resume::differences(&then, &quiet, &default_physics()).is_empty());
+    }
 }

@@ -81,59 +81,38 @@ impl Default for SimulateOptions {
     }
 }
 
-/// Options that say how a run proceeds, not what it computes: a resumed run may change
-/// them, and they enter no cache key.
-pub const RUN_ONLY: [&str; 4] = ["resume", "quiet", "checkpoint_every", "checkpoint_interval"];
+use crate::stages::resume;
+pub use crate::stages::resume::RUN_ONLY;
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn physics(o: &SimulateOptions) -> serde_json::Map<String, serde_json::Value> {
+        resume::physics(o.physics())
+    }
+
     #[test]
     fn checkpoints_of_earlier_versions_resume_when_new_options_are_default() {
         let now = SimulateOptions::default();
-        let mut then = now.physics();
-        then.as_object_mut().unwrap().remove("normal_law");
-        let then = serde_json::to_string(&then).unwrap();
-        let now_s = serde_json::to_string(&now.physics()).unwrap();
-        assert!(same_physics(&then, &now_s));
+        let defaults = physics(&now);
+        let mut then = physics(&now);
+        then.remove("normal_law");
+        assert!(resume::differences(&then, &physics(&now), &defaults).is_empty());
         let hertz = SimulateOptions {
             normal_law: NormalLawName::Hertz,
             ..now.clone()
         };
-        let hertz = serde_json::to_string(&hertz.physics()).unwrap();
-        assert!(
-            !same_physics(&then, &hertz),
-            "a changed law must not resume"
-        );
-        let other = SimulateOptions { seed: 9, ..now };
-        let other = serde_json::to_string(&other.physics()).unwrap();
-        assert!(!same_physics(&now_s, &other));
+        let d = resume::differences(&then, &physics(&hertz), &defaults);
+        assert_eq!(d.len(), 1, "a changed law must not resume: {d:?}");
+        assert_eq!(d[0].to_string(), "normal_law: then not set, now \"hertz\"");
+        let other = SimulateOptions {
+            seed: 9,
+            ..now.clone()
+        };
+        let d = resume::differences(&physics(&now), &physics(&other), &defaults);
+        assert_eq!(d[0].to_string(), "seed: then 1, now 9");
     }
-}
-
-/// Whether a checkpoint's options (`then`, JSON) are `now`'s: equal, or equal once
-/// options added since that checkpoint was written take their defaults (a run
-/// checkpointed by an earlier version resumes when nothing it did changes).
-fn same_physics(then: &str, now: &str) -> bool {
-    if then == now {
-        return true;
-    }
-    let (Ok(mut a), Ok(b)) = (
-        serde_json::from_str::<serde_json::Value>(then),
-        serde_json::from_str::<serde_json::Value>(now),
-    ) else {
-        return false;
-    };
-    let defaults = SimulateOptions::default().physics();
-    if let (Some(a), Some(b)) = (a.as_object_mut(), b.as_object()) {
-        for (k, v) in b {
-            if !a.contains_key(k) && defaults.get(k) == Some(v) {
-                a.insert(k.clone(), v.clone());
-            }
-        }
-    }
-    a == b
 }
 
 impl SimulateOptions {
@@ -263,6 +242,24 @@ pub fn read_checkpoint(ckpt: &Path) -> Result<(PillarSim, Progress)> {
     Ok((sim, prog))
 }
 
+/// The options `--resume DIR` runs with when the command line gave only the keys in
+/// `given`: the others are the interrupted run's. Also returns the options so taken whose
+/// value differs from `opt`'s.
+pub fn options_for_resume(
+    dir: &Path,
+    opt: &SimulateOptions,
+    given: &std::collections::BTreeSet<String>,
+) -> Result<(SimulateOptions, Vec<(String, serde_json::Value)>)> {
+    let ckpt = dir.join(CHECKPOINT);
+    let (_, prog) = read_checkpoint(&ckpt)?;
+    let then = resume::recorded(&ckpt, &prog.physics)?;
+    let (mut o, taken) = resume::adopt(opt, &then, given)?;
+    // Not serialised, so not recorded: they stay as given.
+    o.halt_after = opt.halt_after;
+    o.threads = opt.threads;
+    Ok((o, taken))
+}
+
 const CHECKPOINT: &str = "checkpoint.bin";
 const PARTS: &str = ".parts";
 pub use crate::stages::manifest::MANIFEST;
@@ -286,15 +283,10 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
     let physics = serde_json::to_string(&opt.physics()).expect("json");
     let (mut sim, mut prog) = if opt.resume {
         let (sim, prog) = read_checkpoint(&ckpt)?;
-        if !same_physics(&prog.physics, &physics) {
-            return Err(Error::param(
-                "resume",
-                format!(
-                    "the options differ from the interrupted run's:\n  then: {}\n  now:  {physics}",
-                    prog.physics
-                ),
-            ));
-        }
+        let then = resume::recorded(&ckpt, &prog.physics)?;
+        let defaults = resume::physics(SimulateOptions::default().physics());
+        let now = resume::physics(opt.physics());
+        resume::refuse_differences(&resume::differences(&then, &now, &defaults), "")?;
         drop_parts_from(&parts_dir, prog.parts)?;
         (sim, prog)
     } else {
