@@ -279,6 +279,10 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
                 grid.push((phi, qf, rate));
                 let mut s = summary(rate, 1.5);
                 s["p_el"] = q(phi * rate / qf);
+                s["eta_p_el"] = q(phi / qf * qf);
+                s["b_p_el"] = q(phi / qf / rate);
+                s["sigma"] = q(0.3 * s["p"]["mean"].as_f64().unwrap());
+                s["theta_dot_over_gamma_dot_var"] = q(0.1 + phi);
                 s["tau_dur"] = q(1.0 + phi);
                 s["nu_coll"] = q(0.3 * rate);
                 // Collision angles (Eq. 27): making in bin 80, breaking in bin 60, and
@@ -320,6 +324,15 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
     assert!((pdf[80] - 100.0 / (300.0 * 3.6)).abs() < 1e-12);
     assert!((pdf[75] - 50.0 / (300.0 * 3.6)).abs() < 1e-12);
     for fig in [
+        "eta_p_el",
+        "eta_p_el_vs_q",
+        "b_p_el",
+        "b_p_el_vs_q",
+        "rotation_var",
+        "z_vs_q",
+        "sigma_vs_rate",
+        "p_rate_plane",
+        "p_sigma_plane",
         "p_theta_90",
         "theta_phi_0p78",
         "theta_phi_0p82",
@@ -334,7 +347,15 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
     {
         assert_figure(&out, &fig);
     }
+    // No run near φ_J: the yield line is not drawn, and the report says why.
+    assert!(html.contains("μ_J not estimated"), "μ_J");
     for caption in [
+        "Fig. 2(a,c) for CD, Fig. 11(a,c) for CDrot",
+        "Fig. 20(b)",
+        "Figs. 4–5 for CD, 12–13 for CDrot",
+        "Fig. 30",
+        "Fig. 26",
+        "Fig. 29",
         "Figs. 9 for CD, 19 for CDrot",
         "Figs. 8 for CD, 18 for CDrot",
         "Fig. 22",
