@@ -26,7 +26,7 @@ use std::time::Instant;
 /// What a stage's thread tells the loop that owns the manifest and the events.
 enum Msg {
     Say(usize, Status, Option<String>),
-    Finished(usize, Result<Outcome>, f64),
+    Finished(usize, Box<Result<Outcome>>, f64),
 }
 
 /// Stages at a time when `--jobs` is not given: the machine's cores.
@@ -114,7 +114,7 @@ pub(crate) fn run(
                                 let _ = say_tx.send(Msg::Say(i, status, note));
                             },
                         );
-                        let _ = tx.send(Msg::Finished(i, out, t.elapsed().as_secs_f64()));
+                        let _ = tx.send(Msg::Finished(i, Box::new(out), t.elapsed().as_secs_f64()));
                     });
                 }
             }
@@ -139,7 +139,7 @@ pub(crate) fn run(
                     });
                     continue;
                 }
-                Msg::Finished(i, outcome, elapsed_s) => (i, outcome, elapsed_s),
+                Msg::Finished(i, outcome, elapsed_s) => (i, *outcome, elapsed_s),
             };
             running -= 1;
             let s = &p.stages[i];
