@@ -13,6 +13,7 @@ pub mod classify;
 mod elastic;
 pub mod ramp;
 pub mod run_figures;
+pub mod qc;
 pub mod stress_space;
 
 use crate::error::{Error, Result};
@@ -597,6 +598,7 @@ pub fn sweep_section(
             )?;
         }
     }
+    qc::add_figures(&mut f, &data.rows)?;
     stress_space::add_figures(&mut f, &data.rows, &c)?;
     Ok(Section {
         id: format!("sweep-{}", slug(label)),
