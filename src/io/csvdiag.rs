@@ -100,3 +100,14 @@ pub fn diagnose(path: &Path, columns: &[(&str, Expect)]) -> Result<()> {
     }
     Ok(())
 }
+
+/// The columns of trackpy's output that ingest reads, with their types: here, below both
+/// the trackpy reader and the fast CSV reader whose tests parse trackpy files.
+pub(crate) const TRACKPY_COLUMNS: &[(&str, Expect)] = &[
+    ("x", Expect::Float),
+    ("y", Expect::Float),
+    ("frame", Expect::Int),
+    ("particle", Expect::Int),
+    ("size", Expect::Float),
+    ("ep", Expect::Float),
+];

@@ -396,8 +396,8 @@ fn split_rows<'a, T>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::csvdiag::TRACKPY_COLUMNS as EXPECT;
     use crate::io::table::read_table_columns;
-    use crate::io::trackpy::EXPECT;
 
     /// A scratch file, removed again when dropped.
     struct TmpFile(std::path::PathBuf);

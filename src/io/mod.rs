@@ -5,6 +5,7 @@
 pub mod atomic;
 pub mod csvdiag;
 pub mod fastcsv;
+pub mod format;
 pub mod hash;
 pub mod kinematics_io;
 pub mod lammps;

@@ -2,7 +2,7 @@
 //! written under a temporary name and renamed into place only when complete.
 
 use super::atomic::atomic_write;
-use super::table::TableFormat;
+use super::format::TableFormat;
 use crate::error::{Error, Result};
 use polars::prelude::*;
 use polars_parquet::parquet::compression::CompressionOptions;

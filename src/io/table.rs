@@ -3,37 +3,11 @@
 
 use super::atomic::atomic_write;
 use super::csvdiag::{self, Expect};
+pub use super::format::TableFormat;
 use crate::error::{Error, Result};
-use crate::tracks::RowLocator;
 use polars::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TableFormat {
-    Csv,
-    Parquet,
-}
-
-impl TableFormat {
-    /// By extension: `.parquet`/`.pq` is Parquet, anything else CSV.
-    pub fn of(path: &Path) -> TableFormat {
-        match path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase())
-            .as_deref()
-        {
-            Some("parquet") | Some("pq") => TableFormat::Parquet,
-            _ => TableFormat::Csv,
-        }
-    }
-    pub fn locator(self) -> RowLocator {
-        match self {
-            TableFormat::Csv => RowLocator::Line { first_data_line: 2 },
-            TableFormat::Parquet => RowLocator::Row,
-        }
-    }
-}
 
 /// A table read from disk with where it came from.
 pub struct Table {

@@ -6,7 +6,6 @@
 //! the largest y_px in the file, i.e. the lowest detected centre, so y ≥ 0 and y points
 //! up with the bar on top).
 
-use super::csvdiag::Expect;
 use super::fastcsv::read_numeric_csv;
 use super::table::{TableFormat, read_table_columns};
 use crate::error::{Error, Result};
@@ -41,14 +40,7 @@ pub struct SpeciesSplit {
 }
 
 /// The columns trackpy ingest reads, and how each parses.
-pub(crate) const EXPECT: &[(&str, Expect)] = &[
-    ("x", Expect::Float),
-    ("y", Expect::Float),
-    ("frame", Expect::Int),
-    ("particle", Expect::Int),
-    ("size", Expect::Float),
-    ("ep", Expect::Float),
-];
+pub(crate) use super::csvdiag::TRACKPY_COLUMNS as EXPECT;
 
 pub fn read_trackpy(path: &Path, opt: &TrackpyOptions) -> Result<(Tracks, SpeciesSplit)> {
     let s = opt.px_per_unit.ok_or_else(|| {

@@ -10,12 +10,10 @@
 
 use super::Pipeline;
 use super::cache::{Cache, Check};
+use super::compute::{Job, Outcome, claim_and_compute, interrupted_note, stop_interrupted};
 use super::exec::Done;
+use super::options::{Keyed, RunOptions, StageEvent, Status};
 use super::record::{place_reports, write_manifest};
-use super::runner::{
-    Job, Keyed, Outcome, RunOptions, StageEvent, Status, claim_and_compute, interrupted_note,
-    stop_interrupted,
-};
 use super::runs::{RunManifest, StageRun};
 use crate::error::{Error, Result};
 use std::collections::{BTreeMap, BTreeSet};

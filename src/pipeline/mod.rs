@@ -9,6 +9,7 @@
 //! writes `runs/<id>/`; `runs` and `views` list, show and compare tracked runs.
 
 pub mod cache;
+pub mod compute;
 pub mod exec;
 pub mod graph;
 #[cfg(test)]
@@ -17,6 +18,7 @@ mod import_graph;
 mod kind_entries;
 pub mod local;
 pub mod lock;
+pub mod options;
 pub mod params;
 pub mod parse;
 pub mod record;

@@ -1,7 +1,7 @@
 //! What a run leaves under `runs/<id>/`: the manifest and a copy of the report.
 
 use super::exec::Done;
-use super::runner::{Keyed, RunOptions};
+use super::options::{Keyed, RunOptions};
 use super::runs::{self, InputFile, PipelineInfo, RunManifest};
 use super::{Pipeline, Stage};
 use crate::error::{Error, Result};

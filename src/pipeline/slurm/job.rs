@@ -5,47 +5,14 @@ use super::batch::{ExitStatus, JobRef, State, this_job};
 use crate::error::{Error, Result};
 use crate::io::atomic_write_str;
 use crate::pipeline::cache::{Cache, Check};
+use crate::pipeline::compute::{Job, claim_and_compute, keys};
 use crate::pipeline::exec::Done;
-use crate::pipeline::runner::{Job, claim_and_compute, keys};
-use serde::{Deserialize, Serialize};
+
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
-/// One pipeline stage to compute.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct StageTask {
-    pub stage: String,
-    /// The key the head computed; the job refuses to run under another.
-    pub key: String,
-    pub force: bool,
-}
-
-/// A job array's tasks, written by the head to `jobs/<id>.json`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(tag = "what", rename_all = "snake_case")]
-pub enum Spec {
-    Pipeline {
-        pipeline: PathBuf,
-        sets: Vec<String>,
-        runs_dir: PathBuf,
-        run_id: String,
-        verify: bool,
-        /// The head's `--quiet`: some stages record it, so jobs take it over.
-        quiet: bool,
-        tasks: Vec<StageTask>,
-    },
-    Sweep(super::sweep::SweepSpec),
-}
-
-impl Spec {
-    pub fn state_dir(&self) -> PathBuf {
-        match self {
-            Spec::Pipeline { runs_dir, .. } => runs_dir.join("slurm"),
-            Spec::Sweep(s) => super::sweep::state_dir(&s.out),
-        }
-    }
-}
+pub use super::spec::{Spec, StageTask};
 
 /// Run task `SLURM_ARRAY_TASK_ID` of the spec in `spec_file`; returns the exit code.
 /// The status file is written in every case this process survives, panics included.

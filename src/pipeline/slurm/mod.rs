@@ -19,6 +19,7 @@
 pub mod batch;
 pub mod head;
 pub mod job;
+pub mod spec;
 pub mod sweep;
 
 use serde::{Deserialize, Serialize};

@@ -5,30 +5,20 @@
 
 use super::SlurmOptions;
 use super::batch::{self, JobRef, StageJob, State};
-use super::job::Spec;
+use super::spec::Spec;
 use crate::error::{Error, Result};
 use crate::pipeline::runs;
 use crate::stages::shear::ShearOptions;
 use crate::stages::sweep::{SweepOptions, SweepReport, grid, run_dir, run_point as run_local};
-use serde::{Deserialize, Serialize};
+
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 const POLL: Duration = Duration::from_millis(500);
 const GRACE: Duration = Duration::from_secs(3);
 
-/// What an array task needs: where, the options every run shares, the grid points.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct SweepSpec {
-    pub out: PathBuf,
-    pub base: ShearOptions,
-    pub points: Vec<(f64, f64, f64)>,
-}
-
-pub fn state_dir(out: &Path) -> PathBuf {
-    out.join(".slurm")
-}
+pub use super::spec::{SweepSpec, state_dir};
 
 /// A grid point's directory name (its runs's directory under the sweep's output).
 pub fn point_name(&(phi, q, rate): &(f64, f64, f64)) -> String {

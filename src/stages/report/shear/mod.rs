@@ -11,9 +11,9 @@
 pub mod angles;
 pub mod classify;
 mod elastic;
+pub mod qc;
 pub mod ramp;
 pub mod run_figures;
-pub mod qc;
 pub mod stress_space;
 
 use crate::error::{Error, Result};

@@ -194,9 +194,9 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
         })
         .collect();
     if let Some(l) = &law {
-        let (lo, hi) = at_lowest
-            .iter()
-            .fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.phi), b.max(p.phi)));
+        let (lo, hi) = at_lowest.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.phi), b.max(p.phi))
+        });
         series.push(XySeries {
             label: format!("Q_0 + c (φ_J − φ)^−x, x = {:.2}", l.x),
             points: (0..=40)
@@ -271,7 +271,11 @@ mod tests {
         let mut rows = Vec::new();
         for &(phi, q_c) in qc {
             for q in qs {
-                let p = if q < q_c { 1e-3 / q } else { 1e-3 / q_c / 30.0 * q / q_c };
+                let p = if q < q_c {
+                    1e-3 / q
+                } else {
+                    1e-3 / q_c / 30.0 * q / q_c
+                };
                 rows.push(row(phi, q, p));
             }
         }
@@ -286,7 +290,9 @@ mod tests {
         assert_eq!((pts[1].lo, pts[1].hi), (30.0, 100.0));
         assert!(pts[0].drop > 5.0, "{pts:?}");
         // A smooth 1/Q curve has no drop.
-        let smooth: Vec<Row> = [0.3, 1.0, 3.0, 10.0].map(|q| row(0.8, q, 1e-3 / q)).to_vec();
+        let smooth: Vec<Row> = [0.3, 1.0, 3.0, 10.0]
+            .map(|q| row(0.8, q, 1e-3 / q))
+            .to_vec();
         assert!(locate(&smooth).is_empty());
     }
 
@@ -305,7 +311,10 @@ mod tests {
             .to_vec();
         let f = fit(&pts).unwrap();
         assert!((f.x - 1.1).abs() < 0.006, "{f:?}");
-        assert!((f.q0 - 1.2).abs() < 0.05 && (f.c - 0.9).abs() < 0.02, "{f:?}");
+        assert!(
+            (f.q0 - 1.2).abs() < 0.05 && (f.c - 0.9).abs() < 0.02,
+            "{f:?}"
+        );
         assert!(f.x_ci.0 <= f.x && f.x <= f.x_ci.1);
         // Three φ cannot fix three parameters.
         assert!(fit(&pts[..3]).is_none());
