@@ -100,13 +100,14 @@ pub enum ContactPoint {
     RadiusRatio,
 }
 
-/// One contact law: a choice from each enum.
+/// One contact law: a choice from each enum. Its parts are private: a law is made by
+/// [`ContactLaw::new`], which validates it, so no kernel meets a negative stiffness.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactLaw {
-    pub normal: Normal,
-    pub damping: Damping,
-    pub tangential: Tangential,
-    pub point: ContactPoint,
+    normal: Normal,
+    damping: Damping,
+    tangential: Tangential,
+    point: ContactPoint,
 }
 
 /// Relative motion of a pair: v_i − v_j (m/s; under Lees–Edwards with the image's
@@ -152,6 +153,46 @@ impl ContactLaw {
         };
         law.validate()?;
         Ok(law)
+    }
+
+    /// A law rebuilt inside a kernel from the constants of one that [`ContactLaw::new`]
+    /// validated (so that its choices fold away); the kernel asserts equality in debug
+    /// builds.
+    pub(crate) const fn rebuilt(
+        normal: Normal,
+        damping: Damping,
+        tangential: Tangential,
+        point: ContactPoint,
+    ) -> Self {
+        ContactLaw {
+            normal,
+            damping,
+            tangential,
+            point,
+        }
+    }
+
+    pub fn normal(&self) -> Normal {
+        self.normal
+    }
+    pub fn damping(&self) -> Damping {
+        self.damping
+    }
+    pub fn tangential(&self) -> Tangential {
+        self.tangential
+    }
+    pub fn point(&self) -> ContactPoint {
+        self.point
+    }
+
+    /// The law with the Coulomb coefficient of its tangential spring set to `mu`
+    /// (validated; a law without a spring is returned as it is).
+    pub fn with_friction(mut self, mu: f64) -> Result<Self, String> {
+        if let Tangential::CundallStrack { k_t, .. } = self.tangential {
+            self.tangential = Tangential::CundallStrack { k_t, mu };
+        }
+        self.validate()?;
+        Ok(self)
     }
 
     fn validate(&self) -> Result<(), String> {

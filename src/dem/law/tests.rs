@@ -343,3 +343,19 @@ fn laws_are_validated_when_built() {
     );
     assert_eq!(vagberg(2.0, Damping::None).history_width(), 0);
 }
+
+/// A law is made only through its validating constructor: the bar's friction too.
+#[test]
+fn friction_set_later_is_validated_too() {
+    let law = pillar_law(Normal::Linear { k_n: 1000.0 }, 0.1);
+    let bar = law.with_friction(0.5).unwrap();
+    assert_eq!(
+        bar.tangential(),
+        Tangential::CundallStrack {
+            k_t: 300.0,
+            mu: 0.5
+        }
+    );
+    assert!(law.with_friction(-0.1).is_err());
+    assert!(law.with_friction(f64::NAN).is_err());
+}

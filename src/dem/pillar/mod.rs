@@ -355,7 +355,7 @@ impl PillarSim {
     /// Grain–grain elastic energy (J), for tests and diagnostics.
     pub fn contact_energy(&self) -> f64 {
         let law = self.law();
-        let k_t = match law.tangential {
+        let k_t = match law.tangential() {
             crate::dem::law::Tangential::CundallStrack { k_t, .. } => k_t,
             crate::dem::law::Tangential::None => 0.0,
         };

@@ -168,14 +168,7 @@ impl PillarParams {
     /// The grain–bar law: the grains' with twice the stiffnesses (bars are grains of
     /// infinite radius, Sec. II.B.2) and the bar's friction μ_bar.
     pub fn bar_law(&self) -> Result<ContactLaw, String> {
-        let mut law = self.grain_law()?.stiffer(2.0);
-        if let Tangential::CundallStrack { k_t, .. } = law.tangential {
-            law.tangential = Tangential::CundallStrack {
-                k_t,
-                mu: self.mu_bar,
-            };
-        }
-        Ok(law)
+        self.grain_law()?.stiffer(2.0).with_friction(self.mu_bar)
     }
 
     /// The paper's force unit m g μ with m the large-grain mass (N).

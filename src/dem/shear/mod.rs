@@ -34,7 +34,7 @@ pub use params::{
 /// law (CDn) runs the straight loop over the law's scalar reference.
 fn slot_law(law: &crate::dem::law::ContactLaw) -> bool {
     use crate::dem::law::Damping;
-    matches!(law.damping, Damping::Cd { .. } | Damping::CdRot { .. })
+    matches!(law.damping(), Damping::Cd { .. } | Damping::CdRot { .. })
 }
 
 #[derive(Debug, Clone, PartialEq)]

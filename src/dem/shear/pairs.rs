@@ -36,7 +36,7 @@ impl PairParams {
     /// For `p` in a box of side `l` with Lees–Edwards offset `offset` at time `now`.
     pub fn new(p: &crate::dem::shear::params::ShearParams, l: f64, offset: f64, now: f64) -> Self {
         let law = p.law();
-        let (k_d, cdrot) = match law.damping {
+        let (k_d, cdrot) = match law.damping() {
             Damping::CdRot { k_d } => (k_d, true),
             Damping::Cd { k_d } => (k_d, false),
             // Laws the vector kernels do not implement run the reference loop.

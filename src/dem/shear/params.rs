@@ -66,18 +66,23 @@ impl ShearParams {
     }
     /// The contact law: Eq. 2's repulsion (exponent α) with CD (Eq. 3), CDrot
     /// (Eqs. 5–7) or CDn dissipation, k_d = 1/Q, frictionless, in units where k_e = 1.
+    ///
+    /// # Panics
+    /// If the parameters do not validate (Q outside [1e-6, 1e6], α outside (1, 4]):
+    /// every way into a run (options, checkpoints, pipelines) validates them first.
     pub fn law(&self) -> ContactLaw {
         let k_d = 1.0 / self.q;
-        ContactLaw {
-            normal: Normal::RelativePowerLaw { alpha: self.alpha },
-            damping: match self.model {
+        ContactLaw::new(
+            Normal::RelativePowerLaw { alpha: self.alpha },
+            match self.model {
                 Dissipation::Cdrot => Damping::CdRot { k_d },
                 Dissipation::Cd => Damping::Cd { k_d },
                 Dissipation::Cdn => Damping::CdNormal { k_d },
             },
-            tangential: Tangential::None,
-            point: ContactPoint::RadiusRatio,
-        }
+            Tangential::None,
+            ContactPoint::RadiusRatio,
+        )
+        .expect("sheared-disk parameters are validated before a run")
     }
 
     /// Box side L from φ (Eq. 11), in d_s.

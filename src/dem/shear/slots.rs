@@ -284,18 +284,18 @@ fn contact_forces<const CDROT: bool, const HARMONIC: bool>(
     o: &mut Forces,
 ) {
     let k_d = pp.kd;
-    let law = ContactLaw {
-        normal: Normal::RelativePowerLaw {
+    let law = ContactLaw::rebuilt(
+        Normal::RelativePowerLaw {
             alpha: if HARMONIC { 2.0 } else { pp.alpha },
         },
-        damping: if CDROT {
+        if CDROT {
             Damping::CdRot { k_d }
         } else {
             Damping::Cd { k_d }
         },
-        tangential: Tangential::None,
-        point: ContactPoint::RadiusRatio,
-    };
+        Tangential::None,
+        ContactPoint::RadiusRatio,
+    );
     debug_assert!(law == pp.law);
     let shear_v = pp.shear_v;
     // Every listed slot k < the block's length (`separations` wrote them), and every
