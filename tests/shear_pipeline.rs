@@ -349,6 +349,10 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
     }
     // No run near φ_J: the yield line is not drawn, and the report says why.
     assert!(html.contains("μ_J not estimated"), "μ_J");
+    assert!(
+        html.contains("no run has R_v &gt; 3") || html.contains("no run has R_v > 3"),
+        "coexistence"
+    );
     for caption in [
         "Fig. 2(a,c) for CD, Fig. 11(a,c) for CDrot",
         "Fig. 20(b)",
@@ -423,6 +427,10 @@ fn report_of_one_run_draws_contacts_profiles_and_fields() {
         assert!(html.contains(caption), "{caption}");
     }
     assert!(html.contains("<th>correlation r</th>"), "the moments table");
+    assert!(
+        html.contains("Band values") && html.contains("f′ = "),
+        "band values"
+    );
 }
 
 /// `run --jobs 2` computes a sweep's independent grid points side by side (the second

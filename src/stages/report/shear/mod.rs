@@ -10,6 +10,7 @@
 
 pub mod angles;
 pub mod classify;
+pub mod coexistence;
 mod elastic;
 pub mod qc;
 pub mod ramp;
@@ -599,6 +600,7 @@ pub fn sweep_section(
         }
     }
     qc::add_figures(&mut f, &data.rows)?;
+    coexistence::add_sweep(&mut f, &data.rows);
     stress_space::add_figures(&mut f, &data.rows, &c)?;
     Ok(Section {
         id: format!("sweep-{}", slug(label)),

@@ -161,6 +161,7 @@ pub(super) fn add(f: &mut Figures, dir: &Path, rate: Option<f64>) -> Result<()> 
                 format!("Across the flow, in 20 bins of y, averaged over the steady window: {what} (vagberg-sheared-disks Fig. 28). Bands that wander over the window are averaged out."),
             )?;
         }
+        super::coexistence::add_run(f, &t.f64_or_nan("phi")?, &t.f64_or_nan("gamma_dot")?);
     }
     let ff = dir.join("fields.parquet");
     if ff.exists() {
