@@ -231,6 +231,26 @@ enum Cmd {
         #[command(subcommand)]
         what: cli_bench::BenchCmd,
     },
+    /// Write tracks (or a simulation run's) as extended XYZ or a LAMMPS text dump for
+    /// OVITO, ASE or LAMMPS: one snapshot per frame, id, species, position (z = 0),
+    /// radius, and with --kinematics every column of a kinematics table (D²min, η^s,
+    /// J2, velocity, …) on the particles of the frame each pair starts at (NaN where a
+    /// particle has none). Periodic and Lees–Edwards boxes are written as cells (the
+    /// offset as the tilt xy); open frames get their bounding box (LAMMPS) or no cell
+    /// (extxyz). Lengths in the table's unit.
+    Export {
+        /// Tracks (canonical CSV/Parquet) or a `simulate` run's directory.
+        input: PathBuf,
+        /// A kinematics table of these tracks (`pillar-pipe kinematics`).
+        #[arg(long)]
+        kinematics: Option<PathBuf>,
+        /// extxyz or lammps-dump; default: from the output's extension (.xyz/.extxyz,
+        /// .dump/.lammpstrj).
+        #[arg(long, value_enum)]
+        format: Option<pillar_pipe::io::export::Format>,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Pair distribution g(r) of one frame, around small and around large grains
     /// (li-granular-pillars Fig. 2); r in units of the large-grain diameter D.
     Gofr {
@@ -670,6 +690,45 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Simulate { what } => cli_sim::simulate(what)?,
         Cmd::Pack(a) => cli_sim::pack(a)?,
         Cmd::Sweep(a) => cli_sim::sweep(a)?,
+        Cmd::Export {
+            input,
+            kinematics,
+            format,
+            output,
+        } => {
+            use pillar_pipe::io::export::Format;
+            let ext = output
+                .extension()
+                .map(|e| e.to_string_lossy().to_ascii_lowercase());
+            let format = match (format, ext.as_deref()) {
+                (Some(f), _) => f,
+                (None, Some("xyz" | "extxyz")) => Format::Extxyz,
+                (None, Some("dump" | "lammpstrj")) => Format::LammpsDump,
+                _ => anyhow::bail!(
+                    "{}: cannot tell the format from the extension; pass --format extxyz or --format lammps-dump (or name the file .xyz or .dump)",
+                    output.display()
+                ),
+            };
+            let r =
+                pillar_pipe::stages::export::run(&input, kinematics.as_deref(), format, &output)
+                    .with_context(|| format!("export of {}", input.display()))?;
+            println!(
+                "wrote       {}: {} frames, {} rows; properties: id, species, pos, radius{}{}",
+                r.output.display(),
+                r.frames,
+                r.particles,
+                if r.properties.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {}", r.properties.join(", "))
+                },
+                if r.skipped.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (left out: {})", r.skipped.join("; "))
+                }
+            );
+        }
         Cmd::Gofr {
             input,
             output,

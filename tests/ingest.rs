@@ -715,3 +715,152 @@ fn foreign_parquet_column_types_are_ignored_or_refused_not_a_panic() {
     // The panic polars raised is in the error, not printed as a crash beside it.
     assert!(!text.contains("panicked"), "{text}");
 }
+
+/// `export` (issue 37): a sheared run with its kinematics as a LAMMPS dump reads back
+/// through `ingest` with every position, radius and species bit for bit and the
+/// Lees–Edwards box as the tilt (reduced to |xy| ≤ L/2; L_x within rounding of the
+/// bounding-box form); as extended XYZ, each frame's
+/// lattice, property list and D²min are those of the tables. No format, no guess.
+#[test]
+fn export_writes_files_ovito_opens_that_read_back_exactly() {
+    let d = tmpdir("export");
+    let run_dir = d.join("s");
+    let (ok, text) = run(&[
+        "simulate",
+        "shear",
+        "--n",
+        "64",
+        "--phi",
+        "0.8",
+        "--rate",
+        "1e-2",
+        "--strain",
+        "0.6",
+        "--quiet",
+        "-o",
+        run_dir.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let kin = d.join("k.parquet");
+    let tracks = run_dir.join("tracks.parquet");
+    let (ok, text) = run(&[
+        "kinematics",
+        tracks.to_str().unwrap(),
+        "--lag",
+        "1",
+        "--rc",
+        "1.5",
+        "-o",
+        kin.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let (t, _) = read_tracks(&tracks).unwrap();
+    // LAMMPS dump → ingest.
+    let dump = d.join("s.dump");
+    let (ok, text) = run(&[
+        "export",
+        run_dir.to_str().unwrap(),
+        "--kinematics",
+        kin.to_str().unwrap(),
+        "-o",
+        dump.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    assert!(d.join("s.dump.meta.json").is_file(), "sidecar");
+    let back = d.join("back.parquet");
+    let (ok, text) = run(&[
+        "ingest",
+        dump.to_str().unwrap(),
+        "-o",
+        back.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let (b, _) = read_tracks(&back).unwrap();
+    assert_eq!(b.frame, t.frame);
+    assert_eq!(b.particle, t.particle);
+    assert_eq!(b.x, t.x);
+    assert_eq!(b.y, t.y);
+    assert_eq!(b.radius, t.radius);
+    assert_eq!(b.species, t.species);
+    let sheared = t.meta.boxes.iter().filter(|x| x.xy != 0.0).count();
+    assert!(sheared > 2, "the run sheared its box");
+    for (x, y) in t.meta.boxes.iter().zip(&b.meta.boxes) {
+        let reduced = x.xy - x.lx * (x.xy / x.lx).round();
+        // A tilted dump gives its bounding box, xhi + xy: L_x comes back within rounding.
+        assert!(
+            (y.xy - reduced).abs() < 1e-12 && (y.lx - x.lx).abs() < 1e-12 && y.ly == x.ly,
+            "{x:?} {y:?}"
+        );
+    }
+    // Extended XYZ: lattice, properties and D²min of every particle with kinematics.
+    let xyz = d.join("s.xyz");
+    let (ok, text) = run(&[
+        "export",
+        tracks.to_str().unwrap(),
+        "--kinematics",
+        kin.to_str().unwrap(),
+        "-o",
+        xyz.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let k = pillar_pipe::io::table::read_table(&kin, &[]).unwrap();
+    let (kf, kp, kd) = (
+        k.i64("frame").unwrap(),
+        k.i64("particle").unwrap(),
+        k.f64_or_nan("d2min").unwrap(),
+    );
+    let d2: std::collections::HashMap<(i64, i64), f64> = kf
+        .iter()
+        .zip(&kp)
+        .zip(&kd)
+        .map(|((f, p), v)| ((*f, *p), *v))
+        .collect();
+    let text = std::fs::read_to_string(&xyz).unwrap();
+    let mut lines = text.lines();
+    let (mut frames, mut checked) = (0, 0);
+    while let Some(n) = lines.next() {
+        let n: usize = n.parse().unwrap();
+        let head = lines.next().unwrap();
+        let frame: i64 = head.rsplit("frame=").next().unwrap().parse().unwrap();
+        let bx = t.meta.boxes.iter().find(|b| b.frame == frame).unwrap();
+        let xy = bx.xy - bx.lx * (bx.xy / bx.lx).round();
+        let lattice = format!("Lattice=\"{} 0 0 {} {} 0 0 0 1\"", bx.lx, xy, bx.ly);
+        assert!(head.contains(&lattice), "{head}");
+        let props = head
+            .split("Properties=")
+            .nth(1)
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap();
+        let names: Vec<&str> = props.split(':').step_by(3).collect();
+        assert_eq!(&names[..5], ["id", "species", "pos", "radius", "velo"]);
+        // Columns: id, species, x y z, radius, vx vy vz, then one each.
+        let col = 9 + names[5..].iter().position(|n| *n == "d2min").unwrap();
+        for _ in 0..n {
+            let f: Vec<&str> = lines.next().unwrap().split(' ').collect();
+            let id: i64 = f[0].parse().unwrap();
+            let v: f64 = f[col].parse().unwrap();
+            match d2.get(&(frame, id)) {
+                Some(w) if w.is_nan() => assert!(v.is_nan()),
+                Some(w) => {
+                    assert_eq!(v, *w, "frame {frame} particle {id}");
+                    checked += 1;
+                }
+                None => assert!(v.is_nan(), "no kinematics: NaN"),
+            }
+        }
+        frames += 1;
+    }
+    assert_eq!(frames, t.frame_ranges().len());
+    assert!(checked > 100, "{checked} D²min compared");
+    // An extension that names no format is refused, naming the file and the option.
+    let (ok, text) = run(&["export", tracks.to_str().unwrap(), "-o", "out.txt"]);
+    assert!(
+        !ok && text.contains("out.txt") && text.contains("--format"),
+        "{text}"
+    );
+    // A directory without tracks is refused, naming it.
+    let (ok, text) = run(&["export", d.to_str().unwrap(), "-o", "x.xyz"]);
+    assert!(!ok && text.contains("tracks.parquet"), "{text}");
+}

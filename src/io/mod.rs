@@ -4,6 +4,7 @@
 
 pub mod atomic;
 pub mod csvdiag;
+pub mod export;
 pub mod fastcsv;
 pub mod format;
 pub mod hash;

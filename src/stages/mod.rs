@@ -29,6 +29,7 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
 }
 pub mod bar_pressure;
 pub mod compare;
+pub mod export;
 pub mod fit;
 pub mod gofr;
 pub mod pack;
