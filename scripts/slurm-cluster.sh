@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A one-node Slurm cluster on localhost, for the Slurm executor's tests
-# (tests/slurm.rs) and for trying `--executor slurm` by hand:
+# (tests/it/slurm.rs) and for trying `--executor slurm` by hand:
 #   scripts/slurm-cluster.sh up      # install if missing (Debian: apt-get), start munged, slurmctld, slurmd
 #   scripts/slurm-cluster.sh down    # stop the daemons this script started
 #   scripts/slurm-cluster.sh status

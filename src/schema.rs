@@ -103,7 +103,7 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,
-/// which `tests/schema_drift.rs` catches at test time.
+/// which `tests/it/ingest.rs` (`schema_files_and_code_agree`) catches at test time.
 pub fn load(table: &str) -> TableSchema {
     let text = SCHEMA_FILES
         .iter()

@@ -89,9 +89,13 @@ pub(crate) fn run(
                     let k = &r.keyed[&s.name];
                     let snapshot = done.clone();
                     let force = r.force.contains(&s.name);
-                    let quiet = r.opt.quiet || !alone;
+                    // The run's --quiet, as a Slurm job gets it (some stages record it).
+                    let quiet = r.opt.quiet;
                     let (tx, cache, run_id) = (tx.clone(), r.cache, r.run_id);
                     scope.spawn(move || {
+                        if !alone {
+                            crate::stages::hide_progress_on_this_thread();
+                        }
                         let t = Instant::now();
                         let job = Job {
                             quiet,

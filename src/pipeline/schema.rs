@@ -1,6 +1,6 @@
 //! `data_schema/pipeline.schema.json`, embedded at build time: the single description of
 //! every stage kind's keys (types, defaults, units). Validation is driven by it, so the
-//! file and the checks cannot disagree; `tests/pipeline.rs` checks it against the Rust
+//! file and the checks cannot disagree; `tests/it/pipeline.rs` checks it against the Rust
 //! option structs the keys land in.
 
 use serde::Deserialize;

@@ -15,7 +15,7 @@ pub mod outline;
 /// A progress bar on stderr with ETA, hidden with `quiet` or when stderr is not a
 /// terminal (indicatif's default), so scripts and CI logs stay clean.
 pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
-    if quiet {
+    if quiet || PROGRESS_HIDDEN.get() {
         return indicatif::ProgressBar::hidden();
     }
     let bar = indicatif::ProgressBar::new(len);
@@ -27,6 +27,17 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
     bar.set_message(what.to_string());
     bar
 }
+thread_local! {
+    static PROGRESS_HIDDEN: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Hide the progress bars of the stages run on this thread (the local executor's, for a
+/// stage that runs beside others, whose bars would overwrite each other). Unlike a
+/// stage's `quiet` option, which some stages record, this changes no output.
+pub fn hide_progress_on_this_thread() {
+    PROGRESS_HIDDEN.set(true);
+}
+
 pub mod bar_pressure;
 pub mod compare;
 pub mod export;

@@ -86,16 +86,24 @@ impl ShearSim {
         d.u64()?;
         let (begun, ended, duration_sum) = (d.u64()?, d.u64()?, d.f64()?);
         let to_u = |v: Vec<i64>| v.into_iter().map(|x| x as u64).collect::<Vec<u64>>();
+        let at = d.pos();
         let (angle_making, angle_breaking) = (to_u(d.i64s()?), to_u(d.i64s()?));
-        if angle_making.len() != ANGLE_BINS || angle_breaking.len() != ANGLE_BINS {
+        let lens = (angle_making.len(), angle_breaking.len());
+        if lens == (50, 50) {
             // Before the collision angle of Eq. 27 the histograms held 50 bins of the
             // direction of r_ij: those counts cannot be continued as ϑ.
             return Err(format!(
-                "its collision-angle histograms have {} bins, not {ANGLE_BINS}: the checkpoint \
-                 was written by an earlier version, which binned the direction of r_ij rather \
-                 than the collision angle ϑ of vagberg-sheared-disks Eq. 27; this run cannot be \
-                 continued with the same statistics — start it again without --resume",
-                angle_making.len()
+                "collision-angle histograms at byte {at}: 50 bins each, not {ANGLE_BINS}: the \
+                 checkpoint was written by an earlier version, which binned the direction of \
+                 r_ij rather than the collision angle ϑ of vagberg-sheared-disks Eq. 27; this \
+                 run cannot be continued with the same statistics — start it again without \
+                 --resume"
+            ));
+        }
+        if lens != (ANGLE_BINS, ANGLE_BINS) {
+            return Err(format!(
+                "collision-angle histograms at byte {at}: {} and {} bins, need {ANGLE_BINS} each",
+                lens.0, lens.1
             ));
         }
         let mut coll = Collisions {

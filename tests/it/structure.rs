@@ -1,8 +1,7 @@
 //! `pillar-pipe gofr` on a jammed bidisperse packing (li-granular-pillars Fig. 2): the
 //! contact peaks sit where the species' diameters put them and g(r) → 1 far out.
 
-mod common;
-use common::{cli as run, tmpdir};
+use crate::common::{cli as run, tmpdir};
 use pillar_pipe::io::table::read_table;
 
 #[test]

@@ -3,9 +3,7 @@
 //! `runs compare` shows both fits; the bundled pipelines validate; the simulate stage is
 //! wired; the schema file matches the code.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -1,9 +1,7 @@
 //! `pillar-pipe shear-lines` from the user's side: tracks with a known slip band, through
 //! `kinematics`, to one line at the band's angle; and bad inputs named as such.
 
-mod common;
-
-use common::{cli as run, tmpdir};
+use crate::common::{cli as run, tmpdir};
 use pillar_pipe::geom::{Mat2, Vec2};
 use pillar_pipe::io::table::read_table;
 use pillar_pipe::io::write_tracks;

@@ -3,9 +3,7 @@
 //! only its new points; a `shear` stage equal to a grid point is the same entry), the
 //! sweep's table, validation naming file, line and key, and the report's sections.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::path::Path;
 

@@ -3,9 +3,7 @@
 //! of one pipeline at once compute each stage once; stage locks of dead processes, or
 //! without a heartbeat, are broken, and live ones are waited for.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

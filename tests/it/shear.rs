@@ -2,9 +2,7 @@
 //! CD's decoupling of rotation, the Z = 2 τ_dur ν_coll consistency check, ⟨θ̇/γ̇⟩ ≈ −1/2,
 //! the linear profile, and the CLI's outputs.
 
-mod common;
-
-use common::tmpdir;
+use crate::common::tmpdir;
 use pillar_pipe::dem::base::grains::{Grains, SMALL};
 use pillar_pipe::dem::shear::{Dissipation, ShearParams, ShearSim};
 use pillar_pipe::io::table::read_table;

@@ -1,8 +1,7 @@
 //! `fit` and `compare` from the user's side (issue 4 acceptance).
 
-mod common;
-
-use common::{cli as run, tmpdir};
+use crate::common;
+use crate::common::{cli as run, tmpdir};
 use pillar_pipe::fit::d2min_over_r2;
 use pillar_pipe::rng::Rng;
 use std::path::Path;

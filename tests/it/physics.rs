@@ -12,8 +12,7 @@
 //!   equations (Eqs. 1–7) on the simulated trajectory.
 //! - Golden short runs of both scenarios (`tests/data/golden/`, `scripts/golden.sh`).
 
-mod common;
-
+use crate::common;
 use pillar_pipe::dem::base::grains::{Grains, LARGE};
 use pillar_pipe::dem::pillar::PillarSim;
 use pillar_pipe::dem::pillar::params::PillarParams;

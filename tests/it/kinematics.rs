@@ -1,9 +1,8 @@
 //! The kinematics and fit stages from the user's side (CLI), on generated tracks with a
 //! known answer.
 
-mod common;
-
-use common::{cli as run, tmpdir};
+use crate::common;
+use crate::common::{cli as run, tmpdir};
 use pillar_pipe::geom::Mat2;
 use pillar_pipe::io::write_tracks;
 use pillar_pipe::synth::{bidisperse_packing, two_frame_tracks};

@@ -2,9 +2,7 @@
 //! their schemas, kinematics reading the trajectories, checkpoint–kill–resume equal to
 //! an uninterrupted run, and clear refusals.
 
-mod common;
-
-use common::{BIN, cli as run, tmpdir};
+use crate::common::{BIN, cli as run, tmpdir};
 use pillar_pipe::io::table::read_table;
 use pillar_pipe::schema;
 use std::path::Path;

@@ -3,8 +3,7 @@
 //! with Figs. 2, 9 and 10, the checks table and the scan's tables beside the report; a
 //! second run computes nothing.
 
-mod common;
-use common::{computed, latest, pp, run_ok, tmpdir};
+use crate::common::{computed, latest, pp, run_ok, tmpdir};
 use pillar_pipe::io::table::read_table;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");

@@ -2,9 +2,8 @@
 //! and line; a failed or killed stage leaves nothing that looks complete, and the next
 //! run resumes after the last finished stage.
 
-mod common;
-
-use common::*;
+use crate::common;
+use crate::common::*;
 use serde_json::Value;
 use std::process::Command;
 

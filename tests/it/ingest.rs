@@ -2,9 +2,8 @@
 //! ground truth), round trips, and every bad input of issue 2 with its message and no
 //! output left behind.
 
-mod common;
-
-use common::{cli as run, tmpdir};
+use crate::common;
+use crate::common::{cli as run, tmpdir};
 use pillar_pipe::io::read_tracks;
 use std::path::{Path, PathBuf};
 use std::process::Command;

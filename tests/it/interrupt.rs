@@ -5,9 +5,8 @@
 //! interval. Every test first waits until the run is provably under way (a checkpoint
 //! file exists), and checks afterwards that the signal landed before the end.
 
-mod common;
-
-use common::{BIN, tmpdir};
+use crate::common;
+use crate::common::{BIN, tmpdir};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};

@@ -9,9 +9,7 @@
 //! simulation's manifest also says so (`resume`, the `*_this_session` statistics of the
 //! last session), as it does after a local resume.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -2,9 +2,8 @@
 //! group per series), a self-contained HTML with every section, and a headless-browser
 //! check when Chromium is installed.
 
-mod common;
-
-use common::{BIN, tmpdir};
+use crate::common;
+use crate::common::{BIN, tmpdir};
 use std::path::Path;
 use std::process::Command;
 

@@ -2,9 +2,7 @@
 //! `ramp` stages cached like `shear` stages, validated at load naming file, line and
 //! key, and the report's hysteresis figure and table.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::path::Path;
 

@@ -1,0 +1,25 @@
+//! The integration tests, one binary (each test file a module): the library and the
+//! polars it links are linked once instead of once per file. Each module drives the CLI
+//! as a user does, or the library where a test needs its insides.
+
+mod common;
+
+mod architecture;
+mod fit;
+mod fuzz;
+mod ingest;
+mod interrupt;
+mod kinematics;
+mod physics;
+mod pipeline;
+mod pipeline_cache;
+mod pipeline_failures;
+mod ramp_pipeline;
+mod report;
+mod shear;
+mod shear_lines;
+mod shear_pipeline;
+mod simulate;
+mod size_scan;
+mod slurm;
+mod structure;
