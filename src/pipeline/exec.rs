@@ -9,7 +9,6 @@ use super::params::{
 };
 use super::{Kind, Pipeline, Stage};
 use crate::error::{Error, Result};
-use crate::io::atomic_write_str;
 use crate::stages;
 use serde_json::{Value as Json, json};
 use std::collections::BTreeMap;
@@ -158,8 +157,7 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let _: CompareParams = typed(&s.name, &s.params)?;
             let (a, b) = (ctx.input(s, "a", "fit")?, ctx.input(s, "b", "fit")?);
             let c = stages::compare::run(&a, &b)?;
-            let text = serde_json::to_string_pretty(&c).expect("json");
-            atomic_write_str(&out.join("compare.json"), &text)?;
+            stages::compare::write(&c, &out.join("compare.json"))?;
             let agree: serde_json::Map<String, Json> = c
                 .params
                 .iter()
@@ -365,7 +363,7 @@ fn shear_resumable(
     }
     move_files(&work, out)?;
     let _ = std::fs::remove_dir_all(&work);
-    relocate_shear_records(out)?;
+    stages::shear::relocate_records(out)?;
     let f = out.join("summary.json");
     if !f.exists() {
         return Ok(Default::default());
@@ -374,37 +372,6 @@ fn shear_resumable(
     let v: Json =
         serde_json::from_str(&text).map_err(|e| Error::input(f.display(), e.to_string()))?;
     Ok(v.as_object().cloned().unwrap_or_default())
-}
-
-/// A shear run's `manifest.json` and `summary.json` as the stage keeps them: its tables
-/// named relative to the stage directory (they were written in the work directory and
-/// moved), and `quiet` left out of the options (how the run was watched, which a local
-/// run and a Slurm job choose differently, is no part of what it computed).
-fn relocate_shear_records(out: &Path) -> Result<()> {
-    for name in [stages::manifest::MANIFEST, "summary.json"] {
-        let f = out.join(name);
-        let Ok(text) = std::fs::read_to_string(&f) else {
-            continue;
-        };
-        let mut v: Json =
-            serde_json::from_str(&text).map_err(|e| Error::input(f.display(), e.to_string()))?;
-        if let Some(o) = v.get_mut("options").and_then(Json::as_object_mut) {
-            o.remove("quiet");
-        }
-        if let Some(t) = v.get_mut("tables").and_then(Json::as_object_mut) {
-            for p in t.values_mut() {
-                let rel = p
-                    .as_str()
-                    .and_then(|s| Path::new(s).file_name())
-                    .map(|n| n.to_string_lossy().into_owned());
-                if let Some(rel) = rel {
-                    *p = Json::String(rel);
-                }
-            }
-        }
-        atomic_write_str(&f, &serde_json::to_string_pretty(&v).expect("json"))?;
-    }
-    Ok(())
 }
 
 /// `.work-<name>` beside the stage's cache directory `<name>`: named by the stage's

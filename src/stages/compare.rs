@@ -143,3 +143,8 @@ impl std::fmt::Display for Comparison {
         Ok(())
     }
 }
+
+/// Write a comparison as `compare.json` (what the `compare` stage and command keep).
+pub fn write(c: &Comparison, path: &Path) -> Result<()> {
+    crate::io::atomic_write_str(path, &serde_json::to_string_pretty(c).expect("json"))
+}

@@ -559,3 +559,41 @@ mod tests {
         assert!(resume::differences(&then, &quiet, &default_physics()).is_empty());
     }
 }
+
+/// A shear run's `manifest.json` and `summary.json` as a pipeline stage keeps them
+/// (here, not in the pipeline's dispatch, so the stage's source key covers it): its tables
+/// named relative to the stage directory (they were written in the work directory and
+/// moved), and `quiet` left out of the options (how the run was watched, which a local
+/// run and a Slurm job choose differently, is no part of what it computed).
+pub fn relocate_records(out: &Path) -> Result<()> {
+    for name in [crate::stages::manifest::MANIFEST, "summary.json"] {
+        let f = out.join(name);
+        let Ok(text) = std::fs::read_to_string(&f) else {
+            continue;
+        };
+        let mut v: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| Error::input(f.display(), e.to_string()))?;
+        if let Some(o) = v
+            .get_mut("options")
+            .and_then(serde_json::Value::as_object_mut)
+        {
+            o.remove("quiet");
+        }
+        if let Some(t) = v
+            .get_mut("tables")
+            .and_then(serde_json::Value::as_object_mut)
+        {
+            for p in t.values_mut() {
+                let rel = p
+                    .as_str()
+                    .and_then(|s| Path::new(s).file_name())
+                    .map(|n| n.to_string_lossy().into_owned());
+                if let Some(rel) = rel {
+                    *p = serde_json::Value::String(rel);
+                }
+            }
+        }
+        atomic_write_str(&f, &serde_json::to_string_pretty(&v).expect("json"))?;
+    }
+    Ok(())
+}
