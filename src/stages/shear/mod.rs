@@ -534,32 +534,6 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     Ok(rep)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Every new `ShearOptions` field is absent from the checkpoints written before it;
-    /// they resume while it holds its default.
-    #[test]
-    fn checkpoints_without_a_new_option_resume_while_it_is_default() {
-        let now = default_physics();
-        let mut then = now.clone();
-        then.remove("window");
-        assert!(resume::differences(&then, &now, &default_physics()).is_empty());
-        let mut wider = now.clone();
-        wider.insert("window".into(), serde_json::json!(500.0));
-        let d = resume::differences(&then, &wider, &default_physics());
-        assert_eq!(d.len(), 1);
-        assert_eq!(d[0].to_string(), "window: then not set, now 500.0");
-        // A run-only option may differ.
-        let mut quiet = serde_json::to_value(ShearOptions::default()).unwrap();
-        quiet["quiet"] = serde_json::json!(true);
-        quiet["checkpoint_every"] = serde_json::json!(100);
-        let quiet = resume::physics(quiet);
-        assert!(resume::differences(&then, &quiet, &default_physics()).is_empty());
-    }
-}
-
 /// A shear run's `manifest.json` and `summary.json` as a pipeline stage keeps them
 /// (here, not in the pipeline's dispatch, so the stage's source key covers it): its tables
 /// named relative to the stage directory (they were written in the work directory and
@@ -596,4 +570,30 @@ pub fn relocate_records(out: &Path) -> Result<()> {
         atomic_write_str(&f, &serde_json::to_string_pretty(&v).expect("json"))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every new `ShearOptions` field is absent from the checkpoints written before it;
+    /// they resume while it holds its default.
+    #[test]
+    fn checkpoints_without_a_new_option_resume_while_it_is_default() {
+        let now = default_physics();
+        let mut then = now.clone();
+        then.remove("window");
+        assert!(resume::differences(&then, &now, &default_physics()).is_empty());
+        let mut wider = now.clone();
+        wider.insert("window".into(), serde_json::json!(500.0));
+        let d = resume::differences(&then, &wider, &default_physics());
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].to_string(), "window: then not set, now 500.0");
+        // A run-only option may differ.
+        let mut quiet = serde_json::to_value(ShearOptions::default()).unwrap();
+        quiet["quiet"] = serde_json::json!(true);
+        quiet["checkpoint_every"] = serde_json::json!(100);
+        let quiet = resume::physics(quiet);
+        assert!(resume::differences(&then, &quiet, &default_physics()).is_empty());
+    }
 }

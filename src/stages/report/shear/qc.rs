@@ -43,7 +43,9 @@ impl QcPoint {
 
 /// Q_c at every (φ, γ̇) with at least three Q whose P^el is known and a drop.
 pub fn locate(rows: &[Row]) -> Vec<QcPoint> {
-    let mut by: BTreeMap<(i64, i64), (f64, f64, Vec<(f64, f64)>)> = BTreeMap::new();
+    // (φ, γ̇) → (φ, γ̇, [(Q, P^el)]).
+    type Curve = (f64, f64, Vec<(f64, f64)>);
+    let mut by: BTreeMap<(i64, i64), Curve> = BTreeMap::new();
     for r in rows {
         if let Some((p, _)) = r.get("p_el")
             && p > 0.0
