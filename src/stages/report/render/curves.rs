@@ -76,7 +76,14 @@ fn range(v: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-fn label(v: f64, log: bool) -> String {
+/// A tick's text on an axis spanning `span`: a linear tick within 1e-9 of the span from
+/// zero is the zero that rounding missed (ticks stepped from −0.4 print −2.2e-16 for 0).
+fn label(v: f64, log: bool, span: f64) -> String {
+    let v = if !log && v.abs() <= 1e-9 * span.abs() {
+        0.0
+    } else {
+        v
+    };
     if log {
         let p = 10f64.powf(v);
         if (v - v.round()).abs() < 1e-9 {
@@ -121,12 +128,13 @@ impl Figure for XyFigure {
             .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
             .map_err(s)?;
         let (xl, yl) = (self.x_log, self.y_log);
+        let (xs, ys) = (xr.1 - xr.0, yr.1 - yr.0);
         chart
             .configure_mesh()
             .x_desc(&self.x_desc)
             .y_desc(&self.y_desc)
-            .x_label_formatter(&|v| label(*v, xl))
-            .y_label_formatter(&|v| label(*v, yl))
+            .x_label_formatter(&|v| label(*v, xl, xs))
+            .y_label_formatter(&|v| label(*v, yl, ys))
             .label_style((FONT_FAMILY, 14))
             .draw()
             .map_err(s)?;
@@ -230,13 +238,13 @@ impl Figure for PhaseFigure {
             .y_label_area_size(80)
             .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
             .map_err(s)?;
-        let yl = self.y_log;
+        let (yl, ys) = (self.y_log, yr.1 - yr.0);
         chart
             .configure_mesh()
             .x_desc(&self.x_desc)
             .y_desc(&self.y_desc)
             .x_label_formatter(&|v| format!("{v:.3}"))
-            .y_label_formatter(&|v| label(*v, yl))
+            .y_label_formatter(&|v| label(*v, yl, ys))
             .label_style((FONT_FAMILY, 14))
             .draw()
             .map_err(s)?;
@@ -272,5 +280,22 @@ impl Figure for PhaseFigure {
             .draw()
             .map_err(s)?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::label;
+
+    /// Issue 36: the outline figure's axis printed "-2.2e-16" where its tick was 0.
+    #[test]
+    fn a_tick_that_rounding_moved_off_zero_prints_0() {
+        let tick = 0.1 + 0.2 - 0.3; // 5.55e-17: ticks stepped in floating point
+        assert_ne!(tick, 0.0);
+        assert_eq!(label(tick, false, 1.2), "0");
+        assert_eq!(label(-2.2e-16, false, 2.0), "0");
+        // A small value on a small axis is still itself; log axes are untouched.
+        assert_eq!(label(2.5e-5, false, 1e-4), "2.5e-5");
+        assert_eq!(label(-3.0, true, 6.0), "1e-3");
     }
 }
