@@ -1,6 +1,6 @@
 //! The local executor: every stage whose upstream stages are done runs at once, up to
-//! `jobs` at a time, each on a thread of its own (a lone simulation still spreads over
-//! every core through its own threads). Stages are launched in run order; the manifest
+//! `jobs` at a time, each on a thread of its own; a pillar simulation, which spreads
+//! over every core through threads of its own, runs alone. Stages are launched in run order; the manifest
 //! lists them in run order whatever order they finish in, so a run's outputs and record
 //! are those of a serial run (each stage computes the same numbers alone).
 //!
@@ -25,6 +25,15 @@ use std::time::Instant;
 enum Msg {
     Say(usize, Status, Option<String>),
     Finished(usize, Box<Result<Outcome>>, f64),
+}
+
+/// Kinds whose stage spreads over every core on threads of its own: the pillar
+/// simulation (its threads wait for each other at spinning barriers, which a second
+/// stage on the same cores would stall). Such a stage runs alone, with every core;
+/// single-threaded stages (the sheared disks) and those on the shared rayon pool run
+/// side by side.
+fn exclusive(kind: super::Kind) -> bool {
+    kind == super::Kind::Simulate
 }
 
 /// Stages at a time when `--jobs` is not given: the machine's cores.
@@ -63,6 +72,7 @@ pub(crate) fn run(
     let mut started = vec![false; total];
     let mut launched_at: Vec<Option<Instant>> = vec![None; total];
     let (mut running, mut finished) = (0usize, 0usize);
+    let mut exclusive_running = false;
     // The first failure, and the stage it names.
     let mut failure: Option<(String, String)> = None;
     let mut stopped: Option<(i32, String)> = None;
@@ -71,13 +81,20 @@ pub(crate) fn run(
         loop {
             let halt =
                 failure.is_some() || stopped.is_some() || crate::interrupt::requested().is_some();
-            if !halt {
-                let ready: Vec<usize> = (0..total)
+            // A stage that spreads over every core itself runs alone (see `exclusive`).
+            if !halt && !exclusive_running {
+                let mut ready: Vec<usize> = (0..total)
                     .filter(|&i| {
                         !started[i] && p.stages[i].upstream.values().all(|u| done.contains_key(u))
                     })
                     .take(jobs.saturating_sub(running))
                     .collect();
+                if let Some(k) = ready.iter().position(|&i| exclusive(p.stages[i].kind)) {
+                    // The first exclusive stage waits for an empty machine, and nothing
+                    // after it starts meanwhile, so run order is kept.
+                    ready.truncate(if k == 0 && running == 0 { 1 } else { k });
+                }
+                exclusive_running = ready.iter().any(|&i| exclusive(p.stages[i].kind));
                 // A stage's own progress bar only when it runs alone: bars of stages
                 // side by side would overwrite each other.
                 let alone = running == 0 && ready.len() == 1;
@@ -145,6 +162,9 @@ pub(crate) fn run(
             };
             running -= 1;
             let s = &p.stages[i];
+            if exclusive(s.kind) {
+                exclusive_running = false;
+            }
             let (k, kind) = (&r.keyed[&s.name], s.kind.name());
             let dir = r.cache.path(kind, &k.key);
             let o = match outcome {

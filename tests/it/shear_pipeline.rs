@@ -495,3 +495,35 @@ fn independent_stages_run_at_once_with_the_numbers_of_a_serial_run() {
         "{out}"
     );
 }
+
+/// A pillar simulation spreads over every core with threads of its own, so it runs
+/// alone even with `--jobs 2`: the sheared-disk stage beside it in the file starts only
+/// after it, and the sweep points after that run side by side again.
+#[test]
+fn a_pillar_simulation_runs_alone() {
+    let d = tmpdir("jobs-alone");
+    let file = d.join("s.toml");
+    std::fs::write(
+        &file,
+        "[pipeline]\nname = \"alone\"\n\n[a.simulate]\npreset = \"fast\"\nn = 200\nstrain = 0.02\n\n\
+         [b.shear]\nphi = 0.8\nrate = 1e-2\nn = 32\nstrain = 0.3\nsample_every = 2\n",
+    )
+    .unwrap();
+    let out = run_ok(
+        &["run", file.to_str().unwrap(), "--jobs", "2"],
+        &d.join("runs"),
+    );
+    let at = |needle: &str| {
+        out.lines()
+            .position(|l| l.contains(needle))
+            .unwrap_or_else(|| panic!("{needle}: {out}"))
+    };
+    let sim_done = out
+        .lines()
+        .position(|l| l.contains("a.simulate") && l.contains("computed"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        at("b.shear") > sim_done,
+        "the shear stage started beside the pillar:\n{out}"
+    );
+}
