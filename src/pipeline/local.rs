@@ -70,7 +70,6 @@ pub(crate) fn run(
     let mut done: BTreeMap<String, Done> = BTreeMap::new();
     let mut runs: Vec<Option<StageRun>> = vec![None; total];
     let mut started = vec![false; total];
-    let mut launched_at: Vec<Option<Instant>> = vec![None; total];
     let (mut running, mut finished) = (0usize, 0usize);
     let mut exclusive_running = false;
     // The first failure, and the stage it names.
@@ -101,7 +100,6 @@ pub(crate) fn run(
                 for i in ready {
                     let s = &p.stages[i];
                     started[i] = true;
-                    launched_at[i] = Some(Instant::now());
                     running += 1;
                     let k = &r.keyed[&s.name];
                     let snapshot = done.clone();

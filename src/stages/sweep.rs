@@ -210,7 +210,7 @@ pub fn write_outputs(
 /// together (Figs. 8, 18 draw it at three Q per φ). Runs without the histograms (none
 /// since they were added) have no rows.
 fn write_angles(out: &Path, points: &[((f64, f64, f64), serde_json::Value)]) -> Result<()> {
-    use crate::dem::shear::{ANGLE_BIN_DEG, ANGLE_BINS};
+    use crate::dem::shear::{ANGLE_BIN_DEG, ANGLE_BINS, angle_edge};
     let names = [
         "phi",
         "q",
@@ -222,7 +222,6 @@ fn write_angles(out: &Path, points: &[((f64, f64, f64), serde_json::Value)]) -> 
         "pdf",
     ];
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
-    let edge = |k: usize| k as f64 * 360.0 / ANGLE_BINS as f64 - 180.0;
     for ((phi, q, rate), v) in points {
         let counts = |key: &str| -> Option<Vec<f64>> {
             let a = v.get(key)?.as_array()?;
@@ -242,7 +241,16 @@ fn write_angles(out: &Path, points: &[((f64, f64, f64), serde_json::Value)]) -> 
             } else {
                 0.0
             };
-            let row = [*phi, *q, *rate, edge(k), edge(k + 1), mk[k], br[k], pdf];
+            let row = [
+                *phi,
+                *q,
+                *rate,
+                angle_edge(k),
+                angle_edge(k + 1),
+                mk[k],
+                br[k],
+                pdf,
+            ];
             for (c, x) in cols.iter_mut().zip(row) {
                 c.push(x);
             }

@@ -27,7 +27,7 @@ use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
 use crate::rng::Rng;
 pub use params::{
     ANGLE_BIN_DEG, ANGLE_BINS, ANGLE_BINS_AT_90, ANGLE_BINS_AT_MINUS_90, Collisions, Dissipation,
-    DurationHistogram, ShearParams, Virial, angle_bin, cohort_half, collision_angle,
+    DurationHistogram, ShearParams, Virial, angle_bin, angle_edge, cohort_half, collision_angle,
 };
 
 /// Whether the slot kernels implement `law`: CD or CDrot dissipation (any α). Any other

@@ -239,6 +239,12 @@ pub fn collision_angle((rx, ry): (f64, f64), (vx, vy): (f64, f64)) -> Option<f64
     Some(if t <= -180.0 { 180.0 } else { t.min(180.0) })
 }
 
+/// Edge k of the collision-angle bins (degrees): k·360/100 − 180, exact at the multiples
+/// of 90°; bin k lies between edges k and k + 1.
+pub fn angle_edge(k: usize) -> f64 {
+    k as f64 * 360.0 / ANGLE_BINS as f64 - 180.0
+}
+
 /// Histogram bin of the collision angle `theta` (degrees, −180° < ϑ ≤ 180°): bin k covers
 /// (−180° + 3.6° k, −180° + 3.6° (k + 1)].
 #[inline]

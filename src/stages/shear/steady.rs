@@ -3,7 +3,7 @@
 //! v_x(y) — both counted only after the transient.
 
 use crate::dem::base::codec::{Dec, Enc};
-use crate::dem::shear::{ANGLE_BIN_DEG, ANGLE_BINS, ShearSim};
+use crate::dem::shear::{ANGLE_BIN_DEG, ANGLE_BINS, ShearSim, angle_edge};
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
 use polars::prelude::*;
@@ -197,10 +197,8 @@ impl Steady {
                 })
                 .collect::<Vec<f64>>()
         };
-        // Edges as k·360/100 − 180, exact at the multiples of 90°.
-        let edge = |k: usize| k as f64 * 360.0 / ANGLE_BINS as f64 - 180.0;
-        let lo: Vec<f64> = (0..ANGLE_BINS).map(edge).collect();
-        let hi: Vec<f64> = (1..=ANGLE_BINS).map(edge).collect();
+        let lo: Vec<f64> = (0..ANGLE_BINS).map(angle_edge).collect();
+        let hi: Vec<f64> = (1..=ANGLE_BINS).map(angle_edge).collect();
         let mut df = DataFrame::new(
             ANGLE_BINS,
             vec![

@@ -5,6 +5,7 @@
 //! P(90°) against Q (Figs. 9, 19).
 
 use super::{Figures, Row, key, versus_q};
+use crate::dem::shear::ANGLE_BIN_DEG;
 use crate::error::Result;
 use crate::io::table::read_table;
 use crate::stages::report::render::curves::{XyFigure, XySeries};
@@ -148,7 +149,13 @@ pub(super) fn add_run_figure(f: &mut Figures, file: &Path) -> Result<()> {
     // Each part as its share of P(ϑ), so the two add up to the paper's histogram.
     let share = |c: &[f64]| -> Vec<f64> {
         c.iter()
-            .map(|x| if total > 0.0 { x / (total * 3.6) } else { 0.0 })
+            .map(|x| {
+                if total > 0.0 {
+                    x / (total * ANGLE_BIN_DEG)
+                } else {
+                    0.0
+                }
+            })
             .collect()
     };
     let series = [
