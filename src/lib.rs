@@ -9,6 +9,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bench;
+pub mod camera;
 pub mod error;
 pub mod fit;
 pub mod geom;

@@ -94,6 +94,21 @@ const FORBIDDEN: &[(&str, &[&str])] = &[
         ],
     ),
     ("io", &["stages", "pipeline", "report", "dem"]),
+    (
+        "camera",
+        &[
+            "neighbors",
+            "tracks",
+            "kinematics",
+            "fit",
+            "dem",
+            "io",
+            "report",
+            "stages",
+            "pipeline",
+            "structure",
+        ],
+    ),
     ("stages", &["pipeline"]),
 ];
 
