@@ -10,3 +10,26 @@
 pub mod frame;
 
 pub use frame::{Frame, FrameSet, list_frames, read_frame, write_frame};
+
+/// One located grain in one frame, in trackpy's columns and meanings (pixels, the
+/// frame's intensity units): what `locate` writes and `link` reads.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Feature {
+    pub frame: i64,
+    /// Column of the centre, px.
+    pub x: f64,
+    /// Row of the centre, px (pointing down).
+    pub y: f64,
+    /// Integrated brightness of the band-passed image within the mask.
+    pub mass: f64,
+    /// Radius of gyration of the band-passed brightness, px.
+    pub size: f64,
+    /// Eccentricity, 0 for a circular spot.
+    pub ecc: f64,
+    /// Peak of the band-passed brightness.
+    pub signal: f64,
+    /// Integrated brightness of the raw image within the mask.
+    pub raw_mass: f64,
+    /// trackpy's static-error estimate of the position, px (Savin & Doyle).
+    pub ep: f64,
+}
