@@ -1,6 +1,7 @@
 //! `pillar-pipe` command line: parse, validate, call a stage, print its report.
 
 mod cli_bench;
+mod cli_camera;
 mod cli_runs;
 mod cli_sim;
 
@@ -190,6 +191,11 @@ enum Cmd {
     Sweep(cli_sim::SweepArgs),
     /// Generate a jammed bidisperse packing (li-granular-pillars Sec. II.A).
     Pack(cli_sim::PackArgs),
+    /// Locate grains in camera frames (PNG/TIFF, 8/16 bit) as trackpy's `locate`
+    /// does (Crocker–Grier: band-pass, local maxima, centroid refinement), frames in
+    /// parallel; writes trackpy's columns (y, x, mass, size, ecc, signal, raw_mass,
+    /// ep, frame) in pixels.
+    Locate(cli_camera::LocateArgs),
     /// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
     Run {
         pipeline: PathBuf,
@@ -689,6 +695,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Bench { what } => cli_bench::bench(what)?,
         Cmd::Simulate { what } => cli_sim::simulate(what)?,
         Cmd::Pack(a) => cli_sim::pack(a)?,
+        Cmd::Locate(a) => cli_camera::locate(a)?,
         Cmd::Sweep(a) => cli_sim::sweep(a)?,
         Cmd::Export {
             input,

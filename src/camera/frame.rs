@@ -44,11 +44,25 @@ fn input_err(path: &Path, msg: impl Into<String>) -> Error {
 /// Reads one PNG or TIFF frame, 8 or 16 bit grey (grey with alpha: the alpha is
 /// dropped). A truncated or corrupt file is an error naming it.
 pub fn read_frame(path: &Path) -> Result<Frame> {
-    let reader = image::io::Reader::open(path)
-        .map_err(|cause| Error::Io {
-            path: path.to_path_buf(),
-            cause,
-        })?
+    Ok(read_frame_hashed(path)?.0)
+}
+
+/// `read_frame`, and the SHA-256 (hex) of the file's bytes, read once.
+pub fn read_frame_hashed(path: &Path) -> Result<(Frame, String)> {
+    use sha2::Digest;
+    let bytes = std::fs::read(path).map_err(|cause| Error::Io {
+        path: path.to_path_buf(),
+        cause,
+    })?;
+    let hash = sha2::Sha256::digest(&bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    Ok((decode_frame(path, &bytes)?, hash))
+}
+
+fn decode_frame(path: &Path, bytes: &[u8]) -> Result<Frame> {
+    let reader = image::io::Reader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|cause| Error::Io {
             path: path.to_path_buf(),
@@ -110,10 +124,7 @@ pub fn write_frame(frame: &Frame, path: &Path) -> Result<()> {
         _ => {
             return Err(Error::Param {
                 name: "frame file".into(),
-                msg: format!(
-                    "{}: expected a .png, .tif or .tiff name",
-                    path.display()
-                ),
+                msg: format!("{}: expected a .png, .tif or .tiff name", path.display()),
             });
         }
     };
@@ -311,8 +322,9 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         for (depth, ext) in [(8u8, "png"), (16, "png"), (8, "tif"), (16, "tiff")] {
             let mut f = Frame::new(7, 5, depth);
+            let max = f.max_value();
             for (i, v) in f.pixels.iter_mut().enumerate() {
-                *v = (i as f32 * 37.0) % f.max_value();
+                *v = (i as f32 * 37.0) % max;
             }
             let p = dir.join(format!("f{depth}.{ext}"));
             write_frame(&f, &p).unwrap();

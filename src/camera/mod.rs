@@ -7,9 +7,12 @@
 //! centres on whole numbers. Nothing here knows of tracks tables or pipelines; the
 //! stages (`stages::track`) convert.
 
+mod filters;
 pub mod frame;
+pub mod locate;
 
 pub use frame::{Frame, FrameSet, list_frames, read_frame, write_frame};
+pub use locate::{LocateParams, LocateReport, locate, locate_frames};
 
 /// One located grain in one frame, in trackpy's columns and meanings (pixels, the
 /// frame's intensity units): what `locate` writes and `link` reads.

@@ -9,6 +9,7 @@ pub const TOOL: &str = "pillar-pipe";
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
 pub mod kinematics;
+pub mod locate;
 pub mod manifest;
 pub mod outline;
 
