@@ -17,25 +17,39 @@ pub fn gaussian_kernel(sigma: f64, truncate: f64) -> Vec<f32> {
 }
 
 /// Correlates every row of `src` (width `w`) with `kernel` (odd length), zero beyond
-/// the row's ends, into `dst`.
+/// the row's ends, into `dst`: one tap at a time over the row, so the inner loop is a
+/// vectorised multiply-add along memory.
+#[inline(never)]
 fn correlate_rows(src: &[f32], dst: &mut [f32], w: usize, kernel: &[f32]) {
     let r = kernel.len() / 2;
     for (row, out) in src.chunks_exact(w).zip(dst.chunks_exact_mut(w)) {
-        for (x, o) in out.iter_mut().enumerate() {
-            let lo = x.saturating_sub(r);
-            let hi = (x + r).min(w - 1);
-            let k0 = lo + r - x;
-            let mut acc = 0.0f32;
-            for (v, k) in row[lo..=hi].iter().zip(&kernel[k0..]) {
-                acc += v * k;
+        out.fill(0.0);
+        for (t, &k) in kernel.iter().enumerate() {
+            // out[x] += k · row[x + t − r] for the x where that index is inside.
+            if t >= r {
+                let d = t - r;
+                if d >= w {
+                    continue;
+                }
+                for (o, v) in out[..w - d].iter_mut().zip(&row[d..]) {
+                    *o += k * v;
+                }
+            } else {
+                let d = r - t;
+                if d >= w {
+                    continue;
+                }
+                for (o, v) in out[d..].iter_mut().zip(&row[..w - d]) {
+                    *o += k * v;
+                }
             }
-            *o = acc;
         }
     }
 }
 
 /// Correlates every column with `kernel`, zero beyond the top and bottom; whole rows
 /// at a time so the inner loop runs along memory.
+#[inline(never)]
 fn correlate_cols(src: &[f32], dst: &mut [f32], w: usize, kernel: &[f32]) {
     let h = src.len() / w;
     let r = kernel.len() / 2;
@@ -70,30 +84,55 @@ pub fn lowpass(img: &[f32], w: usize, sigma: f64) -> Vec<f32> {
 /// trackpy's `boxcar` on an integer image, which scipy's `uniform_filter1d` writes back
 /// into the image's integer type: the running mean along columns, truncated, then
 /// along rows, truncated (the values are whole numbers, so the sums are exact).
+#[inline(never)]
 pub fn boxcar_truncated(img: &[f32], w: usize, size: usize) -> Vec<f32> {
     if size <= 1 {
         return img.to_vec();
     }
     let h = img.len() / w;
     let r = (size / 2) as i64;
-    let n = size as i64;
-    let at = |y: i64, x: usize| img[y.clamp(0, h as i64 - 1) as usize * w + x] as i64;
-    let mut cols = vec![0i64; img.len()];
-    for x in 0..w {
-        let mut acc: i64 = (-r..=r).map(|y| at(y, x)).sum();
-        for y in 0..h {
-            cols[y * w + x] = acc.div_euclid(n);
-            acc += at(y as i64 + r + 1, x) - at(y as i64 - r, x);
+    let n = size as f64;
+    // Sums of whole numbers below 2^53 are exact in f64, and so is the truncated
+    // quotient: a non-integer a/n lies at least 1/n from the nearest integer, far
+    // beyond the division's rounding. Rows are added and removed whole, so the loops
+    // run along memory and vectorise.
+    let row = |i: i64| {
+        let i = i.clamp(0, h as i64 - 1) as usize;
+        &img[i * w..(i + 1) * w]
+    };
+    let mut acc = vec![0.0f64; w];
+    for i in -r..=r {
+        for (a, v) in acc.iter_mut().zip(row(i)) {
+            *a += f64::from(*v);
+        }
+    }
+    // The column means are whole grey levels, exact in f32. `as i32` truncates (and,
+    // unlike `trunc`, vectorises without SSE4.1); the values are far below 2^31.
+    let mut cols = vec![0.0f32; img.len()];
+    for y in 0..h {
+        for (c, a) in cols[y * w..(y + 1) * w].iter_mut().zip(&acc) {
+            *c = (a / n) as i32 as f32;
+        }
+        let (add, sub) = (row(y as i64 + r + 1), row(y as i64 - r));
+        for ((a, p), m) in acc.iter_mut().zip(add).zip(sub) {
+            *a += f64::from(*p) - f64::from(*m);
         }
     }
     let mut out = vec![0.0f32; img.len()];
+    let ri = r as usize;
+    let mut padded = vec![0.0f64; w + 2 * ri + 1];
     for y in 0..h {
-        let row = &cols[y * w..(y + 1) * w];
-        let at = |i: i64| row[i.clamp(0, w as i64 - 1) as usize];
-        let mut acc: i64 = (-r..=r).map(at).sum();
-        for (x, o) in out[y * w..(y + 1) * w].iter_mut().enumerate() {
-            *o = acc.div_euclid(n) as f32;
-            acc += at(x as i64 + r + 1) - at(x as i64 - r);
+        let src = &cols[y * w..(y + 1) * w];
+        padded[..ri].fill(f64::from(src[0]));
+        for (p, v) in padded[ri..ri + w].iter_mut().zip(src) {
+            *p = f64::from(*v);
+        }
+        padded[ri + w..].fill(f64::from(src[w - 1]));
+        let mut a: f64 = padded[..size].iter().sum();
+        let o = &mut out[y * w..(y + 1) * w];
+        for x in 0..w {
+            o[x] = (a / n) as i32 as f32;
+            a += padded[x + size] - padded[x];
         }
     }
     out
@@ -119,17 +158,26 @@ pub fn bandpass(
 }
 
 /// Running maximum over the window `[x - left, x + right]` of each row (outside
-/// counts as 0, which no band-passed value is below).
+/// counts as 0, which no band-passed value is below), one offset at a time along the
+/// row so the loop vectorises.
+#[inline(never)]
 fn max_rows(src: &[f32], dst: &mut [f32], w: usize, left: usize, right: usize) {
     for (row, out) in src.chunks_exact(w).zip(dst.chunks_exact_mut(w)) {
-        for (x, o) in out.iter_mut().enumerate() {
-            let lo = x.saturating_sub(left);
-            let hi = (x + right).min(w - 1);
-            *o = row[lo..=hi].iter().fold(0.0f32, |m, &v| m.max(v));
+        out.copy_from_slice(row);
+        for d in 1..=right.min(w - 1) {
+            for (o, v) in out[..w - d].iter_mut().zip(&row[d..]) {
+                *o = o.max(*v);
+            }
+        }
+        for d in 1..=left.min(w - 1) {
+            for (o, v) in out[d..].iter_mut().zip(&row[..w - d]) {
+                *o = o.max(*v);
+            }
         }
     }
 }
 
+#[inline(never)]
 fn max_cols(src: &[f32], dst: &mut [f32], w: usize, left: usize, right: usize) {
     let h = src.len() / w;
     for y in 0..h {

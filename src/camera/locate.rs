@@ -162,6 +162,8 @@ impl LocateParams {
 /// The refinement disk: offsets (dy, dx) with dy² + dx² ≤ r², row by row.
 struct Disk {
     r: i64,
+    /// Row by row: dy and the half-width ⌊√(r² − dy²)⌋ (the same pixels as dy, dx).
+    spans: Vec<(i64, i64)>,
     dy: Vec<i64>,
     dx: Vec<i64>,
     /// cos 2θ and sin 2θ, θ = atan2(dy, dx) (trackpy's `cosmask`, `sinmask`).
@@ -188,8 +190,12 @@ impl Disk {
                 }
             }
         }
+        let spans = (-r..=r)
+            .map(|y| (y, (((r * r - y * y) as f64).sqrt()).floor() as i64))
+            .collect();
         Self {
             r,
+            spans,
             dy,
             dx,
             cos2,
@@ -204,6 +210,7 @@ impl Disk {
 
 /// numpy's `percentile` (linear interpolation) of the non-zero values; `None` when
 /// every value is zero.
+#[inline(never)]
 fn percentile_of_nonzero(img: &[f32], p: f64) -> Option<f32> {
     let mut v: Vec<f32> = img.iter().copied().filter(|&x| x != 0.0).collect();
     if v.is_empty() {
@@ -224,7 +231,8 @@ fn percentile_of_nonzero(img: &[f32], p: f64) -> Option<f32> {
 /// Pixels farther than r from every non-zero band-passed pixel (trackpy's
 /// `~binary_dilation(bp, disk(r))`): per row the horizontal distance to the nearest
 /// non-zero pixel, then for each row offset dy the disk's half-width there.
-fn background_mask(bp: &[f32], w: usize, r: usize) -> Vec<bool> {
+#[inline(never)]
+fn background_mask(bp: &[f32], w: usize, r: usize) -> Vec<u8> {
     let h = bp.len() / w;
     let far = u32::MAX / 2;
     let mut hd = vec![far; bp.len()];
@@ -254,7 +262,8 @@ fn background_mask(bp: &[f32], w: usize, r: usize) -> Vec<bool> {
     let half: Vec<u32> = (-ri..=ri)
         .map(|dy| (((ri * ri - dy * dy) as f64).sqrt()).floor() as u32)
         .collect();
-    let mut bg = vec![true; bp.len()];
+    // 1 = background; u8 and a branch-free `&` so the loop vectorises.
+    let mut bg = vec![1u8; bp.len()];
     for y in 0..h as i64 {
         for (k, dy) in (-ri..=ri).enumerate() {
             let yy = y + dy;
@@ -263,8 +272,9 @@ fn background_mask(bp: &[f32], w: usize, r: usize) -> Vec<bool> {
             }
             let src = &hd[yy as usize * w..(yy as usize + 1) * w];
             let out = &mut bg[y as usize * w..(y as usize + 1) * w];
+            let lim = half[k];
             for (o, &d) in out.iter_mut().zip(src) {
-                *o &= d > half[k];
+                *o &= u8::from(d > lim);
             }
         }
     }
@@ -273,11 +283,12 @@ fn background_mask(bp: &[f32], w: usize, r: usize) -> Vec<bool> {
 
 /// Mean and population standard deviation of the raw background (NaN when there is
 /// too little of it, as trackpy's `measure_noise`).
+#[inline(never)]
 fn measure_noise(raw: &[f32], bp: &[f32], w: usize, r: usize) -> (f64, f64) {
     let bg = background_mask(bp, w, r);
     let (mut n, mut s, mut s2) = (0usize, 0.0f64, 0.0f64);
     for (&v, &b) in raw.iter().zip(&bg) {
-        if b {
+        if b != 0 {
             let v = f64::from(v);
             n += 1;
             s += v;
@@ -299,11 +310,11 @@ fn measure_noise(raw: &[f32], bp: &[f32], w: usize, r: usize) -> (f64, f64) {
 pub fn locate(frame: &Frame, frame_no: i64, p: &LocateParams) -> Result<Vec<Feature>> {
     let rs = p.resolve()?;
     let (w, h) = (frame.width, frame.height);
-    let raw: Vec<f32> = if p.invert {
+    let raw: std::borrow::Cow<[f32]> = if p.invert {
         let m = frame.max_value();
         frame.pixels.iter().map(|v| m - v).collect()
     } else {
-        frame.pixels.clone()
+        std::borrow::Cow::Borrowed(&frame.pixels)
     };
     if w == 0 || h == 0 {
         return Ok(Vec::new());
@@ -320,7 +331,8 @@ pub fn locate(frame: &Frame, frame_no: i64, p: &LocateParams) -> Result<Vec<Feat
     } else {
         1.0
     };
-    let q: Vec<f32> = bp.iter().map(|&v| (v * scale).floor()).collect();
+    // bp ≥ 0, so truncation is the floor (and, unlike `floor`, vectorises).
+    let q: Vec<f32> = bp.iter().map(|&v| (v * scale) as i32 as f32).collect();
     let Some(level) = percentile_of_nonzero(&q, p.percentile) else {
         return Ok(Vec::new());
     };
@@ -367,6 +379,7 @@ pub fn locate(frame: &Frame, frame_no: i64, p: &LocateParams) -> Result<Vec<Feat
 
 /// trackpy's `_numba_refine_2D_c` for one maximum at (y, x).
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 fn refine(
     raw: &[f32],
     bp: &[f32],
@@ -387,11 +400,18 @@ fn refine(
         sx = cx;
         let (mut my, mut mx) = (0.0, 0.0);
         mass = 0.0;
-        for k in 0..disk.len() {
-            let v = px(cy + disk.dy[k], cx + disk.dx[k]);
-            my += v * disk.dy[k] as f64;
-            mx += v * disk.dx[k] as f64;
-            mass += v;
+        // Row spans of the disk: per row the sum and the dx-weighted sum.
+        for &(dy, half) in &disk.spans {
+            let start = (cy + dy) as usize * w + (cx - half) as usize;
+            let (mut s, mut sw) = (0.0f64, 0.0f64);
+            for (j, &v) in bp[start..=start + 2 * half as usize].iter().enumerate() {
+                let v = f64::from(v);
+                s += v;
+                sw += v * (j as i64 - half) as f64;
+            }
+            my += s * dy as f64;
+            mx += sw;
+            mass += s;
         }
         if mass <= 0.0 {
             oy = 0.0;
