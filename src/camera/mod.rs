@@ -8,8 +8,10 @@
 //! stages (`stages::track`) convert.
 
 pub mod frame;
+pub mod link;
 
 pub use frame::{Frame, FrameSet, list_frames, read_frame, write_frame};
+pub use link::{LinkOptions, LinkReport, Linked, link};
 
 /// One located grain in one frame, in trackpy's columns and meanings (pixels, the
 /// frame's intensity units): what `locate` writes and `link` reads.
