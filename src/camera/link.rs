@@ -69,6 +69,20 @@ impl LinkOptions {
     }
 }
 
+impl LinkOptions {
+    /// An error naming the first parameter out of its domain.
+    pub fn check(&self) -> Result<()> {
+        let r = self.search_range;
+        if !(r > 0.0 && r.is_finite()) {
+            return Err(Error::param(
+                "search_range",
+                format!("{r} px; must be a finite number > 0"),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// What linking did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
 pub struct LinkReport {
@@ -124,13 +138,7 @@ struct Subnet {
 /// Link `features` (any order; rows of one frame keep their input order) into
 /// trajectories.
 pub fn link(features: &[Feature], opt: &LinkOptions) -> Result<Linked> {
-    let r = opt.search_range;
-    if !(r > 0.0 && r.is_finite()) {
-        return Err(Error::param(
-            "search_range",
-            format!("{r} px; must be a finite number > 0"),
-        ));
-    }
+    opt.check()?;
     if let Some((i, f, c, v)) = features.iter().enumerate().find_map(|(i, f)| {
         [("x", f.x), ("y", f.y)]
             .into_iter()
