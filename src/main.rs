@@ -1,6 +1,7 @@
 //! `pillar-pipe` command line: parse, validate, call a stage, print its report.
 
 mod cli_bench;
+mod cli_camera_link;
 mod cli_runs;
 mod cli_sim;
 
@@ -190,6 +191,10 @@ enum Cmd {
     Sweep(cli_sim::SweepArgs),
     /// Generate a jammed bidisperse packing (li-granular-pillars Sec. II.A).
     Pack(cli_sim::PackArgs),
+    /// Link located grains (trackpy's feature columns, px) into trajectories the
+    /// trackpy way (search range in px, memory in frames, prediction from each grain's
+    /// last displacement); writes the features with a particle column.
+    Link(cli_camera_link::LinkArgs),
     /// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
     Run {
         pipeline: PathBuf,
@@ -689,6 +694,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Bench { what } => cli_bench::bench(what)?,
         Cmd::Simulate { what } => cli_sim::simulate(what)?,
         Cmd::Pack(a) => cli_sim::pack(a)?,
+        Cmd::Link(a) => cli_camera_link::run(a)?,
         Cmd::Sweep(a) => cli_sim::sweep(a)?,
         Cmd::Export {
             input,

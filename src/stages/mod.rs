@@ -43,6 +43,7 @@ pub mod compare;
 pub mod export;
 pub mod fit;
 pub mod gofr;
+pub mod link;
 pub mod pack;
 pub mod quickstart;
 pub mod report;
