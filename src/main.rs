@@ -196,6 +196,14 @@ enum Cmd {
     /// parallel; writes trackpy's columns (y, x, mass, size, ecc, signal, raw_mass,
     /// ep, frame) in pixels.
     Locate(cli_camera::LocateArgs),
+    /// Link located grains (trackpy's feature columns, px) into trajectories the
+    /// trackpy way (search range in px, memory in frames, prediction from each grain's
+    /// last displacement); writes the features with a particle column.
+    Link(cli_camera::LinkArgs),
+    /// Locate and link in one command: camera frames → trackpy's linked table
+    /// (`pillar-pipe ingest` reads it). trackpy's locate and link options, px and
+    /// frames.
+    Track(cli_camera::TrackArgs),
     /// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
     Run {
         pipeline: PathBuf,
@@ -696,6 +704,8 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Simulate { what } => cli_sim::simulate(what)?,
         Cmd::Pack(a) => cli_sim::pack(a)?,
         Cmd::Locate(a) => cli_camera::locate(a)?,
+        Cmd::Link(a) => cli_camera::link(a)?,
+        Cmd::Track(a) => cli_camera::track(a)?,
         Cmd::Sweep(a) => cli_sim::sweep(a)?,
         Cmd::Export {
             input,

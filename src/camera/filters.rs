@@ -5,6 +5,30 @@
 //! band-pass that subtracts one from the other, and a grey dilation (running maximum)
 //! for the local maxima.
 
+thread_local! {
+    /// Image-sized buffers kept on each thread between frames: a fresh 3 MB buffer per
+    /// filter pass cost more in the kernel's page zeroing than the filters themselves.
+    static POOL: std::cell::RefCell<Vec<Vec<f32>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A zeroed buffer of `len`, from this thread's pool when it has one.
+pub fn take(len: usize) -> Vec<f32> {
+    let mut v = POOL.with(|p| p.borrow_mut().pop()).unwrap_or_default();
+    v.clear();
+    v.resize(len, 0.0);
+    v
+}
+
+/// Returns a buffer to this thread's pool (a few are kept).
+pub fn give(v: Vec<f32>) {
+    POOL.with(|p| {
+        let mut p = p.borrow_mut();
+        if p.len() < 8 {
+            p.push(v);
+        }
+    });
+}
+
 /// trackpy's `gaussian_kernel(sigma, truncate)`: taps `exp(-x²/2σ²)` for
 /// |x| ≤ ⌊truncate·σ + ½⌋, normalised to sum 1.
 pub fn gaussian_kernel(sigma: f64, truncate: f64) -> Vec<f32> {
@@ -74,10 +98,11 @@ pub fn lowpass(img: &[f32], w: usize, sigma: f64) -> Vec<f32> {
         return img.to_vec();
     }
     let k = gaussian_kernel(sigma, 4.0);
-    let mut tmp = vec![0.0; img.len()];
-    let mut out = vec![0.0; img.len()];
+    let mut tmp = take(img.len());
+    let mut out = take(img.len());
     correlate_cols(img, &mut tmp, w, &k);
     correlate_rows(&tmp, &mut out, w, &k);
+    give(tmp);
     out
 }
 
@@ -92,6 +117,14 @@ pub fn boxcar_truncated(img: &[f32], w: usize, size: usize) -> Vec<f32> {
     let h = img.len() / w;
     let r = (size / 2) as i64;
     let n = size as f64;
+    let inv = 1.0 / n;
+    // ⌊a/n⌋ for a whole a ≥ 0 by a multiply: a·(1/n) is within an ulp of a/n, which
+    // only matters when a/n is whole and the product falls just below; the `+1` test
+    // puts that back. (A division per pixel cost more than the rest of the boxcar.)
+    let div = |a: f64| {
+        let q = (a * inv) as i32;
+        q + i32::from(f64::from(q + 1) * n <= a)
+    };
     // Sums of whole numbers below 2^53 are exact in f64, and so is the truncated
     // quotient: a non-integer a/n lies at least 1/n from the nearest integer, far
     // beyond the division's rounding. Rows are added and removed whole, so the loops
@@ -108,17 +141,17 @@ pub fn boxcar_truncated(img: &[f32], w: usize, size: usize) -> Vec<f32> {
     }
     // The column means are whole grey levels, exact in f32. `as i32` truncates (and,
     // unlike `trunc`, vectorises without SSE4.1); the values are far below 2^31.
-    let mut cols = vec![0.0f32; img.len()];
+    let mut cols = take(img.len());
     for y in 0..h {
         for (c, a) in cols[y * w..(y + 1) * w].iter_mut().zip(&acc) {
-            *c = (a / n) as i32 as f32;
+            *c = div(*a) as f32;
         }
         let (add, sub) = (row(y as i64 + r + 1), row(y as i64 - r));
         for ((a, p), m) in acc.iter_mut().zip(add).zip(sub) {
             *a += f64::from(*p) - f64::from(*m);
         }
     }
-    let mut out = vec![0.0f32; img.len()];
+    let mut out = take(img.len());
     let ri = r as usize;
     let mut padded = vec![0.0f64; w + 2 * ri + 1];
     for y in 0..h {
@@ -131,10 +164,11 @@ pub fn boxcar_truncated(img: &[f32], w: usize, size: usize) -> Vec<f32> {
         let mut a: f64 = padded[..size].iter().sum();
         let o = &mut out[y * w..(y + 1) * w];
         for x in 0..w {
-            o[x] = (a / n) as i32 as f32;
+            o[x] = div(a) as f32;
             a += padded[x + size] - padded[x];
         }
     }
+    give(cols);
     out
 }
 
@@ -154,6 +188,7 @@ pub fn bandpass(
         let v = *o - b;
         *o = if v >= threshold { v } else { 0.0 };
     }
+    give(background);
     out
 }
 
@@ -196,10 +231,11 @@ fn max_cols(src: &[f32], dst: &mut [f32], w: usize, left: usize, right: usize) {
 /// −⌊(size−1)/2⌋ … ⌊size/2⌋, which for an even size reaches one further forward.
 pub fn dilate(img: &[f32], w: usize, size: usize) -> Vec<f32> {
     let (left, right) = (size.saturating_sub(1) / 2, size / 2);
-    let mut tmp = vec![0.0; img.len()];
-    let mut out = vec![0.0; img.len()];
+    let mut tmp = take(img.len());
+    let mut out = take(img.len());
     max_rows(img, &mut tmp, w, left, right);
     max_cols(&tmp, &mut out, w, left, right);
+    give(tmp);
     out
 }
 

@@ -27,7 +27,7 @@
 //! truncation (which biases trackpy's centroids towards flat plateaus).
 
 use super::Feature;
-use super::filters::{bandpass, dilate};
+use super::filters::{bandpass, dilate, give, take};
 use super::frame::{Frame, read_frame_hashed};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
@@ -212,8 +212,10 @@ impl Disk {
 /// every value is zero.
 #[inline(never)]
 fn percentile_of_nonzero(img: &[f32], p: f64) -> Option<f32> {
-    let mut v: Vec<f32> = img.iter().copied().filter(|&x| x != 0.0).collect();
+    let mut v = take(0);
+    v.extend(img.iter().copied().filter(|&x| x != 0.0));
     if v.is_empty() {
+        give(v);
         return None;
     }
     let pos = p / 100.0 * (v.len() - 1) as f64;
@@ -221,78 +223,93 @@ fn percentile_of_nonzero(img: &[f32], p: f64) -> Option<f32> {
     let frac = (pos - lo as f64) as f32;
     let (_, a, rest) = v.select_nth_unstable_by(lo, f32::total_cmp);
     let a = *a;
-    if frac == 0.0 || rest.is_empty() {
-        return Some(a);
-    }
-    let b = rest.iter().copied().fold(f32::INFINITY, f32::min);
-    Some(a + frac * (b - a))
+    let out = if frac == 0.0 || rest.is_empty() {
+        a
+    } else {
+        let b = rest.iter().copied().fold(f32::INFINITY, f32::min);
+        a + frac * (b - a)
+    };
+    give(v);
+    Some(out)
 }
 
-/// Pixels farther than r from every non-zero band-passed pixel (trackpy's
-/// `~binary_dilation(bp, disk(r))`): per row the horizontal distance to the nearest
-/// non-zero pixel, then for each row offset dy the disk's half-width there.
-#[inline(never)]
-fn background_mask(bp: &[f32], w: usize, r: usize) -> Vec<u8> {
-    let h = bp.len() / w;
-    let far = u32::MAX / 2;
-    let mut hd = vec![far; bp.len()];
-    for y in 0..h {
-        let row = &bp[y * w..(y + 1) * w];
-        let d = &mut hd[y * w..(y + 1) * w];
-        let mut last = far;
-        for x in 0..w {
-            last = if row[x] != 0.0 {
-                0
-            } else {
-                last.saturating_add(1)
-            };
-            d[x] = last;
-        }
-        let mut last = far;
-        for x in (0..w).rev() {
-            last = if row[x] != 0.0 {
-                0
-            } else {
-                last.saturating_add(1)
-            };
-            d[x] = d[x].min(last);
-        }
+/// Horizontal distance from each pixel of a row to the nearest non-zero band-passed
+/// pixel of that row, saturating at `far`.
+fn row_distance(row: &[f32], d: &mut [u16], far: u16) {
+    let mut last = far;
+    for (x, v) in row.iter().enumerate() {
+        last = if *v != 0.0 {
+            0
+        } else {
+            last.saturating_add(1).min(far)
+        };
+        d[x] = last;
     }
-    let ri = r as i64;
-    let half: Vec<u32> = (-ri..=ri)
-        .map(|dy| (((ri * ri - dy * dy) as f64).sqrt()).floor() as u32)
-        .collect();
-    // 1 = background; u8 and a branch-free `&` so the loop vectorises.
-    let mut bg = vec![1u8; bp.len()];
-    for y in 0..h as i64 {
-        for (k, dy) in (-ri..=ri).enumerate() {
-            let yy = y + dy;
-            if yy < 0 || yy >= h as i64 {
-                continue;
-            }
-            let src = &hd[yy as usize * w..(yy as usize + 1) * w];
-            let out = &mut bg[y as usize * w..(y as usize + 1) * w];
-            let lim = half[k];
-            for (o, &d) in out.iter_mut().zip(src) {
-                *o &= u8::from(d > lim);
-            }
-        }
+    let mut last = far;
+    for x in (0..row.len()).rev() {
+        last = if row[x] != 0.0 {
+            0
+        } else {
+            last.saturating_add(1).min(far)
+        };
+        d[x] = d[x].min(last);
     }
-    bg
 }
 
-/// Mean and population standard deviation of the raw background (NaN when there is
-/// too little of it, as trackpy's `measure_noise`).
+/// Mean and population standard deviation of the raw pixels farther than r from
+/// every non-zero band-passed pixel (trackpy's `measure_noise`: the background is
+/// `~binary_dilation(bp, disk(r))`); NaN where there is too little background, as
+/// there. A pixel is background when, for every row offset dy within the disk, the
+/// horizontal distance to the nearest non-zero pixel of row y + dy exceeds the disk's
+/// half-width there. Those distances are kept for the 2r + 1 rows in reach only.
 #[inline(never)]
 fn measure_noise(raw: &[f32], bp: &[f32], w: usize, r: usize) -> (f64, f64) {
-    let bg = background_mask(bp, w, r);
+    let h = bp.len() / w;
+    let ri = r as i64;
+    let far = u16::try_from(r + 1).unwrap_or(u16::MAX);
+    let half: Vec<u16> = (-ri..=ri)
+        .map(|dy| ((((ri * ri - dy * dy) as f64).sqrt()).floor() as u64).min(u64::from(far)) as u16)
+        .collect();
+    let span = 2 * r + 1;
+    let mut ring = vec![far; span * w];
     let (mut n, mut s, mut s2) = (0usize, 0.0f64, 0.0f64);
-    for (&v, &b) in raw.iter().zip(&bg) {
-        if b != 0 {
-            let v = f64::from(v);
-            n += 1;
-            s += v;
-            s2 += v * v;
+    for y in 0..h as i64 {
+        if y == 0 {
+            for yy in 0..=ri.min(h as i64 - 1) {
+                let slot = yy as usize % span;
+                row_distance(
+                    &bp[yy as usize * w..(yy as usize + 1) * w],
+                    &mut ring[slot * w..(slot + 1) * w],
+                    far,
+                );
+            }
+        } else if y + ri < h as i64 {
+            let yy = (y + ri) as usize;
+            let slot = yy % span;
+            row_distance(
+                &bp[yy * w..(yy + 1) * w],
+                &mut ring[slot * w..(slot + 1) * w],
+                far,
+            );
+        }
+        // A pixel can only be background if its own row has nothing within r; in a
+        // packing few pass, and only those are checked against the other rows.
+        let own = &ring[(y as usize % span) * w..(y as usize % span + 1) * w];
+        let raw_row = &raw[y as usize * w..(y as usize + 1) * w];
+        for (x, &d0) in own.iter().enumerate() {
+            if d0 <= half[r] {
+                continue;
+            }
+            let clear = (-ri..=ri).enumerate().all(|(k, dy)| {
+                let yy = y + dy;
+                yy < 0 || yy >= h as i64 || ring[(yy as usize % span) * w + x] > half[k]
+            });
+            if clear {
+                let v = f64::from(raw_row[x]);
+                n += 1;
+                s += v;
+                s2 += v * v;
+            }
         }
     }
     match n {
@@ -332,8 +349,11 @@ pub fn locate(frame: &Frame, frame_no: i64, p: &LocateParams) -> Result<Vec<Feat
         1.0
     };
     // bp ≥ 0, so truncation is the floor (and, unlike `floor`, vectorises).
-    let q: Vec<f32> = bp.iter().map(|&v| (v * scale) as i32 as f32).collect();
+    let mut q = take(0);
+    q.extend(bp.iter().map(|&v| (v * scale) as i32 as f32));
     let Some(level) = percentile_of_nonzero(&q, p.percentile) else {
+        give(q);
+        give(bp);
         return Ok(Vec::new());
     };
     let box_side = (2.0 * rs.separation / std::f64::consts::SQRT_2) as usize;
@@ -352,6 +372,8 @@ pub fn locate(frame: &Frame, frame_no: i64, p: &LocateParams) -> Result<Vec<Feat
             }
         }
     }
+    give(dil);
+    give(q);
     drop_close(&mut found, rs.separation);
     found.retain(|f| f.mass > p.minmass && p.maxsize.is_none_or(|m| f.size < m));
     if let Some(n) = p.topn
@@ -371,6 +393,7 @@ pub fn locate(frame: &Frame, frame_no: i64, p: &LocateParams) -> Result<Vec<Feat
             f.ep = noise / (f.raw_mass - npx * black) * p.noise_size * disk.root_sum_x2;
         }
     }
+    give(bp);
     for f in &mut found {
         f.frame = frame_no;
     }

@@ -9,9 +9,11 @@
 
 mod filters;
 pub mod frame;
+pub mod link;
 pub mod locate;
 
 pub use frame::{Frame, FrameSet, list_frames, read_frame, write_frame};
+pub use link::{LinkOptions, LinkReport, Linked, link};
 pub use locate::{LocateParams, LocateReport, locate, locate_frames};
 
 /// One located grain in one frame, in trackpy's columns and meanings (pixels, the

@@ -6,6 +6,7 @@ pub mod atomic;
 pub mod csvdiag;
 pub mod export;
 pub mod fastcsv;
+pub mod features;
 pub mod format;
 pub mod hash;
 pub mod kinematics_io;

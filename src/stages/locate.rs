@@ -3,15 +3,11 @@
 //! recording the tool, version, parameters and every frame's SHA-256.
 
 use crate::camera::{Feature, LocateParams, LocateReport, list_frames, locate_frames};
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::io::features::write_features;
+use crate::io::write_with_sidecar;
 use serde::Serialize;
-use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// trackpy's column order; `particle` last when the features are linked.
-pub const FEATURE_COLUMNS: [&str; 9] = [
-    "y", "x", "mass", "size", "ecc", "signal", "raw_mass", "ep", "frame",
-];
 
 /// What `locate` did.
 #[derive(Debug, Clone, Serialize)]
@@ -73,68 +69,7 @@ pub fn run(
         "command": "locate",
         "locate": &run,
     });
-    write_features(output, &features, None, &sidecar)?;
+    let sidecar = serde_json::to_string_pretty(&sidecar).expect("json");
+    write_with_sidecar(output, &sidecar, || write_features(output, &features, None))?;
     Ok(run)
-}
-
-fn num(v: f64) -> String {
-    if v.is_finite() {
-        // Shortest text that reads back to the same f64.
-        format!("{v}")
-    } else {
-        // pandas reads an empty field as NaN.
-        String::new()
-    }
-}
-
-/// Writes features as CSV in trackpy's column order (with `particle` when given), and
-/// the sidecar, atomically.
-pub fn write_features(
-    path: &Path,
-    features: &[Feature],
-    particle: Option<&[i64]>,
-    sidecar: &serde_json::Value,
-) -> Result<()> {
-    if let Some(p) = particle
-        && p.len() != features.len()
-    {
-        return Err(Error::Other(format!(
-            "{} particle ids for {} features",
-            p.len(),
-            features.len()
-        )));
-    }
-    let side = serde_json::to_string_pretty(sidecar).expect("json");
-    crate::io::write_with_sidecar(path, &side, || {
-        crate::io::atomic_write(path, |f| {
-            let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
-            let io = |e| Error::io(path, e);
-            let mut head = FEATURE_COLUMNS.join(",");
-            if particle.is_some() {
-                head.push_str(",particle");
-            }
-            writeln!(w, "{head}").map_err(io)?;
-            for (i, g) in features.iter().enumerate() {
-                write!(
-                    w,
-                    "{},{},{},{},{},{},{},{},{}",
-                    num(g.y),
-                    num(g.x),
-                    num(g.mass),
-                    num(g.size),
-                    num(g.ecc),
-                    num(g.signal),
-                    num(g.raw_mass),
-                    num(g.ep),
-                    g.frame
-                )
-                .map_err(io)?;
-                if let Some(p) = particle {
-                    write!(w, ",{}", p[i]).map_err(io)?;
-                }
-                writeln!(w).map_err(io)?;
-            }
-            w.flush().map_err(io)
-        })
-    })
 }

@@ -44,6 +44,7 @@ pub mod compare;
 pub mod export;
 pub mod fit;
 pub mod gofr;
+pub mod link;
 pub mod pack;
 pub mod quickstart;
 pub mod report;
@@ -54,6 +55,7 @@ pub mod simulate;
 pub mod sizes;
 pub mod sweep;
 pub mod timing;
+pub mod track;
 
 /// A checkpoint's bytes for `--resume`, or an error naming the file.
 pub(crate) fn read_checkpoint_bytes(ckpt: &std::path::Path) -> crate::error::Result<Vec<u8>> {
