@@ -311,8 +311,9 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         for (depth, ext) in [(8u8, "png"), (16, "png"), (8, "tif"), (16, "tiff")] {
             let mut f = Frame::new(7, 5, depth);
+            let max = f.max_value();
             for (i, v) in f.pixels.iter_mut().enumerate() {
-                *v = (i as f32 * 37.0) % f.max_value();
+                *v = (i as f32 * 37.0) % max;
             }
             let p = dir.join(format!("f{depth}.{ext}"));
             write_frame(&f, &p).unwrap();
