@@ -110,10 +110,7 @@ pub fn write_frame(frame: &Frame, path: &Path) -> Result<()> {
         _ => {
             return Err(Error::Param {
                 name: "frame file".into(),
-                msg: format!(
-                    "{}: expected a .png, .tif or .tiff name",
-                    path.display()
-                ),
+                msg: format!("{}: expected a .png, .tif or .tiff name", path.display()),
             });
         }
     };

@@ -8,6 +8,7 @@
 //! stages (`stages::track`) convert.
 
 pub mod frame;
+pub mod render;
 
 pub use frame::{Frame, FrameSet, list_frames, read_frame, write_frame};
 
