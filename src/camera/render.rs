@@ -6,16 +6,22 @@
 //! Coordinates are trackpy's: `x` the column, `y` the row (pointing down), pixel centres
 //! on whole numbers, so pixel `(row, col)` covers `[col − ½, col + ½] × [row − ½, row + ½]`.
 //!
-//! Each pixel's value is the *area integral* of the scene over the pixel (supersampled
-//! on an n × n grid fine enough that the smooth edge is resolved, so a disk's
-//! intensity-weighted centroid sits at its true centre to well under 0.01 px), then:
+//! Each pixel's value is the *area integral* over the pixel of the scene as the lens
+//! images it:
 //!
 //! 1. grains and bars are summed above the background (a linear scene: where two grains
-//!    touch their soft edges add up, as the blur of a real image does);
-//! 2. the scene is blurred with a Gaussian of `blur_px` (the lens);
-//! 3. the background is added and the whole multiplied by the illumination (gradient
+//!    touch their soft edges add up, as the blur of a real image does). The lens's
+//!    Gaussian blur (`blur_px`) is part of each shape, before the pixels integrate it:
+//!    a flat or dome grain's edge has width √(edge² + blur²), a gaussian grain's σ² grows
+//!    by blur² (its peak falls so its integral stays), a bar is the exact pixel integral
+//!    of the blurred rectangle. Grains are integrated over each pixel on an n × n grid
+//!    that resolves the edge (the leftover error ~ exp(−2π² n² σ²) < 1e-8), so a disk's
+//!    intensity-weighted centroid sits at its true centre: within 1e-4 px for an edge
+//!    of σ ≥ 0.5 px; a sharper edge (σ ≈ 0.1 px) shows the pixel locking of a real
+//!    sensor, a few 1e-3 px for a 4 px grain;
+//! 2. the background is added and the whole multiplied by the illumination (gradient
 //!    and the frame's flicker);
-//! 4. shot noise (Poisson photon counts, `photons` at full scale) and read noise
+//! 3. shot noise (Poisson photon counts, `photons` at full scale) and read noise
 //!    (normal, `read_noise` grey levels) are drawn, and the value rounded and clamped to
 //!    the bit depth's range.
 //!
@@ -39,7 +45,7 @@ pub enum Profile {
     #[default]
     Flat,
     /// A Gaussian spot, σ = r/2, peak = level (a fluorescent bead or a diffuse blob);
-    /// integrated brightness π r² × level / 2.
+    /// integrated brightness π r² × level / 2 (the blur widens it and lowers the peak).
     Gaussian,
     /// A lit sphere: the flat disk's edge times (1 − c) + c·√(1 − ρ²/r²), brightest at
     /// the centre and (1 − c) of the peak at the rim, c = `dome_contrast`; integrated
@@ -67,8 +73,10 @@ pub struct Camera {
     /// z standard normal drawn from (seed, id) alone, so a grain keeps its brightness
     /// in every frame (at least 0).
     pub brightness_spread: f64,
-    /// Width σ of the grain's edge (flat and dome profiles), px: the brightness falls
-    /// from 84 % to 16 % of the level between r − σ and r + σ (10–90 % over 2.56 σ).
+    /// Width σ of the grain's own edge (flat and dome profiles), px, before the blur:
+    /// the brightness falls from 84 % to 16 % of the level between r − σ and r + σ
+    /// (10–90 % over 2.56 σ). With the blur the edge is √(edge² + blur²) wide; that
+    /// must be at least 1/16 px.
     pub edge_px: f64,
     /// Dome profile: rim-to-centre contrast c (0 flat … 1 dark rim).
     pub dome_contrast: f64,
@@ -84,7 +92,8 @@ pub struct Camera {
     /// Relative frame-to-frame flicker of the illumination: frame k's illumination is
     /// multiplied by 1 + flicker·z, z standard normal from (seed, k).
     pub flicker: f64,
-    /// Gaussian blur σ of the optics, px (0: none).
+    /// Gaussian blur σ of the optics, px (0: none); applied to the grains and bars
+    /// before the pixels integrate them.
     pub blur_px: f64,
     /// Shot noise: photons collected by a pixel at full scale (Poisson counts; the
     /// normal approximation above 30 photons); 0 turns shot noise off.
@@ -235,6 +244,11 @@ impl Camera {
         (1.0 + self.flicker * z).max(0.0)
     }
 
+    /// The width σ of a flat or dome grain's edge as imaged: √(edge² + blur²), px.
+    pub fn edge_sigma(&self) -> f64 {
+        self.edge_px.hypot(self.blur_px)
+    }
+
     /// Every setting within its domain; errors name the command-line flag.
     pub fn validate(&self) -> Result<()> {
         let finite_in = |name: &str, v: f64, lo: f64, hi: f64, what: &str| {
@@ -276,13 +290,7 @@ impl Camera {
             10.0,
             "expected 0 ≤ spread ≤ 10",
         )?;
-        finite_in(
-            "edge",
-            self.edge_px,
-            1.0 / 16.0,
-            1e3,
-            "the edge width must be at least 1/16 px (the supersampling resolves no sharper edge)",
-        )?;
+        finite_in("edge", self.edge_px, 0.0, 1e3, "an edge width σ in px, ≥ 0")?;
         finite_in(
             "dome-contrast",
             self.dome_contrast,
@@ -319,6 +327,15 @@ impl Camera {
             "expected 0 ≤ flicker ≤ 10",
         )?;
         finite_in("blur", self.blur_px, 0.0, 1e3, "a Gaussian σ in px, ≥ 0")?;
+        if self.profile != Profile::Gaussian && self.edge_sigma() < 1.0 / 16.0 {
+            return Err(param(
+                "edge",
+                format!(
+                    "√(edge² + blur²) = {} px: the grain edge must be at least 1/16 px wide (raise --edge or --blur); the pixel integration resolves no sharper edge",
+                    self.edge_sigma()
+                ),
+            ));
+        }
         finite_in(
             "photons",
             self.photons,
@@ -339,6 +356,8 @@ struct PhiTable {
 
 const PHI_T: f64 = 6.0;
 const PHI_STEPS: f64 = 256.0;
+/// A grain's edge is drawn out to ±4.5 σ (Φ(−4.5) = 3.4e-6 of the level).
+const EDGE_CUT: f64 = 4.5;
 
 impl PhiTable {
     fn get() -> &'static PhiTable {
@@ -370,13 +389,9 @@ impl PhiTable {
     }
     #[inline]
     fn at(&self, t: f64) -> f64 {
-        if t <= -PHI_T {
-            return 0.0;
-        }
-        if t >= PHI_T {
-            return 1.0;
-        }
-        let u = (t + PHI_T) * PHI_STEPS;
+        // The table's ends are 0 and 1: beyond them t is clamped (NaN becomes 0).
+        let last = (self.v.len() - 1) as f64 - 1e-9;
+        let u = ((t + PHI_T) * PHI_STEPS).clamp(0.0, last);
         let i = u as usize;
         let f = u - i as f64;
         self.v[i] + (self.v[i + 1] - self.v[i]) * f
@@ -387,11 +402,15 @@ impl PhiTable {
 struct Shape<'a> {
     profile: Profile,
     phi: &'a PhiTable,
+    /// Samples per pixel side.
+    n: usize,
     /// Flat, dome: the edge's centre; gaussian: unused.
     r_edge: f64,
     inv_sigma: f64,
     /// Dome: 1/r²; gaussian: 1/(2σ²).
     k2: f64,
+    /// Gaussian: the peak (1 unless blurred).
+    peak: f64,
     contrast: f64,
     /// f = 0 beyond this distance.
     reach: f64,
@@ -401,32 +420,42 @@ struct Shape<'a> {
 
 impl<'a> Shape<'a> {
     fn new(cam: &Camera, r: f64, phi: &'a PhiTable) -> Self {
-        let s = cam.edge_px;
+        // The dome's √ has a kink at the rim that the edge only softens: 4 × 4 at least.
+        let (n, s) = sampling(
+            cam.edge_sigma(),
+            if cam.profile == Profile::Dome { 4 } else { 1 },
+        );
         // Φ((r_e − ρ)/σ) integrates to π r_e² + π σ²: r_e keeps the brightness π r².
         let r_edge = (r * r - s * s).max(0.25 * r * r).sqrt();
         match cam.profile {
             Profile::Flat | Profile::Dome => Shape {
                 profile: cam.profile,
                 phi,
+                n,
                 r_edge,
                 inv_sigma: 1.0 / s,
                 k2: 1.0 / (r * r),
+                peak: 1.0,
                 contrast: cam.dome_contrast,
-                reach: r_edge + PHI_T * s,
+                reach: r_edge + EDGE_CUT * s,
                 inner: if cam.profile == Profile::Flat {
-                    (r_edge - PHI_T * s).max(0.0)
+                    (r_edge - EDGE_CUT * s).max(0.0)
                 } else {
                     0.0
                 },
             },
             Profile::Gaussian => {
-                let sg = 0.5 * r;
+                // A Gaussian blurred by a Gaussian: the variances add, the integral stays.
+                let sg0 = 0.5 * r;
+                let (n, sg) = sampling(sg0.hypot(cam.blur_px), 1);
                 Shape {
                     profile: Profile::Gaussian,
                     phi,
+                    n,
                     r_edge,
                     inv_sigma: 0.0,
                     k2: 0.5 / (sg * sg),
+                    peak: (sg0 * sg0) / (sg * sg),
                     contrast: 0.0,
                     reach: 5.0 * sg,
                     inner: 0.0,
@@ -435,31 +464,60 @@ impl<'a> Shape<'a> {
         }
     }
 
-    #[inline]
-    fn at(&self, rho2: f64) -> f64 {
+    /// Adds `amp` × the disk's pixel-integrated profile to `buf`, with the profile's
+    /// function inlined into the sampling loop.
+    fn add(&self, buf: &mut [f32], w: usize, h: usize, d: &Disk, amp: f64) {
+        let n = self.n;
+        let (phi, re, is) = (self.phi, self.r_edge, self.inv_sigma);
+        let (k2, c, peak) = (self.k2, self.contrast, self.peak);
         match self.profile {
-            Profile::Flat => self.phi.at((self.r_edge - rho2.sqrt()) * self.inv_sigma),
-            Profile::Dome => {
-                let e = self.phi.at((self.r_edge - rho2.sqrt()) * self.inv_sigma);
-                let d = (1.0 - rho2 * self.k2).max(0.0).sqrt();
-                e * (1.0 - self.contrast + self.contrast * d)
-            }
-            Profile::Gaussian => (-rho2 * self.k2).exp(),
+            Profile::Flat => add_disk(buf, w, h, d, amp, self, n, |r2: f64| {
+                phi.at((re - r2.sqrt()) * is)
+            }),
+            Profile::Dome => add_disk(buf, w, h, d, amp, self, n, |r2: f64| {
+                let e = phi.at((re - r2.sqrt()) * is);
+                e * (1.0 - c + c * (1.0 - r2 * k2).max(0.0).sqrt())
+            }),
+            Profile::Gaussian => add_disk(buf, w, h, d, amp, self, n, |r2: f64| {
+                peak * (-r2 * k2).exp()
+            }),
         }
     }
 }
 
-/// Sub-samples per pixel side: the edge is then resolved (aliasing ~ exp(−2π² n² σ²),
-/// below 1e-8 for n σ ≥ 1).
-fn subsamples(cam: &Camera) -> usize {
-    match cam.profile {
-        Profile::Gaussian => 4,
-        _ => ((1.0 / cam.edge_px).ceil() as usize).clamp(4, 16),
+/// A pixel's own variance per axis, px²: its box integral of a profile whose edge is
+/// σ wide is, to a few 1e-3 of the level where σ ≥ 0.9 px, the profile with the edge
+/// √(σ² + 1/12) wide sampled at the pixel's centre.
+const PIXEL_VAR: f64 = 1.0 / 12.0;
+
+/// Sub-samples per pixel side and the edge width σ to sample: one sample of the edge
+/// widened by the pixel's variance where the edge is wide, else n × n samples with
+/// n σ ≥ 1 (the grid's leftover error in the moments ~ exp(−2π² n² σ²) < 1e-8).
+fn sampling(sigma: f64, min_n: usize) -> (usize, f64) {
+    if min_n <= 1 && sigma * sigma + PIXEL_VAR >= 0.81 {
+        (1, (sigma * sigma + PIXEL_VAR).sqrt())
+    } else {
+        (
+            ((1.0 / sigma).ceil() as usize).clamp(min_n.max(2), 16),
+            sigma,
+        )
     }
 }
 
-/// Adds `amp` × the disk's pixel-integrated profile to `buf`.
-fn add_disk(buf: &mut [f32], w: usize, h: usize, d: &Disk, amp: f64, shape: &Shape, n: usize) {
+/// Adds `amp` × the pixel integrals of the radial profile `f(ρ²)` (zero beyond the
+/// shape's reach, one within its inner radius) centred on the disk to `buf`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn add_disk(
+    buf: &mut [f32],
+    w: usize,
+    h: usize,
+    d: &Disk,
+    amp: f64,
+    shape: &Shape,
+    n: usize,
+    f: impl Fn(f64) -> f64,
+) {
     let reach = shape.reach;
     if !(d.x.is_finite() && d.y.is_finite())
         || d.x + reach < -0.5
@@ -504,7 +562,7 @@ fn add_disk(buf: &mut [f32], w: usize, h: usize, d: &Disk, amp: f64, shape: &Sha
                     for &tx2 in &dx2 {
                         let r2 = tx2 + ty2;
                         if r2 < reach2 {
-                            acc += shape.at(r2);
+                            acc += f(r2);
                         }
                     }
                 }
@@ -515,99 +573,122 @@ fn add_disk(buf: &mut [f32], w: usize, h: usize, d: &Disk, amp: f64, shape: &Sha
     }
 }
 
-/// The length of `[a, b] ∩ [c − ½, c + ½]`.
-fn overlap(a: f64, b: f64, c: f64) -> f64 {
-    (b.min(c + 0.5) - a.max(c - 0.5)).max(0.0)
+/// Ψ(t) = t Φ(t) + φ(t), the antiderivative of Φ.
+fn psi(phi: &PhiTable, t: f64) -> f64 {
+    if t >= PHI_T {
+        return t;
+    }
+    if t <= -PHI_T {
+        return 0.0;
+    }
+    t * phi.at(t) + (-0.5 * t * t).exp() / (2.0 * std::f64::consts::PI).sqrt()
 }
 
-fn add_rect(buf: &mut [f32], w: usize, h: usize, r: &Rect, amp: f64) {
+/// The integral over `[c − ½, c + ½]` of the interval `[a, b]` blurred by a Gaussian
+/// of σ (σ = 0: the length of the overlap).
+fn coverage(phi: &PhiTable, a: f64, b: f64, c: f64, sigma: f64) -> f64 {
+    let (p, q) = (c - 0.5, c + 0.5);
+    if sigma <= 0.0 {
+        return (b.min(q) - a.max(p)).max(0.0);
+    }
+    // ∫ₚ^q Φ((b − u)/σ) − Φ((a − u)/σ) du.
+    let g = |e: f64| sigma * (psi(phi, (e - p) / sigma) - psi(phi, (e - q) / sigma));
+    (g(b) - g(a)).max(0.0)
+}
+
+/// Adds `amp` × the pixel integrals of the rectangle blurred by σ.
+fn add_rect(buf: &mut [f32], w: usize, h: usize, r: &Rect, amp: f64, sigma: f64) {
     let (x0, x1) = (r.x0.min(r.x1), r.x0.max(r.x1));
     let (y0, y1) = (r.y0.min(r.y1), r.y0.max(r.y1));
     if !(x0.is_finite() && x1.is_finite() && y0.is_finite() && y1.is_finite()) {
         return;
     }
+    let phi = PhiTable::get();
+    let pad = EDGE_CUT * sigma + 1.0;
     let clampi = |v: f64, n: usize| v.round().clamp(0.0, (n - 1) as f64) as usize;
-    let (c0, c1) = (clampi(x0, w), clampi(x1, w));
-    let (r0, r1) = (clampi(y0, h), clampi(y1, h));
-    let cx: Vec<f64> = (c0..=c1).map(|c| overlap(x0, x1, c as f64)).collect();
+    let (c0, c1) = (clampi(x0 - pad, w), clampi(x1 + pad, w));
+    let (r0, r1) = (clampi(y0 - pad, h), clampi(y1 + pad, h));
+    let cx: Vec<f64> = (c0..=c1)
+        .map(|c| coverage(phi, x0, x1, c as f64, sigma))
+        .collect();
     for row in r0..=r1 {
-        let cy = overlap(y0, y1, row as f64);
+        let cy = coverage(phi, y0, y1, row as f64, sigma);
         if cy == 0.0 {
             continue;
         }
-        for (k, c) in (c0..=c1).enumerate() {
-            buf[row * w + c] += (amp * cy * cx[k]) as f32;
+        let line = &mut buf[row * w..(row + 1) * w];
+        for (px, c) in line[c0..=c1].iter_mut().zip(&cx) {
+            *px += (amp * cy * c) as f32;
         }
     }
 }
 
-/// Separable Gaussian blur, σ in px, edges clamped.
-fn blur(buf: &mut [f32], w: usize, h: usize, sigma: f64) {
-    if sigma <= 0.0 {
-        return;
-    }
-    let rad = (4.0 * sigma).ceil() as isize;
-    let mut k: Vec<f32> = (-rad..=rad)
-        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32)
-        .collect();
-    let sum: f32 = k.iter().sum();
-    k.iter_mut().for_each(|v| *v /= sum);
-    let mut tmp = vec![0.0f32; w * h];
-    let (wi, hi) = (w as isize, h as isize);
-    // Rows.
-    for row in 0..h {
-        let src = &buf[row * w..(row + 1) * w];
-        let dst = &mut tmp[row * w..(row + 1) * w];
-        for (c, out) in dst.iter_mut().enumerate() {
-            let c = c as isize;
-            let mut acc = 0.0f32;
-            if c >= rad && c + rad < wi {
-                let s = &src[(c - rad) as usize..=(c + rad) as usize];
-                for (a, b) in s.iter().zip(&k) {
-                    acc += a * b;
-                }
-            } else {
-                for (j, kv) in k.iter().enumerate() {
-                    let cc = (c + j as isize - rad).clamp(0, wi - 1) as usize;
-                    acc += src[cc] * kv;
-                }
+/// The 256-layer ziggurat of the standard normal (Marsaglia & Tsang 2000, in Doornik's
+/// 2005 form): layer edges `x` (x[0] the base strip's width, x[256] = 0).
+struct Ziggurat {
+    x: [f64; 257],
+}
+
+const ZIG_R: f64 = 3.654_152_885_361_009;
+const ZIG_V: f64 = 0.004_928_673_233_99;
+
+impl Ziggurat {
+    fn get() -> &'static Ziggurat {
+        static Z: OnceLock<Ziggurat> = OnceLock::new();
+        Z.get_or_init(|| {
+            let f = |x: f64| (-0.5 * x * x).exp();
+            let mut x = [0.0; 257];
+            x[0] = ZIG_V / f(ZIG_R);
+            x[1] = ZIG_R;
+            for i in 2..256 {
+                x[i] = (-2.0 * (ZIG_V / x[i - 1] + f(x[i - 1])).ln()).sqrt();
             }
-            *out = acc;
-        }
-    }
-    // Columns, a row at a time (cache-friendly).
-    for row in 0..hi {
-        let dst = &mut buf[row as usize * w..(row as usize + 1) * w];
-        dst.iter_mut().for_each(|v| *v = 0.0);
-        for (j, kv) in k.iter().enumerate() {
-            let rr = (row + j as isize - rad).clamp(0, hi - 1) as usize;
-            let src = &tmp[rr * w..(rr + 1) * w];
-            for (o, s) in dst.iter_mut().zip(src) {
-                *o += s * kv;
-            }
-        }
+            x[256] = 0.0;
+            Ziggurat { x }
+        })
     }
 }
 
-/// Standard normals two at a time (Marsaglia's polar method).
+/// Standard normals (ziggurat: one 64-bit draw for 99 % of them) and Poisson counts.
 struct Normals {
     rng: Rng,
-    spare: Option<f64>,
+    zig: &'static Ziggurat,
 }
 
 impl Normals {
-    fn next(&mut self) -> f64 {
-        if let Some(z) = self.spare.take() {
-            return z;
+    fn new(seed: u64) -> Self {
+        Normals {
+            rng: Rng::new(seed),
+            zig: Ziggurat::get(),
         }
+    }
+    #[inline]
+    fn next(&mut self) -> f64 {
+        let x = &self.zig.x;
         loop {
-            let u = 2.0 * self.rng.uniform() - 1.0;
-            let v = 2.0 * self.rng.uniform() - 1.0;
-            let s = u * u + v * v;
-            if s > 0.0 && s < 1.0 {
-                let f = (-2.0 * s.ln() / s).sqrt();
-                self.spare = Some(v * f);
-                return u * f;
+            let bits = self.rng.next_u64();
+            let i = (bits & 0xff) as usize;
+            // Uniform in (−1, 1) from the 53 high bits.
+            let u = 2.0 * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)) - 1.0;
+            let z = u * x[i];
+            if z.abs() < x[i + 1] {
+                return z;
+            }
+            if i == 0 {
+                // The tail beyond R (Marsaglia 1964).
+                loop {
+                    let a = -(1.0 - self.rng.uniform()).ln() / ZIG_R;
+                    let b = -(1.0 - self.rng.uniform()).ln();
+                    if 2.0 * b > a * a {
+                        return if u < 0.0 { -(ZIG_R + a) } else { ZIG_R + a };
+                    }
+                }
+            }
+            // The wedge between layers i and i + 1.
+            let f0 = (-0.5 * (x[i] * x[i] - z * z)).exp();
+            let f1 = (-0.5 * (x[i + 1] * x[i + 1] - z * z)).exp();
+            if f1 + self.rng.uniform() * (f0 - f1) < 1.0 {
+                return z;
             }
         }
     }
@@ -640,7 +721,6 @@ pub fn render_frame(
     let full = cam.full_scale();
     let mut buf = vec![0.0f32; w * h];
     let phi = PhiTable::get();
-    let n = subsamples(cam);
     // Grains of one radius share their shape.
     let mut shape: Option<(f64, Shape)> = None;
     for d in disks {
@@ -651,22 +731,13 @@ pub fn render_frame(
             shape = Some((d.radius, Shape::new(cam, d.radius, phi)));
         }
         let (_, s) = shape.as_ref().expect("set above");
-        add_disk(
-            &mut buf,
-            w,
-            h,
-            d,
-            cam.grain_level * d.brightness * full,
-            s,
-            n,
-        );
+        s.add(&mut buf, w, h, d, cam.grain_level * d.brightness * full);
     }
     for r in rects {
         if r.level > 0.0 {
-            add_rect(&mut buf, w, h, r, r.level * full);
+            add_rect(&mut buf, w, h, r, r.level * full, cam.blur_px);
         }
     }
-    blur(&mut buf, w, h, cam.blur_px);
 
     let flicker = cam.flicker_factor(frame_index);
     let (dx, dy) = {
@@ -681,10 +752,7 @@ pub fn render_frame(
     };
     let (cx, cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
     let bg = cam.background * full;
-    let mut normals = Normals {
-        rng: Rng::new(stream_seed(cam.seed, TAG_NOISE, frame_index)),
-        spare: None,
-    };
+    let mut normals = Normals::new(stream_seed(cam.seed, TAG_NOISE, frame_index));
     let (photons, read2) = (cam.photons, cam.read_noise * cam.read_noise);
     let grey_per_photon = if photons > 0.0 { full / photons } else { 0.0 };
     let mut pixels = buf;
@@ -794,7 +862,7 @@ mod tests {
                             };
                         // The dome's edge cuts its rim: its integral is that of the sharp
                         // dome only where the edge is narrow beside the radius.
-                        if profile != Profile::Dome || edge / r < 0.07 {
+                        if profile != Profile::Dome || cam.edge_sigma() / r < 0.07 {
                             let tol = if profile == Profile::Dome { 0.02 } else { 0.01 };
                             assert!(
                                 (m / expect - 1.0).abs() < tol,
@@ -811,6 +879,51 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn one_sample_of_the_widened_edge_is_the_pixel_integral() {
+        // The fast path (an edge ≥ 0.9 px wide): each pixel against a 32 × 32 box
+        // integral of the edge as the lens makes it.
+        let phi = PhiTable::get();
+        for (edge, blur, r) in [(0.5, 1.0, 7.5), (0.9, 0.0, 10.0), (0.3, 1.5, 4.0)] {
+            let cam = Camera {
+                edge_px: edge,
+                blur_px: blur,
+                ..quiet(40, 40)
+            };
+            assert_eq!(Shape::new(&cam, r, phi).n, 1);
+            let (x, y) = (19.37, 20.81);
+            let d = Disk {
+                x,
+                y,
+                radius: r,
+                brightness: 1.0,
+            };
+            let f = render_frame(&[d], &[], &cam, 0).unwrap();
+            let s = cam.edge_sigma();
+            let re = (r * r - s * s).sqrt();
+            let level = cam.grain_level * 65535.0;
+            let mut worst: f64 = 0.0;
+            for row in 0..40 {
+                for col in 0..40 {
+                    let mut acc = 0.0;
+                    for i in 0..32 {
+                        for j in 0..32 {
+                            let px = col as f64 - 0.5 + (j as f64 + 0.5) / 32.0;
+                            let py = row as f64 - 0.5 + (i as f64 + 0.5) / 32.0;
+                            acc += phi.at((re - (px - x).hypot(py - y)) / s);
+                        }
+                    }
+                    let want = acc / 1024.0 * level;
+                    worst = worst.max((f.at(row, col) as f64 - want).abs() / level);
+                }
+            }
+            assert!(
+                worst < 3e-3,
+                "edge {edge} blur {blur}: off by {worst} of the level"
+            );
         }
     }
 
@@ -909,6 +1022,36 @@ mod tests {
         let m = v.iter().map(|&x| x as f64).sum::<f64>() / n;
         let var = v.iter().map(|&x| (x as f64 - m).powi(2)).sum::<f64>() / (n - 1.0);
         (m, var.sqrt())
+    }
+
+    #[test]
+    fn normals_are_standard_normal() {
+        let mut g = Normals::new(5);
+        let n = 2_000_000;
+        let z: Vec<f64> = (0..n).map(|_| g.next()).collect();
+        let m = z.iter().sum::<f64>() / n as f64;
+        let var = z.iter().map(|v| (v - m).powi(2)).sum::<f64>() / n as f64;
+        let k4 = z.iter().map(|v| (v - m).powi(4)).sum::<f64>() / n as f64 / (var * var);
+        assert!(
+            m.abs() < 0.003 && (var - 1.0).abs() < 0.004,
+            "mean {m} var {var}"
+        );
+        assert!((k4 - 3.0).abs() < 0.03, "kurtosis {k4}");
+        // Tail fractions against 2Φ(−t): the layers, the wedges and the tail.
+        for (t, p) in [
+            (0.5, 0.617_075),
+            (1.0, 0.317_311),
+            (2.0, 0.045_500),
+            (3.0, 0.002_700),
+            (3.8, 1.446_8e-4),
+        ] {
+            let got = z.iter().filter(|v| v.abs() > t).count() as f64 / n as f64;
+            let se = (p * (1.0 - p) / n as f64).sqrt();
+            assert!(
+                (got - p).abs() < 5.0 * se,
+                "P(|z| > {t}) = {got}, expected {p}"
+            );
+        }
     }
 
     #[test]
@@ -1117,6 +1260,32 @@ mod tests {
         );
         assert_eq!(f.at(3, 8), (0.5f64 * 65535.0).round() as f32);
         assert_eq!(f.at(3, 2), (0.25f64 * 0.5 * 65535.0).round() as f32);
+        // Blurred, it keeps its brightness and its centre, and spreads as the blur says.
+        let cam_b = Camera {
+            blur_px: 1.5,
+            ..quiet(40, 30)
+        };
+        let bar = Rect {
+            x0: 8.25,
+            y0: 10.5,
+            x1: 30.5,
+            y1: 18.0,
+            level: 0.5,
+        };
+        let f = render_frame(&[], &[bar], &cam_b, 0).unwrap();
+        let (m, cx, cy) = moments(&f, 0.0);
+        assert!(
+            (m / (22.25 * 7.5 * 0.5 * 65535.0) - 1.0).abs() < 1e-4,
+            "{m}"
+        );
+        assert!(
+            (cx - 19.375).abs() < 1e-3 && (cy - 14.25).abs() < 1e-3,
+            "({cx}, {cy})"
+        );
+        // Half the level on the edge line x = 30.5 (the pixels at 30 and 31 straddle it).
+        let edge = 0.5 * (f.at(14, 30) + f.at(14, 31)) as f64 / (0.5 * 65535.0);
+        assert!((edge - 0.5).abs() < 0.02, "{edge}");
+        assert!(f.at(14, 36) > 0.0 && f.at(14, 36) < f.at(14, 33));
         for (bad, flag) in [
             (
                 Camera {
@@ -1142,6 +1311,7 @@ mod tests {
             (
                 Camera {
                     edge_px: 0.0,
+                    blur_px: 0.0,
                     ..cam.clone()
                 },
                 "edge",
