@@ -45,6 +45,7 @@ pub mod fit;
 pub mod gofr;
 pub mod pack;
 pub mod quickstart;
+pub mod render;
 pub mod report;
 pub mod resume;
 pub mod shear;
