@@ -1,6 +1,7 @@
 //! `pillar-pipe` command line: parse, validate, call a stage, print its report.
 
 mod cli_bench;
+mod cli_camera_render;
 mod cli_runs;
 mod cli_sim;
 
@@ -190,6 +191,8 @@ enum Cmd {
     Sweep(cli_sim::SweepArgs),
     /// Generate a jammed bidisperse packing (li-granular-pillars Sec. II.A).
     Pack(cli_sim::PackArgs),
+    /// Camera emulator: render tracks into grey-scale frames (PNG/TIFF) with ground truth.
+    Render(cli_camera_render::RenderArgs),
     /// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
     Run {
         pipeline: PathBuf,
@@ -689,6 +692,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Bench { what } => cli_bench::bench(what)?,
         Cmd::Simulate { what } => cli_sim::simulate(what)?,
         Cmd::Pack(a) => cli_sim::pack(a)?,
+        Cmd::Render(a) => cli_camera_render::run(a)?,
         Cmd::Sweep(a) => cli_sim::sweep(a)?,
         Cmd::Export {
             input,
