@@ -5,6 +5,7 @@
 mod common;
 
 mod architecture;
+mod camera_render;
 mod fit;
 mod fuzz;
 mod ingest;
