@@ -200,9 +200,9 @@ impl PixelMap {
     }
 }
 
-const TAG_GRAIN: u64 = 0x6772_6169_6e;
-const TAG_NOISE: u64 = 0x6e6f_6973_65;
-const TAG_FLICKER: u64 = 0x666c_6963_6b;
+const TAG_GRAIN: u64 = 0x0067_7261_696e;
+const TAG_NOISE: u64 = 0x006e_6f69_7365;
+const TAG_FLICKER: u64 = 0x0066_6c69_636b;
 
 /// A seed for stream `tag`, item `k`, of the camera seeded with `seed`.
 fn stream_seed(seed: u64, tag: u64, k: u64) -> u64 {
@@ -724,7 +724,7 @@ pub fn render_frame(
     // Grains of one radius share their shape.
     let mut shape: Option<(f64, Shape)> = None;
     for d in disks {
-        if !(d.radius > 0.0 && d.radius.is_finite()) || !(d.brightness > 0.0) {
+        if !(d.radius > 0.0 && d.radius.is_finite() && d.brightness > 0.0) {
             continue;
         }
         if shape.as_ref().is_none_or(|(r, _)| *r != d.radius) {
