@@ -2,6 +2,7 @@
 
 mod cli_bench;
 mod cli_camera;
+mod cli_camera_render;
 mod cli_runs;
 mod cli_sim;
 
@@ -204,6 +205,8 @@ enum Cmd {
     /// (`pillar-pipe ingest` reads it). trackpy's locate and link options, px and
     /// frames.
     Track(cli_camera::TrackArgs),
+    /// Camera emulator: render tracks into grey-scale frames (PNG/TIFF) with ground truth.
+    Render(cli_camera_render::RenderArgs),
     /// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
     Run {
         pipeline: PathBuf,
@@ -706,6 +709,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Locate(a) => cli_camera::locate(a)?,
         Cmd::Link(a) => cli_camera::link(a)?,
         Cmd::Track(a) => cli_camera::track(a)?,
+        Cmd::Render(a) => cli_camera_render::run(a)?,
         Cmd::Sweep(a) => cli_sim::sweep(a)?,
         Cmd::Export {
             input,

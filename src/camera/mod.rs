@@ -11,6 +11,7 @@ mod filters;
 pub mod frame;
 pub mod link;
 pub mod locate;
+pub mod render;
 pub mod score;
 
 pub use frame::{Frame, FrameSet, list_frames, read_frame, write_frame};

@@ -47,6 +47,7 @@ pub mod gofr;
 pub mod link;
 pub mod pack;
 pub mod quickstart;
+pub mod render;
 pub mod report;
 pub mod resume;
 pub mod shear;
