@@ -62,6 +62,45 @@ pub enum BenchCmd {
         #[arg(long)]
         json: bool,
     },
+    /// Tracking a rendered pillar movie: the whole `pillar-pipe track` process against
+    /// trackpy's `batch` + `link` as a whole Python process (`pip install trackpy
+    /// pillow`), same settings, as many processes as our threads; alternating rounds,
+    /// medians; both scored against the movie's ground truth (lost, spurious, rms error,
+    /// identity switches). Default movie: the bundled sample's 1000 grains rendered at
+    /// the shared sample's 31.496 px/cm (grains 20 and 15 px across).
+    Track {
+        /// Tracks to render (any table `ingest` reads, or a pillar run folder).
+        #[arg(long)]
+        input: Option<PathBuf>,
+        /// Pixels per length unit for the rendering.
+        #[arg(long, default_value_t = 31.496063)]
+        px_per_unit: f64,
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+        /// Threads for us, processes for trackpy (default: the machine's cores).
+        #[arg(long)]
+        processes: Option<usize>,
+        #[arg(long, default_value_t = 19)]
+        diameter: usize,
+        #[arg(long, default_value_t = 1000.0)]
+        minmass: f64,
+        #[arg(long, default_value_t = 9.0)]
+        separation: f64,
+        #[arg(long, default_value_t = 2.0)]
+        noise_size: f64,
+        #[arg(long, default_value_t = 8.0)]
+        search_range: f64,
+        #[arg(long, default_value_t = 3)]
+        memory: usize,
+        /// Where to put the movie and outputs (default: a fresh temp dir, removed after).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+        /// The Python with trackpy.
+        #[arg(long, default_value = "python3")]
+        python: String,
+        #[arg(long)]
+        json: bool,
+    },
     /// Ingest of a generated trackpy CSV vs polars' plain CSV read (time, peak memory).
     Ingest {
         #[arg(long, default_value_t = 10_000_000)]
@@ -296,6 +335,90 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                     }
                 }
             }
+        }
+        BenchCmd::Track {
+            input,
+            px_per_unit,
+            rounds,
+            processes,
+            diameter,
+            minmass,
+            separation,
+            noise_size,
+            search_range,
+            memory,
+            dir,
+            python,
+            json,
+        } => {
+            let processes = processes
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+            let settings = pillar_pipe::bench_track::TrackSettings {
+                px_per_unit,
+                locate: pillar_pipe::camera::LocateParams {
+                    diameter,
+                    minmass,
+                    separation: Some(separation),
+                    noise_size,
+                    ..Default::default()
+                },
+                link: pillar_pipe::camera::LinkOptions {
+                    memory,
+                    ..pillar_pipe::camera::LinkOptions::new(search_range)
+                },
+                match_tolerance_px: 7.5,
+                processes,
+            };
+            let input = input.unwrap_or_else(pillar_pipe::bench_track::default_input);
+            let (work, temp) = match dir {
+                Some(d) => (d, false),
+                None => (
+                    std::env::temp_dir().join(format!("pillar-pipe-track-{}", std::process::id())),
+                    true,
+                ),
+            };
+            let exe = std::env::current_exe()?;
+            let b = pillar_pipe::bench_track::bench_track(
+                &exe, &input, &settings, rounds, &work, &python,
+            );
+            if temp {
+                let _ = std::fs::remove_dir_all(&work);
+            }
+            let b = b?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&b)?);
+                return Ok(());
+            }
+            println!(
+                "track  {} frames of {}x{} px rendered from {}; {} rounds alternating, whole processes, {} threads/processes, medians",
+                b.frames, b.width, b.height, b.input, rounds, processes
+            );
+            let line = |name: &str, t: f64, s: &pillar_pipe::camera::score::TrackingScore| {
+                println!(
+                    "       {name:<28} {t:>7.2} s   found {:>6}  lost {:>5}  spurious {:>4}  rms {:.3} px  id switches {}  breaks {}",
+                    s.detections,
+                    s.lost,
+                    s.spurious,
+                    s.rms_error_px,
+                    s.id_switches.unwrap_or(0),
+                    s.trajectory_breaks.unwrap_or(0)
+                )
+            };
+            line("pillar-pipe track", b.ours_median(), &b.ours_score);
+            match (&b.trackpy, b.trackpy_median(), &b.trackpy_score) {
+                (Ok(v), Some(t), Some(s)) => {
+                    line(v, t, s);
+                    println!(
+                        "       ratio (trackpy / ours)       {:>7.1}x",
+                        t / b.ours_median()
+                    );
+                }
+                (e, _, _) => println!(
+                    "       trackpy: not timed ({})",
+                    e.clone().err().unwrap_or_default()
+                ),
+            }
+            return Ok(());
         }
         BenchCmd::Gofr {
             n,

@@ -30,5 +30,6 @@ pub use error::{Error, Result};
 pub mod bench_dem;
 pub mod bench_fit;
 pub mod bench_gofr;
+pub mod bench_track;
 pub mod bench_whole;
 pub mod dem;
