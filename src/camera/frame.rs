@@ -89,10 +89,11 @@ fn decode_frame(path: &Path, bytes: &[u8]) -> Result<Frame> {
     let (width, height) = (img.width() as usize, img.height() as usize);
     use image::DynamicImage as D;
     let (bit_depth, pixels): (u8, Vec<f32>) = match img {
-        D::ImageLuma8(b) => (8, b.into_raw().into_iter().map(f32::from).collect()),
-        D::ImageLumaA8(b) => (8, b.pixels().map(|p| f32::from(p.0[0])).collect()),
-        D::ImageLuma16(b) => (16, b.into_raw().into_iter().map(f32::from).collect()),
-        D::ImageLumaA16(b) => (16, b.pixels().map(|p| f32::from(p.0[0])).collect()),
+        // Into this thread's pooled buffer: a fresh one per frame cost its page faults.
+        D::ImageLuma8(b) => (8, pooled(b.as_raw().iter().map(|&v| f32::from(v)))),
+        D::ImageLumaA8(b) => (8, pooled(b.pixels().map(|p| f32::from(p.0[0])))),
+        D::ImageLuma16(b) => (16, pooled(b.as_raw().iter().map(|&v| f32::from(v)))),
+        D::ImageLumaA16(b) => (16, pooled(b.pixels().map(|p| f32::from(p.0[0])))),
         other => {
             return Err(input_err(
                 path,
@@ -109,6 +110,12 @@ fn decode_frame(path: &Path, bytes: &[u8]) -> Result<Frame> {
         bit_depth,
         pixels,
     })
+}
+
+fn pooled(values: impl Iterator<Item = f32>) -> Vec<f32> {
+    let mut v = super::filters::take(0);
+    v.extend(values);
+    v
 }
 
 /// Writes a frame as PNG or TIFF (by the extension), at its bit depth, values rounded

@@ -208,29 +208,38 @@ impl Disk {
     }
 }
 
-/// numpy's `percentile` (linear interpolation) of the non-zero values; `None` when
-/// every value is zero.
+/// numpy's `percentile` (linear interpolation) of the non-zero values of an image of
+/// whole numbers in 0..=`max`; `None` when every value is zero. A counting histogram
+/// gives the two order statistics exactly, in one pass.
 #[inline(never)]
-fn percentile_of_nonzero(img: &[f32], p: f64) -> Option<f32> {
-    let mut v = take(0);
-    v.extend(img.iter().copied().filter(|&x| x != 0.0));
-    if v.is_empty() {
-        give(v);
+fn percentile_of_nonzero(img: &[f32], p: f64, max: f32) -> Option<f32> {
+    let mut hist = vec![0u32; max as usize + 1];
+    for &v in img {
+        hist[(v as usize).min(max as usize)] += 1;
+    }
+    let n: u64 = hist[1..].iter().map(|&c| u64::from(c)).sum();
+    if n == 0 {
         return None;
     }
-    let pos = p / 100.0 * (v.len() - 1) as f64;
-    let lo = pos.floor() as usize;
+    let pos = p / 100.0 * (n - 1) as f64;
+    let lo = pos.floor() as u64;
     let frac = (pos - lo as f64) as f32;
-    let (_, a, rest) = v.select_nth_unstable_by(lo, f32::total_cmp);
-    let a = *a;
-    let out = if frac == 0.0 || rest.is_empty() {
-        a
-    } else {
-        let b = rest.iter().copied().fold(f32::INFINITY, f32::min);
-        a + frac * (b - a)
+    // The value holding order statistic k (0-based) among the non-zero ones.
+    let nth = |k: u64| {
+        let mut seen = 0u64;
+        for (v, &c) in hist.iter().enumerate().skip(1) {
+            seen += u64::from(c);
+            if seen > k {
+                return v as f32;
+            }
+        }
+        max
     };
-    give(v);
-    Some(out)
+    let a = nth(lo);
+    if frac == 0.0 || lo + 1 >= n {
+        return Some(a);
+    }
+    Some(a + frac * (nth(lo + 1) - a))
 }
 
 /// Horizontal distance from each pixel of a row to the nearest non-zero band-passed
@@ -351,7 +360,7 @@ pub fn locate(frame: &Frame, frame_no: i64, p: &LocateParams) -> Result<Vec<Feat
     // bp ≥ 0, so truncation is the floor (and, unlike `floor`, vectorises).
     let mut q = take(0);
     q.extend(bp.iter().map(|&v| (v * scale) as i32 as f32));
-    let Some(level) = percentile_of_nonzero(&q, p.percentile) else {
+    let Some(level) = percentile_of_nonzero(&q, p.percentile, frame.max_value()) else {
         give(q);
         give(bp);
         return Ok(Vec::new());
@@ -568,6 +577,7 @@ pub fn locate_frames(
             };
             check_shape(path, &frame, first_path, shape)?;
             let out = locate(&frame, i as i64, p)?;
+            give(frame.pixels);
             on_frame();
             Ok((out, hash))
         })

@@ -253,3 +253,20 @@ fn frames_of_another_size_are_refused_and_threads_do_not_change_the_result() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn the_percentile_is_numpys_on_the_non_zero_values() {
+    // numpy: np.percentile([1, 2, 3, 4], 64) = 2.92; np.percentile([5, 5, 9], 50) = 5.
+    let img = [0.0, 3.0, 0.0, 1.0, 4.0, 2.0];
+    assert!((percentile_of_nonzero(&img, 64.0, 255.0).unwrap() - 2.92).abs() < 1e-6);
+    assert_eq!(
+        percentile_of_nonzero(&[9.0, 5.0, 0.0, 5.0], 50.0, 255.0),
+        Some(5.0)
+    );
+    assert_eq!(percentile_of_nonzero(&[7.0], 64.0, 255.0), Some(7.0));
+    assert_eq!(percentile_of_nonzero(&[0.0, 0.0], 64.0, 255.0), None);
+    assert_eq!(
+        percentile_of_nonzero(&[65535.0, 1.0], 100.0, 65535.0),
+        Some(65535.0)
+    );
+}
