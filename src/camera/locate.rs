@@ -162,10 +162,11 @@ impl LocateParams {
 /// The refinement disk: offsets (dy, dx) with dy² + dx² ≤ r², row by row.
 struct Disk {
     r: i64,
-    /// Row by row: dy and the half-width ⌊√(r² − dy²)⌋ (the same pixels as dy, dx).
+    /// Row by row: dy and the half-width ⌊√(r² − dy²)⌋; the pixels (dy, dx) with
+    /// dy² + dx² ≤ r², in the row-major order of the arrays below.
     spans: Vec<(i64, i64)>,
-    dy: Vec<i64>,
-    dx: Vec<i64>,
+    /// dy² + dx² (trackpy's `r_squared_mask`).
+    r2: Vec<f64>,
     /// cos 2θ and sin 2θ, θ = atan2(dy, dx) (trackpy's `cosmask`, `sinmask`).
     cos2: Vec<f64>,
     sin2: Vec<f64>,
@@ -176,13 +177,12 @@ struct Disk {
 impl Disk {
     fn new(r: usize) -> Self {
         let r = r as i64;
-        let (mut dy, mut dx, mut cos2, mut sin2) = (vec![], vec![], vec![], vec![]);
+        let (mut r2, mut cos2, mut sin2) = (vec![], vec![], vec![]);
         let mut sx2 = 0.0;
         for y in -r..=r {
             for x in -r..=r {
                 if y * y + x * x <= r * r {
-                    dy.push(y);
-                    dx.push(x);
+                    r2.push((y * y + x * x) as f64);
                     let t = (y as f64).atan2(x as f64);
                     cos2.push((2.0 * t).cos());
                     sin2.push((2.0 * t).sin());
@@ -196,15 +196,14 @@ impl Disk {
         Self {
             r,
             spans,
-            dy,
-            dx,
+            r2,
             cos2,
             sin2,
             root_sum_x2: sx2.sqrt(),
         }
     }
     fn len(&self) -> usize {
-        self.dy.len()
+        self.r2.len()
     }
 }
 
@@ -469,14 +468,26 @@ fn refine(
         cx = cx.clamp(r, w as i64 - 1 - r);
     }
     let (mut rg, mut e1, mut e2, mut signal, mut raw_mass) = (0.0, 0.0, 0.0, 0.0f64, 0.0);
-    for k in 0..disk.len() {
-        let (y, x) = (sy + disk.dy[k], sx + disk.dx[k]);
-        let v = px(y, x);
-        rg += ((disk.dy[k] * disk.dy[k] + disk.dx[k] * disk.dx[k]) as f64) * v;
-        e1 += disk.cos2[k] * v;
-        e2 += disk.sin2[k] * v;
-        signal = signal.max(v);
-        raw_mass += f64::from(raw[y as usize * w + x as usize]);
+    // The disk's pixels in its row-major order: k runs along with the spans.
+    let mut k = 0;
+    for &(dy, half) in &disk.spans {
+        let start = (sy + dy) as usize * w + (sx - half) as usize;
+        let len = 2 * half as usize + 1;
+        let (bp_row, raw_row) = (&bp[start..start + len], &raw[start..start + len]);
+        let (r2, c2, s2) = (
+            &disk.r2[k..k + len],
+            &disk.cos2[k..k + len],
+            &disk.sin2[k..k + len],
+        );
+        for j in 0..len {
+            let v = f64::from(bp_row[j]);
+            rg += r2[j] * v;
+            e1 += c2[j] * v;
+            e2 += s2[j] * v;
+            signal = signal.max(v);
+            raw_mass += f64::from(raw_row[j]);
+        }
+        k += len;
     }
     let centre = px(sy, sx);
     Feature {
