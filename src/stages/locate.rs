@@ -13,7 +13,10 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, Serialize)]
 pub struct LocateRun {
     pub output: String,
-    pub frames: Vec<String>,
+    /// The frame files, in frame order (frame k is `frame_files[k]`). Not `frames`:
+    /// the report's `frames` (the count) is flattened beside it, and a second key of
+    /// that name would replace this list in the sidecar.
+    pub frame_files: Vec<String>,
     pub params: LocateParams,
     #[serde(flatten)]
     pub report: LocateReport,
@@ -47,7 +50,7 @@ pub fn locate_movie(
     bar.finish_and_clear();
     let run = LocateRun {
         output: String::new(),
-        frames: set.paths.iter().map(|p| p.display().to_string()).collect(),
+        frame_files: set.paths.iter().map(|p| p.display().to_string()).collect(),
         params: params.clone(),
         report,
     };

@@ -517,3 +517,64 @@ fn camera_track_same_bytes_on_one_and_two_threads() {
     assert!(one.len() > 360 * 50, "a full table");
     assert!(one == run("2"), "one thread and two differ");
 }
+
+/// Regression: the record of `locate` (its sidecar, `--json`) and of `track` names
+/// every frame file beside its SHA-256. It used to hold two `frames` keys, the file
+/// list and the report's count, and the count replaced the list in the sidecars.
+#[test]
+fn camera_track_records_name_every_frame_file_beside_its_hash() {
+    let d = tmpdir("ctrack-record");
+    let (frames, _) = rendered(&d);
+    let names: Vec<String> = (0..FRAMES).map(|k| format!("frame_{k:05}.png")).collect();
+    let hashes: Vec<String> = names
+        .iter()
+        .map(|n| sha256_file(&frames.join(n)).unwrap())
+        .collect();
+    let check = |rec: &serde_json::Value, what: &str| {
+        assert_eq!(rec["frames"], FRAMES, "{what}: {rec}");
+        let files: Vec<String> = rec["frame_files"]
+            .as_array()
+            .unwrap_or_else(|| panic!("{what}: no frame_files in {rec}"))
+            .iter()
+            .map(|f| {
+                let p = PathBuf::from(f.as_str().unwrap());
+                assert!(p.starts_with(&frames), "{what}: {}", p.display());
+                p.file_name().unwrap().to_string_lossy().into_owned()
+            })
+            .collect();
+        assert_eq!(files, names, "{what}");
+        assert_eq!(rec["frame_sha256"], serde_json::json!(hashes), "{what}");
+    };
+    let read_json = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+
+    let out = d.join("features.csv");
+    let o = std::process::Command::new(BIN)
+        .args([
+            "locate",
+            frames.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .args(["--json", "--diameter", DIAMETER])
+        .args(LOCATE)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(stdout.matches("\"frames\"").count(), 1, "{stdout}");
+    check(&serde_json::from_str(&stdout).unwrap(), "locate --json");
+    check(
+        &read_json(&d.join("features.csv.meta.json"))["locate"],
+        "locate sidecar",
+    );
+
+    let tracked = d.join("tracks.csv");
+    let (ok, text) = track(&frames, &tracked, &[]);
+    assert!(ok, "{text}");
+    check(
+        &read_json(&d.join("tracks.csv.meta.json"))["track"]["locate"],
+        "track sidecar",
+    );
+}
