@@ -3,7 +3,7 @@
 //! recording the tool, version, parameters and every frame's SHA-256.
 
 use crate::camera::{Feature, LocateParams, LocateReport, list_frames, locate_frames};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::io::features::write_features;
 use crate::io::write_with_sidecar;
 use serde::Serialize;
@@ -57,6 +57,21 @@ pub fn locate_movie(
     Ok((features, run))
 }
 
+/// Features are written as CSV in trackpy's columns: any other name (`.parquet`, which
+/// `link` would read as Parquet) is refused before any work is done.
+pub fn check_output(output: &Path) -> Result<()> {
+    if crate::io::table::TableFormat::of(output) != crate::io::table::TableFormat::Csv {
+        return Err(Error::param(
+            "output",
+            format!(
+                "{}: features are written as CSV (trackpy's columns); name it .csv",
+                output.display()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// `pillar-pipe locate`: locate and write `output` with its sidecar.
 pub fn run(
     inputs: &[PathBuf],
@@ -64,6 +79,7 @@ pub fn run(
     params: &LocateParams,
     quiet: bool,
 ) -> Result<LocateRun> {
+    check_output(output)?;
     let (features, mut run) = locate_movie(inputs, params, quiet)?;
     run.output = output.display().to_string();
     let sidecar = serde_json::json!({

@@ -488,6 +488,14 @@ fn camera_track_bad_frames_and_parameters_are_named_and_write_nothing() {
         "{text}"
     );
     assert_empty(&out_dir, "track to parquet");
+    // Regression: so are located ones; `locate` used to write CSV text under the
+    // Parquet name, which `link` then could not read.
+    let (ok, text) = locate(&[&frames], &pq, &[]);
+    assert!(
+        !ok && text.contains("output") && text.contains("x.parquet"),
+        "{text}"
+    );
+    assert_empty(&out_dir, "locate to parquet");
 }
 
 /// The same frames give the same bytes on one thread and on two.
