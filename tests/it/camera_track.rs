@@ -178,6 +178,10 @@ fn ground_truth(frames: &Path) -> Vec<(Truth, i32)> {
         header,
         "frame,particle,species,x_px,y_px,radius_px,x,y,radius"
     );
+    assert_eq!(
+        header,
+        pillar_pipe::schema::load("ground_truth").names().join(",")
+    );
     rows.iter()
         .map(|r| {
             let t = Truth {
@@ -333,6 +337,9 @@ fn camera_track_locate_writes_trackpys_table_and_hashes_the_frames() {
     assert!(ok, "{text}");
     let (header, found, ids) = read_features(&out);
     assert_eq!(header, FEATURE_HEADER);
+    // As documented in data_schema/features.schema.json, `particle` apart.
+    let names = pillar_pipe::schema::load("features").names().join(",");
+    assert_eq!(format!("{header},particle"), names);
     assert!(ids.is_empty());
     assert_eq!(found.len(), GRAINS * FRAMES);
 
@@ -367,7 +374,8 @@ fn camera_track_locate_writes_trackpys_table_and_hashes_the_frames() {
     let (ok, text) = track(&frames, &tracked, &[]);
     assert!(ok, "{text}");
     let (_, rows_l) = read_csv(&out);
-    let (_, rows_t) = read_csv(&tracked);
+    let (header_t, rows_t) = read_csv(&tracked);
+    assert_eq!(header_t, names);
     assert_eq!(rows_l.len(), rows_t.len());
     for (a, b) in rows_l.iter().zip(&rows_t) {
         assert_eq!(a[..], b[..9]);
