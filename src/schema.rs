@@ -100,6 +100,14 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         "shear_lines",
         include_str!("../data_schema/shear_lines.schema.json"),
     ),
+    (
+        "features",
+        include_str!("../data_schema/features.schema.json"),
+    ),
+    (
+        "ground_truth",
+        include_str!("../data_schema/ground_truth.schema.json"),
+    ),
 ];
 
 /// Parse one embedded schema. Panics only if a file in `data_schema/` is malformed,

@@ -3,7 +3,7 @@
 //! recording the tool, version, parameters and every frame's SHA-256.
 
 use crate::camera::{Feature, LocateParams, LocateReport, list_frames, locate_frames};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::io::features::write_features;
 use crate::io::write_with_sidecar;
 use serde::Serialize;
@@ -13,7 +13,10 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, Serialize)]
 pub struct LocateRun {
     pub output: String,
-    pub frames: Vec<String>,
+    /// The frame files, in frame order (frame k is `frame_files[k]`). Not `frames`:
+    /// the report's `frames` (the count) is flattened beside it, and a second key of
+    /// that name would replace this list in the sidecar.
+    pub frame_files: Vec<String>,
     pub params: LocateParams,
     #[serde(flatten)]
     pub report: LocateReport,
@@ -47,11 +50,26 @@ pub fn locate_movie(
     bar.finish_and_clear();
     let run = LocateRun {
         output: String::new(),
-        frames: set.paths.iter().map(|p| p.display().to_string()).collect(),
+        frame_files: set.paths.iter().map(|p| p.display().to_string()).collect(),
         params: params.clone(),
         report,
     };
     Ok((features, run))
+}
+
+/// Features are written as CSV in trackpy's columns: any other name (`.parquet`, which
+/// `link` would read as Parquet) is refused before any work is done.
+pub fn check_output(output: &Path) -> Result<()> {
+    if crate::io::table::TableFormat::of(output) != crate::io::table::TableFormat::Csv {
+        return Err(Error::param(
+            "output",
+            format!(
+                "{}: features are written as CSV (trackpy's columns); name it .csv",
+                output.display()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// `pillar-pipe locate`: locate and write `output` with its sidecar.
@@ -61,6 +79,7 @@ pub fn run(
     params: &LocateParams,
     quiet: bool,
 ) -> Result<LocateRun> {
+    check_output(output)?;
     let (features, mut run) = locate_movie(inputs, params, quiet)?;
     run.output = output.display().to_string();
     let sidecar = serde_json::json!({

@@ -25,6 +25,20 @@ use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// The columns of `ground_truth.csv`, in order (`data_schema/ground_truth.schema.json`;
+/// `tests/it/ingest.rs` checks the two agree).
+pub const GROUND_TRUTH_COLUMNS: [&str; 9] = [
+    "frame",
+    "particle",
+    "species",
+    "x_px",
+    "y_px",
+    "radius_px",
+    "x",
+    "y",
+    "radius",
+];
+
 /// Frame image format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -400,7 +414,7 @@ pub fn run(input: &Path, out: &Path, opt: &RenderOptions) -> Result<RenderReport
     atomic_write(&gt, |fh| {
         let mut w = std::io::BufWriter::new(fh);
         let io = |e| Error::io(&gt, e);
-        writeln!(w, "frame,particle,species,x_px,y_px,radius_px,x,y,radius").map_err(io)?;
+        writeln!(w, "{}", GROUND_TRUTH_COLUMNS.join(",")).map_err(io)?;
         for (img, (_, _, r)) in chosen.iter().enumerate() {
             for i in r.clone() {
                 let sp = t

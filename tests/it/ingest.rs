@@ -251,6 +251,31 @@ fn schema_files_and_code_agree() {
         .map(|(n, _)| *n)
         .collect();
     assert_eq!(sch.names(), expect);
+    // The camera's tables: trackpy's feature columns as the reader parses them (and the
+    // columns it requires), then `particle`; render's ground truth.
+    use pillar_pipe::io::csvdiag::Expect;
+    use pillar_pipe::io::features::{FEATURE_COLUMNS, REQUIRED};
+    let sch = schema::load("features");
+    let mut expect: Vec<(&str, &str)> = FEATURE_COLUMNS
+        .iter()
+        .map(|&(n, e)| (n, if e == Expect::Int { "int64" } else { "float64" }))
+        .collect();
+    expect.push(("particle", "int64"));
+    let found: Vec<(&str, &str)> = sch
+        .columns
+        .iter()
+        .map(|c| (c.name.as_str(), c.dtype.as_str()))
+        .collect();
+    assert_eq!(found, expect);
+    let mut required = sch.required();
+    required.sort_unstable();
+    let mut reader_requires = REQUIRED.to_vec();
+    reader_requires.sort_unstable();
+    assert_eq!(required, reader_requires);
+    assert_eq!(
+        schema::load("ground_truth").names(),
+        pillar_pipe::stages::render::GROUND_TRUTH_COLUMNS
+    );
     // The files on disk are the embedded ones (no stale copy in the binary).
     for (name, text) in schema::SCHEMA_FILES {
         let p =

@@ -7,6 +7,7 @@ mod common;
 mod architecture;
 mod camera_link;
 mod camera_render;
+mod camera_track;
 mod fit;
 mod fuzz;
 mod ingest;
