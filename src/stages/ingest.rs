@@ -285,6 +285,20 @@ pub fn read_input(
             split = Some(s);
             if !opt.keep_detached {
                 let ids = detached_trajectories(&t);
+                let all: std::collections::BTreeSet<i64> = t.particle.iter().copied().collect();
+                if !ids.is_empty() && ids.len() >= all.len() {
+                    // Every trajectory "detached" means the grains are not a packing at
+                    // the radii in use (a loose lattice, wrong --radii or scale), not
+                    // that every one is a tracker artefact: an empty table would be a
+                    // silent wrong answer.
+                    return Err(Error::input(
+                        input.display(),
+                        format!(
+                            "all {} trajectories would be dropped as detached from the packing (fewer than 2 neighbours within 1.25 D, D the large diameter from --radii or estimated); check --px-per-unit and --radii, or pass --keep-detached",
+                            all.len()
+                        ),
+                    ));
+                }
                 if !ids.is_empty() {
                     warnings.push(format!(
                 "dropped {} detached trajectories (fewer than 2 detections within 1.25 D in most of their frames; tracker artefacts such as bar corners): particles {:?}; --keep-detached keeps them",

@@ -888,3 +888,36 @@ fn export_writes_files_ovito_opens_that_read_back_exactly() {
     let (ok, text) = run(&["export", d.to_str().unwrap(), "-o", "x.xyz"]);
     assert!(!ok && text.contains("tracks.parquet"), "{text}");
 }
+
+/// Found by the camera tests: with radii that make a loose lattice look like no packing
+/// (every grain's neighbours farther than 1.25 D), ingest dropped every trajectory as a
+/// "detached" tracker artefact and succeeded with an empty table. It now refuses, naming
+/// the file and the way out; `--keep-detached` keeps them.
+#[test]
+fn every_trajectory_detached_is_an_error_not_an_empty_table() {
+    let dir = tmpdir("all-detached");
+    let input = dir.join("t.csv");
+    std::fs::write(&input, trackpy_lattice(99, "")).unwrap();
+    // 20 px apart at 10 px/cm is 2 cm; with D = 0.5 cm that is 4 D.
+    let mut opt = pillar_pipe::stages::ingest::IngestOptions {
+        px_per_unit: Some(10.0),
+        unit: Some("cm".into()),
+        radii: Some((0.2, 0.25)),
+        ..Default::default()
+    };
+    let out = input.with_extension("parquet");
+    let e = pillar_pipe::stages::ingest::run(&input, &out, &opt)
+        .expect_err("every trajectory detached")
+        .to_string();
+    for part in [
+        input.to_str().unwrap(),
+        "all 16 trajectories",
+        "--keep-detached",
+    ] {
+        assert!(e.contains(part), "'{part}' missing from: {e}");
+    }
+    assert!(!out.exists());
+    opt.keep_detached = true;
+    let r = pillar_pipe::stages::ingest::run(&input, &out, &opt).expect("kept");
+    assert_eq!(r.summary.particles_per_frame_max, 16);
+}
