@@ -50,15 +50,87 @@ pub fn read_frame(path: &Path) -> Result<Frame> {
 /// `read_frame`, and the SHA-256 (hex) of the file's bytes, read once.
 pub fn read_frame_hashed(path: &Path) -> Result<(Frame, String)> {
     use sha2::Digest;
-    let bytes = std::fs::read(path).map_err(|cause| Error::Io {
-        path: path.to_path_buf(),
-        cause,
-    })?;
-    let hash = sha2::Sha256::digest(&bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect();
-    Ok((decode_frame(path, &bytes)?, hash))
+    use std::io::Read;
+    thread_local! {
+        // The file's bytes and a PNG's decoded bytes, kept between frames (fresh
+        // buffers per frame cost their page faults).
+        static BYTES: std::cell::RefCell<(Vec<u8>, Vec<u8>)> = const {
+            std::cell::RefCell::new((Vec::new(), Vec::new()))
+        };
+    }
+    BYTES.with(|b| {
+        let (bytes, decoded) = &mut *b.borrow_mut();
+        bytes.clear();
+        let io = |cause| Error::Io {
+            path: path.to_path_buf(),
+            cause,
+        };
+        std::fs::File::open(path)
+            .and_then(|mut f| f.read_to_end(bytes))
+            .map_err(io)?;
+        let hash = sha2::Sha256::digest(&bytes[..])
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        let frame = if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+            decode_png(path, bytes, decoded)?
+        } else {
+            decode_frame(path, bytes)?
+        };
+        Ok((frame, hash))
+    })
+}
+
+/// A PNG decoded with the `png` crate into `buf` (reused): grey or grey with alpha, 8
+/// or 16 bit (lower depths expanded to 8); anything else is refused as colour.
+fn decode_png(path: &Path, bytes: &[u8], buf: &mut Vec<u8>) -> Result<Frame> {
+    let bad = |e: png::DecodingError| input_err(path, format!("cannot decode the image: {e}"));
+    let mut dec = png::Decoder::new(bytes);
+    dec.set_transformations(png::Transformations::EXPAND);
+    let mut reader = dec.read_info().map_err(bad)?;
+    let (color, depth) = reader.output_color_type();
+    let channels = match color {
+        png::ColorType::Grayscale => 1,
+        png::ColorType::GrayscaleAlpha => 2,
+        other => {
+            return Err(input_err(
+                path,
+                format!(
+                    "a {other:?} image; expected a grey-scale frame (8 or 16 bit): convert the channel that shows the grains"
+                ),
+            ));
+        }
+    };
+    buf.clear();
+    buf.resize(reader.output_buffer_size(), 0);
+    let info = reader.next_frame(buf).map_err(bad)?;
+    let (width, height) = (info.width as usize, info.height as usize);
+    let data = &buf[..info.buffer_size()];
+    let (bit_depth, pixels) = match depth {
+        png::BitDepth::Sixteen => (
+            16,
+            pooled(
+                data.chunks_exact(2 * channels)
+                    .map(|c| f32::from(u16::from_be_bytes([c[0], c[1]]))),
+            ),
+        ),
+        _ => (
+            8,
+            pooled(data.iter().step_by(channels).map(|&v| f32::from(v))),
+        ),
+    };
+    if pixels.len() != width * height {
+        return Err(input_err(
+            path,
+            format!("{} pixels decoded for {width}×{height}", pixels.len()),
+        ));
+    }
+    Ok(Frame {
+        width,
+        height,
+        bit_depth,
+        pixels,
+    })
 }
 
 fn decode_frame(path: &Path, bytes: &[u8]) -> Result<Frame> {
