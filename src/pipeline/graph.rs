@@ -150,6 +150,20 @@ pub fn build(
         if st.kind == Kind::Ramp {
             check_ramp(src, &st)?;
         }
+        if st.kind == Kind::Render {
+            let p: super::params::RenderParams = serde_json::from_value(st.params.clone())
+                .map_err(|e| src.err(&st.name, e.to_string()))?;
+            if let Some((key, m)) = p.problem() {
+                return Err(src.err(&format!("{}.{key}", st.name), m));
+            }
+        }
+        if st.kind == Kind::Track {
+            let p: super::params::TrackParams = serde_json::from_value(st.params.clone())
+                .map_err(|e| src.err(&st.name, e.to_string()))?;
+            if let Some((key, m)) = p.problem() {
+                return Err(src.err(&format!("{}.{key}", st.name), m));
+            }
+        }
         if st.kind == Kind::Sweep {
             stages.extend(sweep_points(src, &mut st)?);
         }
@@ -193,8 +207,8 @@ fn dataset(
         Ok(v.first().copied())
     };
     let tracks = of(
-        &[Kind::Ingest, Kind::Simulate],
-        "tracks (ingest or simulate)",
+        &[Kind::Ingest, Kind::Simulate, Kind::Track],
+        "tracks (ingest, simulate or track)",
     )?;
     Ok(Dataset {
         label: b.to_string(),
