@@ -103,7 +103,7 @@ impl LocateParams {
     }
 
     fn resolve(&self) -> Result<Resolved> {
-        if self.diameter < 3 || self.diameter % 2 == 0 {
+        if self.diameter < 3 || self.diameter.is_multiple_of(2) {
             return Err(param(
                 "diameter",
                 format!(
@@ -120,7 +120,7 @@ impl LocateParams {
             ));
         }
         let smoothing_size = self.smoothing_size.unwrap_or(self.diameter);
-        if smoothing_size % 2 == 0 {
+        if smoothing_size.is_multiple_of(2) {
             return Err(param(
                 "smoothing_size",
                 format!("{smoothing_size} px; expected an odd number of pixels"),

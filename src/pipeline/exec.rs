@@ -107,7 +107,10 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         }
         Kind::Track => {
             let p: TrackParams = typed(&s.name, &s.params)?;
-            let frames = ctx.input(s, "input", "frames")?;
+            let frames = match s.files.get("frames") {
+                Some(folder) => folder.clone(),
+                None => ctx.input(s, "input", "frames")?,
+            };
             let linked = out.join("linked.csv");
             let r = stages::track::run(
                 std::slice::from_ref(&frames),
@@ -117,7 +120,14 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 q,
             )?;
             // The render's pixel mapping, the keys given here over it.
-            let mut o = stages::track::camera_ingest_options(&frames)?;
+            let mut o = if frames.join("camera.json").is_file() {
+                stages::track::camera_ingest_options(&frames)?
+            } else {
+                stages::ingest::IngestOptions {
+                    format: Some(stages::ingest::Format::Trackpy),
+                    ..Default::default()
+                }
+            };
             o.px_per_unit = p.px_per_unit.or(o.px_per_unit);
             o.origin_px = p.origin_px.map(|v| (v[0], v[1])).or(o.origin_px);
             o.unit = p.unit.clone().or(o.unit);

@@ -144,7 +144,8 @@ impl RenderParams {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrackParams {
-    pub input: String,
+    pub input: Option<String>,
+    pub frames: Option<String>,
     pub diameter: usize,
     pub minmass: f64,
     pub separation: Option<f64>,
@@ -166,7 +167,8 @@ impl Default for TrackParams {
         let l = LocateParams::default();
         let k = LinkOptions::new(0.0);
         TrackParams {
-            input: String::new(),
+            input: None,
+            frames: None,
             diameter: 0,
             minmass: l.minmass,
             separation: l.separation,

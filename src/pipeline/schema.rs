@@ -188,7 +188,7 @@ pub fn check(spec: &KeySpec, v: &toml::Value) -> std::result::Result<toml::Value
             .collect()
     };
     match (spec.ty.as_str(), v) {
-        ("string" | "path" | "stage", T::String(s)) => {
+        ("string" | "path" | "folder" | "stage", T::String(s)) => {
             if let Some(a) = &spec.allowed
                 && !a.contains(s)
             {
@@ -238,6 +238,7 @@ fn describe(ty: &str) -> &'static str {
     match ty {
         "string" => "a string",
         "path" => "a file path (string)",
+        "folder" => "a folder path (string)",
         "stage" => "a stage name (string)",
         "integer" => "an integer",
         "float" => "a number",

@@ -2,7 +2,8 @@
 //! kinematics runs; the track stage's canonical tracks are the rendered ones again, in
 //! the length unit (a noise-free render, so the only error is the locator's); a second
 //! run is all cached; bad locate/link keys and wrong references are refused, naming the
-//! stage and key, before anything runs.
+//! stage and key, before anything runs; a folder of frames (`frames`) tracks like the
+//! render stage it came from.
 
 use crate::common::*;
 use pillar_pipe::io::read_tracks;
@@ -139,6 +140,69 @@ fn render_track_kinematics_recovers_the_grains_and_caches() {
     // Unchanged: everything from the cache.
     let out = run_ok(&["run", f], &runs);
     assert!(out.contains("0 computed, 4 cached"), "{out}");
+
+    // The same frames as a folder (real camera data): the same grains, by the
+    // render's camera.json in it.
+    let movie = d.join("movie");
+    std::fs::create_dir_all(&movie).unwrap();
+    for e in std::fs::read_dir(&frames).unwrap().flatten() {
+        std::fs::copy(e.path(), movie.join(e.file_name())).unwrap();
+    }
+    let folder = |keys: &str| {
+        format!(
+            "[pipeline]\nroot = '{}'\n\n[movie.track]\nframes = \"movie\"\n{}\n{keys}\n",
+            d.display(),
+            TRACK.replace("input = \"render\"\n", "")
+        )
+    };
+    let same_grains = |keys: &str| {
+        let file = d.join("movie.toml");
+        std::fs::write(&file, folder(keys)).unwrap();
+        run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+        let m = latest(&runs);
+        let dir = stage_dir(&runs, &m, "movie.track");
+        let (t, _) = read_tracks(&dir.join("tracks.parquet")).unwrap();
+        assert_eq!(t.len(), tracks.len());
+        for i in 0..t.len() {
+            assert_eq!(t.frame[i], tracks.frame[i]);
+            assert!((t.x[i] - tracks.x[i]).abs() < 1e-9, "row {i}");
+            assert!((t.y[i] - tracks.y[i]).abs() < 1e-9, "row {i}");
+            assert!((t.radius[i] - tracks.radius[i]).abs() < 1e-9, "row {i}");
+        }
+        assert_eq!(t.meta.length_unit, "cm");
+        m
+    };
+    let m = same_grains("");
+    assert_eq!(computed(&m), ["movie.track"]);
+    assert_eq!(
+        m["inputs"]["movie.track.frames"]["sha256"]
+            .as_str()
+            .unwrap()
+            .len(),
+        64
+    );
+
+    // Without camera.json the keys give the mapping; without them, refused.
+    let cam: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(movie.join("camera.json")).unwrap()).unwrap();
+    let (x0, y0) = (
+        cam["pixel_map"]["x0"].as_f64().unwrap(),
+        cam["pixel_map"]["y0"].as_f64().unwrap(),
+    );
+    std::fs::remove_file(movie.join("camera.json")).unwrap();
+    std::fs::remove_file(movie.join("ground_truth.csv")).unwrap();
+    refused(
+        &d.join("movie.toml"),
+        &runs,
+        &folder(""),
+        &["movie.track.px_per_unit", "camera.json"],
+    );
+    let keys = format!(
+        "px_per_unit = {SCALE}\nunit = \"cm\"\norigin_px = [{}, {}]\nframe_time = 0.1\nradii = [0.375, 0.5]",
+        -x0 * SCALE,
+        y0 * SCALE
+    );
+    same_grains(&keys);
 }
 
 #[test]
