@@ -244,3 +244,29 @@ fn bad_camera_keys_are_refused_before_anything_runs() {
     refused(&file, &runs, &text, &["grains.render.px_per_unit"]);
     assert!(!runs.join("cache").exists(), "nothing ran");
 }
+
+/// The bundled camera check runs end to end: the simulation's own tracks and the
+/// tracks from its frames are both fitted, compared and reported.
+#[test]
+fn bundled_camera_check_runs() {
+    let d = tmpdir("camera-check");
+    let runs = d.join("runs");
+    let file = bundled("camera-check");
+    run_ok(
+        &["run", &file, "--set", "fit.bootstrap=20", "--quiet"],
+        &runs,
+    );
+    let m = latest(&runs);
+    assert_eq!(computed(&m).len(), 9, "{m}");
+    let t = &m["metrics"]["camera.track"];
+    assert_eq!(t["n"], m["metrics"]["truth.simulate"]["n"], "{t}");
+    assert_eq!(t["frames"], m["metrics"]["truth.simulate"]["frames"], "{t}");
+    for st in ["truth.fit", "camera.fit"] {
+        assert!(m["metrics"][st]["theta"].is_f64(), "{st}: {m}");
+    }
+    assert!(m["metrics"]["compare"]["theta_agree"].is_boolean(), "{m}");
+    let html =
+        std::fs::read_to_string(runs.join(m["run_id"].as_str().unwrap()).join("report.html"))
+            .unwrap();
+    assert!(html.contains("truth") && html.contains("camera"));
+}
