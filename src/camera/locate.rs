@@ -96,6 +96,12 @@ struct Resolved {
 }
 
 impl LocateParams {
+    /// An error naming the first parameter out of its domain (what `locate` checks
+    /// before reading a frame).
+    pub fn check(&self) -> Result<()> {
+        self.resolve().map(|_| ())
+    }
+
     fn resolve(&self) -> Result<Resolved> {
         if self.diameter < 3 || self.diameter.is_multiple_of(2) {
             return Err(param(

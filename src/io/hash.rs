@@ -18,6 +18,26 @@ pub fn sha256_file(path: &Path) -> Result<String> {
     Ok(hex(&h.finalize()))
 }
 
+/// SHA-256 of a folder's plain files (not its subfolders): of one line per file, by
+/// name, `NAME SHA256`. Renaming, adding or changing a file changes it.
+pub fn sha256_folder(dir: &Path) -> Result<String> {
+    let mut files: Vec<(String, std::path::PathBuf)> = std::fs::read_dir(dir)
+        .map_err(|e| Error::io(dir, e))?
+        .flatten()
+        .filter(|e| e.path().is_file())
+        .map(|e| (e.file_name().to_string_lossy().into_owned(), e.path()))
+        .collect();
+    files.sort();
+    let mut text = String::new();
+    for (name, path) in files {
+        text.push_str(&name);
+        text.push(' ');
+        text.push_str(&sha256_file(&path)?);
+        text.push('\n');
+    }
+    Ok(sha256_bytes(text.as_bytes()))
+}
+
 /// SHA-256 of bytes, hex.
 pub fn sha256_bytes(b: &[u8]) -> String {
     hex(&Sha256::digest(b))

@@ -78,7 +78,13 @@ pub fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
             .collect();
         let mut files = BTreeMap::new();
         for (k, f) in &s.files {
-            files.insert(k.clone(), sha256_file(f)?);
+            // A folder (a track stage's frames) by its files' names and contents.
+            let sum = if f.is_dir() {
+                crate::io::hash::sha256_folder(f)?
+            } else {
+                sha256_file(f)?
+            };
+            files.insert(k.clone(), sum);
         }
         let key = stage_key(s.kind, &params, &upstream, &files);
         out.insert(

@@ -4,8 +4,8 @@
 
 use super::cache::StageRecord;
 use super::params::{
-    CompareParams, FitParams, IngestParams, KinematicsParams, RampParams, ReportParams,
-    SweepParams, typed,
+    CompareParams, FitParams, IngestParams, KinematicsParams, RampParams, RenderParams,
+    ReportParams, SweepParams, TrackParams, typed,
 };
 use super::{Kind, Pipeline, Stage};
 use crate::error::{Error, Result};
@@ -92,6 +92,57 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 outputs: outputs(&[("tracks", "tracks.parquet")]),
                 metrics: json!({"n": r.summary.particles_per_frame_max, "frames": r.summary.frames}),
                 summary: sum(&r),
+            })
+        }
+        Kind::Render => {
+            let p: RenderParams = typed(&s.name, &s.params)?;
+            // A pillar run's tracks: render finds its bars beside them.
+            let tracks = ctx.input(s, "input", "tracks")?;
+            let r = stages::render::run(&tracks, &out.join("frames"), &p.options(q))?;
+            Ok(Produced {
+                outputs: outputs(&[("frames", "frames")]),
+                metrics: json!({"frames": r.frames, "width": r.width, "height": r.height, "grains": r.grains, "bars": r.bars}),
+                summary: sum(&r),
+            })
+        }
+        Kind::Track => {
+            let p: TrackParams = typed(&s.name, &s.params)?;
+            let frames = match s.files.get("frames") {
+                Some(folder) => folder.clone(),
+                None => ctx.input(s, "input", "frames")?,
+            };
+            let linked = out.join("linked.csv");
+            let r = stages::track::run(
+                std::slice::from_ref(&frames),
+                &linked,
+                &p.locate(),
+                &p.link(),
+                q,
+            )?;
+            // The render's pixel mapping, the keys given here over it.
+            let mut o = if frames.join("camera.json").is_file() {
+                stages::track::camera_ingest_options(&frames)?
+            } else {
+                stages::ingest::IngestOptions {
+                    format: Some(stages::ingest::Format::Trackpy),
+                    ..Default::default()
+                }
+            };
+            o.px_per_unit = p.px_per_unit.or(o.px_per_unit);
+            o.origin_px = p.origin_px.map(|v| (v[0], v[1])).or(o.origin_px);
+            o.unit = p.unit.clone().or(o.unit);
+            o.frame_time = p.frame_time.or(o.frame_time);
+            o.radii = p.radii.map(|v| (v[0], v[1])).or(o.radii);
+            o.bar_speed = p.bar_speed.or(o.bar_speed);
+            let i = stages::ingest::run(&linked, &out.join("tracks.parquet"), &o)?;
+            Ok(Produced {
+                outputs: outputs(&[("tracks", "tracks.parquet"), ("linked", "linked.csv")]),
+                metrics: json!({
+                    "features": r.link.features, "trajectories": r.link.trajectories,
+                    "links": r.link.links, "ended": r.link.ended,
+                    "n": i.summary.particles_per_frame_max, "frames": i.summary.frames,
+                }),
+                summary: json!({"track": sum(&r), "ingest": sum(&i)}),
             })
         }
         Kind::Simulate => {

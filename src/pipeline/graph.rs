@@ -109,6 +109,20 @@ pub fn build(
                     }
                     st.files.insert(ks.name.clone(), abs);
                 }
+                ("folder", Some(rel)) => {
+                    let abs = root.join(rel);
+                    if !abs.is_dir() {
+                        return Err(src.err(
+                            &path,
+                            format!(
+                                "folder not found: {} (paths are relative to the pipeline root {})",
+                                abs.display(),
+                                root.display()
+                            ),
+                        ));
+                    }
+                    st.files.insert(ks.name.clone(), abs);
+                }
                 ("branches", _) => {
                     for b in v
                         .as_array()
@@ -149,6 +163,21 @@ pub fn build(
         }
         if st.kind == Kind::Ramp {
             check_ramp(src, &st)?;
+        }
+        if st.kind == Kind::Render {
+            let p: super::params::RenderParams = serde_json::from_value(st.params.clone())
+                .map_err(|e| src.err(&st.name, e.to_string()))?;
+            if let Some((key, m)) = p.problem() {
+                return Err(src.err(&format!("{}.{key}", st.name), m));
+            }
+        }
+        if st.kind == Kind::Track {
+            let p: super::params::TrackParams = serde_json::from_value(st.params.clone())
+                .map_err(|e| src.err(&st.name, e.to_string()))?;
+            if let Some((key, m)) = p.problem() {
+                return Err(src.err(&format!("{}.{key}", st.name), m));
+            }
+            check_track_source(src, &st, &p)?;
         }
         if st.kind == Kind::Sweep {
             stages.extend(sweep_points(src, &mut st)?);
@@ -193,8 +222,8 @@ fn dataset(
         Ok(v.first().copied())
     };
     let tracks = of(
-        &[Kind::Ingest, Kind::Simulate],
-        "tracks (ingest or simulate)",
+        &[Kind::Ingest, Kind::Simulate, Kind::Track],
+        "tracks (ingest, simulate or track)",
     )?;
     Ok(Dataset {
         label: b.to_string(),
@@ -226,6 +255,38 @@ fn check_ramp(src: &Source, st: &Stage) -> Result<()> {
         Some((key, m)) => Err(src.err(&format!("{}.{key}", st.name), m)),
         None => Ok(()),
     }
+}
+
+/// A track stage reads a render stage's frames (`input`) or a folder (`frames`); a
+/// folder without a render's `camera.json` needs the scale and unit to convert pixels.
+fn check_track_source(src: &Source, st: &Stage, p: &super::params::TrackParams) -> Result<()> {
+    let Some(folder) = st.files.get("frames") else {
+        if p.input.is_none() {
+            return Err(src.err(
+                &st.name,
+                "give 'input' (a render stage) or 'frames' (a folder of camera frames)",
+            ));
+        }
+        return Ok(());
+    };
+    if folder.join("camera.json").is_file() {
+        return Ok(());
+    }
+    for (key, given) in [
+        ("px_per_unit", p.px_per_unit.is_some()),
+        ("unit", p.unit.is_some()),
+    ] {
+        if !given {
+            return Err(src.err(
+                &format!("{}.{key}", st.name),
+                format!(
+                    "needed: {} holds no camera.json (a render's pixel mapping) to convert the tracked pixels with",
+                    folder.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A ramp that starts `from` another's final state needs the same disks: N, φ, Q, model

@@ -14,4 +14,6 @@ pub const KIND_ENTRIES: &[(&str, &[&str])] = &[
     ("shear", &["src/stages/shear/mod.rs"]),
     ("sweep", &["src/stages/sweep.rs"]),
     ("ramp", &["src/stages/shear/mod.rs"]),
+    ("render", &["src/stages/render.rs"]),
+    ("track", &["src/stages/track.rs"]),
 ];

@@ -5,12 +5,15 @@
 //! CLI and pipelines agree; the schema test checks the schema file documents them.
 
 use super::schema::Kind;
+use crate::camera::render::Profile;
+use crate::camera::{LinkOptions, LocateParams};
 use crate::error::{Error, Result};
 use crate::fit::{Binning, Method};
 use crate::kinematics::Convention;
 use crate::stages::fit::FitOptions;
 use crate::stages::ingest::{Format, IngestOptions};
 use crate::stages::kinematics::{KinematicsOptions, LagSpec};
+use crate::stages::render::RenderOptions;
 use crate::stages::shear::ShearOptions;
 use crate::stages::simulate::SimulateOptions;
 use clap::ValueEnum;
@@ -61,6 +64,161 @@ impl IngestParams {
             bar_speed: self.bar_speed,
             keep_detached: self.keep_detached,
         })
+    }
+}
+
+/// A `render` stage: the camera emulator (`pillar-pipe render`) on an upstream
+/// stage's tracks; the camera settings users vary, the rest at `Camera`'s defaults.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderParams {
+    pub input: String,
+    pub px_per_unit: f64,
+    pub every: i64,
+    pub bit_depth: u8,
+    pub profile: Profile,
+    pub blur: f64,
+    pub read_noise: f64,
+    pub photons: f64,
+    pub seed: u64,
+}
+
+impl Default for RenderParams {
+    fn default() -> Self {
+        let o = RenderOptions::default();
+        RenderParams {
+            input: String::new(),
+            px_per_unit: 0.0,
+            every: o.every,
+            bit_depth: o.camera.bit_depth,
+            profile: o.camera.profile,
+            blur: o.camera.blur_px,
+            read_noise: o.camera.read_noise,
+            photons: o.camera.photons,
+            seed: o.camera.seed,
+        }
+    }
+}
+
+impl RenderParams {
+    pub fn options(&self, quiet: bool) -> RenderOptions {
+        let d = RenderOptions::default();
+        RenderOptions {
+            px_per_unit: self.px_per_unit,
+            every: self.every,
+            camera: crate::camera::render::Camera {
+                bit_depth: self.bit_depth,
+                profile: self.profile,
+                blur_px: self.blur,
+                read_noise: self.read_noise,
+                photons: self.photons,
+                seed: self.seed,
+                ..d.camera.clone()
+            },
+            quiet,
+            ..d
+        }
+    }
+}
+
+impl RenderParams {
+    /// The first camera setting out of its domain, as the render would find it, so a
+    /// pipeline is refused at load: (key, what is wrong).
+    pub fn problem(&self) -> Option<(String, String)> {
+        let cam = crate::camera::render::Camera {
+            width: 1,
+            height: 1,
+            ..self.options(true).camera
+        };
+        match cam.validate() {
+            Ok(()) => None,
+            // The command's option names (bit-depth) are the keys (bit_depth).
+            Err(Error::Param { name, msg }) => Some((name.replace('-', "_"), msg)),
+            Err(e) => Some((String::new(), e.to_string())),
+        }
+    }
+}
+
+/// A `track` stage: locate + link (`pillar-pipe track`) on a `render` stage's frames or
+/// a folder of frames, then the linked table to canonical tracks (`ingest`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrackParams {
+    pub input: Option<String>,
+    pub frames: Option<String>,
+    pub diameter: usize,
+    pub minmass: f64,
+    pub separation: Option<f64>,
+    pub noise_size: f64,
+    pub percentile: f64,
+    pub search_range: f64,
+    pub memory: usize,
+    pub predict: bool,
+    pub px_per_unit: Option<f64>,
+    pub origin_px: Option<[f64; 2]>,
+    pub unit: Option<String>,
+    pub frame_time: Option<f64>,
+    pub radii: Option<[f64; 2]>,
+    pub bar_speed: Option<f64>,
+}
+
+impl Default for TrackParams {
+    fn default() -> Self {
+        let l = LocateParams::default();
+        let k = LinkOptions::new(0.0);
+        TrackParams {
+            input: None,
+            frames: None,
+            diameter: 0,
+            minmass: l.minmass,
+            separation: l.separation,
+            noise_size: l.noise_size,
+            percentile: l.percentile,
+            search_range: 0.0,
+            memory: k.memory,
+            predict: k.predict,
+            px_per_unit: None,
+            origin_px: None,
+            unit: None,
+            frame_time: None,
+            radii: None,
+            bar_speed: None,
+        }
+    }
+}
+
+impl TrackParams {
+    pub fn locate(&self) -> LocateParams {
+        LocateParams {
+            diameter: self.diameter,
+            minmass: self.minmass,
+            separation: self.separation,
+            noise_size: self.noise_size,
+            percentile: self.percentile,
+            ..LocateParams::default()
+        }
+    }
+    pub fn link(&self) -> LinkOptions {
+        LinkOptions {
+            memory: self.memory,
+            predict: self.predict,
+            ..LinkOptions::new(self.search_range)
+        }
+    }
+    /// The first key out of its domain, as the stage would find it, so a pipeline is
+    /// refused at load: (key, what is wrong).
+    pub fn problem(&self) -> Option<(String, String)> {
+        let named = |e: Error| match e {
+            Error::Param { name, msg } => (name, msg),
+            other => (String::new(), other.to_string()),
+        };
+        if let Err(e) = self.locate().check() {
+            return Some(named(e));
+        }
+        if let Err(e) = self.link().check() {
+            return Some(named(e));
+        }
+        None
     }
 }
 
@@ -389,6 +547,8 @@ pub fn resolve(kind: Kind, given: Json) -> std::result::Result<Json, String> {
         Kind::Shear => round_trip::<ShearOptions>(given),
         Kind::Sweep => round_trip::<SweepParams>(given),
         Kind::Ramp => round_trip::<RampParams>(given),
+        Kind::Render => round_trip::<RenderParams>(given),
+        Kind::Track => round_trip::<TrackParams>(given),
     }?;
     if kind == Kind::Shear
         && let Some(o) = v.as_object_mut()

@@ -23,10 +23,14 @@ pub enum Kind {
     Sweep,
     /// One sheared-disk strain-rate ramp (vagberg-sheared-disks Eqs. 38–41, Fig. 31).
     Ramp,
+    /// The camera emulator: tracks → frames (`pillar-pipe render`).
+    Render,
+    /// Frames → linked features → canonical tracks (`pillar-pipe track`, then `ingest`).
+    Track,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 9] = [
+    pub const ALL: [Kind; 11] = [
         Kind::Ingest,
         Kind::Simulate,
         Kind::Kinematics,
@@ -36,6 +40,8 @@ impl Kind {
         Kind::Shear,
         Kind::Sweep,
         Kind::Ramp,
+        Kind::Render,
+        Kind::Track,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -48,6 +54,8 @@ impl Kind {
             Kind::Shear => "shear",
             Kind::Sweep => "sweep",
             Kind::Ramp => "ramp",
+            Kind::Render => "render",
+            Kind::Track => "track",
         }
     }
     pub fn from_name(s: &str) -> Option<Kind> {
@@ -180,7 +188,7 @@ pub fn check(spec: &KeySpec, v: &toml::Value) -> std::result::Result<toml::Value
             .collect()
     };
     match (spec.ty.as_str(), v) {
-        ("string" | "path" | "stage", T::String(s)) => {
+        ("string" | "path" | "folder" | "stage", T::String(s)) => {
             if let Some(a) = &spec.allowed
                 && !a.contains(s)
             {
@@ -230,6 +238,7 @@ fn describe(ty: &str) -> &'static str {
     match ty {
         "string" => "a string",
         "path" => "a file path (string)",
+        "folder" => "a folder path (string)",
         "stage" => "a stage name (string)",
         "integer" => "an integer",
         "float" => "a number",

@@ -146,6 +146,8 @@ mod tests {
             (Kind::Shear, "src/stages/report/mod.rs"),
             (Kind::Sweep, "src/stages/report/mod.rs"),
             (Kind::Ramp, "src/fit/mod.rs"),
+            (Kind::Render, "src/fit/mod.rs"),
+            (Kind::Track, "src/dem/pillar/mod.rs"),
         ];
         for (kind, entries) in KIND_ENTRIES {
             let kind = Kind::from_name(kind).unwrap();

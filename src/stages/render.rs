@@ -480,6 +480,7 @@ pub fn run(input: &Path, out: &Path, opt: &RenderOptions) -> Result<RenderReport
         "margin_px": opt.margin_px,
         "length_unit": t.meta.length_unit,
         "time_unit": t.meta.time_unit,
+        "bar_speed": t.meta.bar_speed,
         "frame_interval": frame_interval,
         "every": opt.every,
         "frames": chosen.len(),

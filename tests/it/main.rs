@@ -6,6 +6,7 @@ mod common;
 
 mod architecture;
 mod camera_link;
+mod camera_pipeline;
 mod camera_render;
 mod camera_track;
 mod fit;

@@ -221,6 +221,7 @@ fn bundled_pipelines_validate() {
         "shear-flow-curves",
         "shear-ramps",
         "paper-sizes",
+        "camera-check",
     ] {
         assert!(names.iter().any(|n| n == must), "{must}: {names:?}");
     }
