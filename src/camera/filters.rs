@@ -40,54 +40,48 @@ pub fn gaussian_kernel(sigma: f64, truncate: f64) -> Vec<f32> {
     taps.iter().map(|t| (t / sum) as f32).collect()
 }
 
-/// Correlates every row of `src` (width `w`) with `kernel` (odd length), zero beyond
-/// the row's ends, into `dst`: one tap at a time over the row, so the inner loop is a
-/// vectorised multiply-add along memory.
-#[inline(never)]
-fn correlate_rows(src: &[f32], dst: &mut [f32], w: usize, kernel: &[f32]) {
+/// Correlates one row with `kernel` (odd length), zero beyond the row's ends, into
+/// `out`: one tap at a time over the row, so the inner loop is a vectorised
+/// multiply-add along memory.
+fn correlate_row(row: &[f32], out: &mut [f32], kernel: &[f32]) {
+    let w = row.len();
     let r = kernel.len() / 2;
-    for (row, out) in src.chunks_exact(w).zip(dst.chunks_exact_mut(w)) {
-        out.fill(0.0);
-        for (t, &k) in kernel.iter().enumerate() {
-            // out[x] += k · row[x + t − r] for the x where that index is inside.
-            if t >= r {
-                let d = t - r;
-                if d >= w {
-                    continue;
-                }
-                for (o, v) in out[..w - d].iter_mut().zip(&row[d..]) {
-                    *o += k * v;
-                }
-            } else {
-                let d = r - t;
-                if d >= w {
-                    continue;
-                }
-                for (o, v) in out[d..].iter_mut().zip(&row[..w - d]) {
-                    *o += k * v;
-                }
+    out.fill(0.0);
+    for (t, &k) in kernel.iter().enumerate() {
+        // out[x] += k · row[x + t − r] for the x where that index is inside.
+        if t >= r {
+            let d = t - r;
+            if d >= w {
+                continue;
+            }
+            for (o, v) in out[..w - d].iter_mut().zip(&row[d..]) {
+                *o += k * v;
+            }
+        } else {
+            let d = r - t;
+            if d >= w {
+                continue;
+            }
+            for (o, v) in out[d..].iter_mut().zip(&row[..w - d]) {
+                *o += k * v;
             }
         }
     }
 }
 
-/// Correlates every column with `kernel`, zero beyond the top and bottom; whole rows
-/// at a time so the inner loop runs along memory.
-#[inline(never)]
-fn correlate_cols(src: &[f32], dst: &mut [f32], w: usize, kernel: &[f32]) {
+/// Row `y` of the correlation of every column with `kernel`, zero beyond the top and
+/// bottom, into `out`; whole rows at a time so the inner loop runs along memory.
+fn correlate_col_row(src: &[f32], w: usize, y: usize, out: &mut [f32], kernel: &[f32]) {
     let h = src.len() / w;
     let r = kernel.len() / 2;
-    for y in 0..h {
-        let out = &mut dst[y * w..(y + 1) * w];
-        out.fill(0.0);
-        let lo = y.saturating_sub(r);
-        let hi = (y + r).min(h - 1);
-        for yy in lo..=hi {
-            let k = kernel[yy + r - y];
-            let row = &src[yy * w..(yy + 1) * w];
-            for (o, v) in out.iter_mut().zip(row) {
-                *o += k * v;
-            }
+    out.fill(0.0);
+    let lo = y.saturating_sub(r);
+    let hi = (y + r).min(h - 1);
+    for yy in lo..=hi {
+        let k = kernel[yy + r - y];
+        let row = &src[yy * w..(yy + 1) * w];
+        for (o, v) in out.iter_mut().zip(row) {
+            *o += k * v;
         }
     }
 }
@@ -97,12 +91,15 @@ pub fn lowpass(img: &[f32], w: usize, sigma: f64) -> Vec<f32> {
     if sigma <= 0.0 {
         return img.to_vec();
     }
+    // Columns then rows, as scipy's axis 0 then axis 1, a row at a time: the column
+    // pass of row y is finished before its row pass, so one row of scratch serves.
     let k = gaussian_kernel(sigma, 4.0);
-    let mut tmp = take(img.len());
     let mut out = take(img.len());
-    correlate_cols(img, &mut tmp, w, &k);
-    correlate_rows(&tmp, &mut out, w, &k);
-    give(tmp);
+    let mut tmp = vec![0.0f32; w];
+    for (y, o) in out.chunks_exact_mut(w).enumerate() {
+        correlate_col_row(img, w, y, &mut tmp, &k);
+        correlate_row(&tmp, o, &k);
+    }
     out
 }
 
@@ -139,36 +136,31 @@ pub fn boxcar_truncated(img: &[f32], w: usize, size: usize) -> Vec<f32> {
             *a += f64::from(*v);
         }
     }
-    // The column means are whole grey levels, exact in f32. `as i32` truncates (and,
-    // unlike `trunc`, vectorises without SSE4.1); the values are far below 2^31.
-    let mut cols = take(img.len());
-    for y in 0..h {
-        for (c, a) in cols[y * w..(y + 1) * w].iter_mut().zip(&acc) {
-            *c = div(*a) as f32;
-        }
-        let (add, sub) = (row(y as i64 + r + 1), row(y as i64 - r));
-        for ((a, p), m) in acc.iter_mut().zip(add).zip(sub) {
-            *a += f64::from(*p) - f64::from(*m);
-        }
-    }
+    // The column means are whole grey levels; each row of them is finished and its
+    // row pass done before the next, so one row of scratch serves. `div` vectorises
+    // where a division or `trunc` (without SSE4.1) would not.
     let mut out = take(img.len());
     let ri = r as usize;
     let mut padded = vec![0.0f64; w + 2 * ri + 1];
     for y in 0..h {
-        let src = &cols[y * w..(y + 1) * w];
-        padded[..ri].fill(f64::from(src[0]));
-        for (p, v) in padded[ri..ri + w].iter_mut().zip(src) {
-            *p = f64::from(*v);
-        }
-        padded[ri + w..].fill(f64::from(src[w - 1]));
+        padded[ri..ri + w]
+            .iter_mut()
+            .zip(&acc)
+            .for_each(|(p, a)| *p = f64::from(div(*a)));
+        let (first, last) = (padded[ri], padded[ri + w - 1]);
+        padded[..ri].fill(first);
+        padded[ri + w..].fill(last);
         let mut a: f64 = padded[..size].iter().sum();
         let o = &mut out[y * w..(y + 1) * w];
         for x in 0..w {
             o[x] = div(a) as f32;
             a += padded[x + size] - padded[x];
         }
+        let (add, sub) = (row(y as i64 + r + 1), row(y as i64 - r));
+        for ((a, p), m) in acc.iter_mut().zip(add).zip(sub) {
+            *a += f64::from(*p) - f64::from(*m);
+        }
     }
-    give(cols);
     out
 }
 
@@ -212,16 +204,13 @@ fn max_rows(src: &[f32], dst: &mut [f32], w: usize, left: usize, right: usize) {
     }
 }
 
-#[inline(never)]
-fn max_cols(src: &[f32], dst: &mut [f32], w: usize, left: usize, right: usize) {
+/// Row `y` of the running maximum over rows `[y − left, y + right]`, into `out`.
+fn max_col_row(src: &[f32], w: usize, y: usize, left: usize, right: usize, out: &mut [f32]) {
     let h = src.len() / w;
-    for y in 0..h {
-        let out = &mut dst[y * w..(y + 1) * w];
-        out.fill(0.0);
-        for yy in y.saturating_sub(left)..=(y + right).min(h - 1) {
-            for (o, v) in out.iter_mut().zip(&src[yy * w..(yy + 1) * w]) {
-                *o = o.max(*v);
-            }
+    out.fill(0.0);
+    for yy in y.saturating_sub(left)..=(y + right).min(h - 1) {
+        for (o, v) in out.iter_mut().zip(&src[yy * w..(yy + 1) * w]) {
+            *o = o.max(*v);
         }
     }
 }
@@ -230,12 +219,15 @@ fn max_cols(src: &[f32], dst: &mut [f32], w: usize, left: usize, right: usize) {
 /// `scipy.ndimage.grey_dilation(size=…)` places it: the maximum over offsets
 /// −⌊(size−1)/2⌋ … ⌊size/2⌋, which for an even size reaches one further forward.
 pub fn dilate(img: &[f32], w: usize, size: usize) -> Vec<f32> {
+    // The maximum is exact, so the order of the passes does not matter: columns
+    // first, a row at a time, with one row of scratch.
     let (left, right) = (size.saturating_sub(1) / 2, size / 2);
-    let mut tmp = take(img.len());
     let mut out = take(img.len());
-    max_rows(img, &mut tmp, w, left, right);
-    max_cols(&tmp, &mut out, w, left, right);
-    give(tmp);
+    let mut tmp = vec![0.0f32; w];
+    for (y, o) in out.chunks_exact_mut(w).enumerate() {
+        max_col_row(img, w, y, left, right, &mut tmp);
+        max_rows(&tmp, o, w, left, right);
+    }
     out
 }
 
