@@ -248,23 +248,19 @@ fn percentile_of_nonzero(img: &[f32], p: f64, max: f32) -> Option<f32> {
 }
 
 /// Horizontal distance from each pixel of a row to the nearest non-zero band-passed
-/// pixel of that row, saturating at `far`.
-fn row_distance(row: &[f32], d: &mut [u16], far: u16) {
-    let mut last = far;
+/// pixel of that row, saturating at `u16::MAX`.
+fn row_distance(row: &[f32], d: &mut [u16]) {
+    let mut last = u16::MAX;
     for (x, v) in row.iter().enumerate() {
-        last = if *v != 0.0 {
-            0
-        } else {
-            last.saturating_add(1).min(far)
-        };
+        last = if *v != 0.0 { 0 } else { last.saturating_add(1) };
         d[x] = last;
     }
-    let mut last = far;
+    let mut last = u16::MAX;
     for x in (0..row.len()).rev() {
         last = if row[x] != 0.0 {
             0
         } else {
-            last.saturating_add(1).min(far)
+            last.saturating_add(1)
         };
         d[x] = d[x].min(last);
     }
@@ -280,7 +276,7 @@ fn row_distance(row: &[f32], d: &mut [u16], far: u16) {
 fn measure_noise(raw: &[f32], bp: &[f32], w: usize, r: usize) -> (f64, f64) {
     let h = bp.len() / w;
     let ri = r as i64;
-    let far = u16::try_from(r + 1).unwrap_or(u16::MAX);
+    let far = u16::MAX;
     let half: Vec<u16> = (-ri..=ri)
         .map(|dy| ((((ri * ri - dy * dy) as f64).sqrt()).floor() as u64).min(u64::from(far)) as u16)
         .collect();
@@ -295,7 +291,6 @@ fn measure_noise(raw: &[f32], bp: &[f32], w: usize, r: usize) -> (f64, f64) {
                 row_distance(
                     &bp[yy as usize * w..(yy as usize + 1) * w],
                     &mut ring[slot * w..(slot + 1) * w],
-                    far,
                 );
             }
         } else if y + ri < h as i64 {
@@ -304,7 +299,6 @@ fn measure_noise(raw: &[f32], bp: &[f32], w: usize, r: usize) -> (f64, f64) {
             row_distance(
                 &bp[yy * w..(yy + 1) * w],
                 &mut ring[slot * w..(slot + 1) * w],
-                far,
             );
         }
         // Every row in reach, whole rows at a time: u8 and a branch-free `&` so the
@@ -322,13 +316,12 @@ fn measure_noise(raw: &[f32], bp: &[f32], w: usize, r: usize) -> (f64, f64) {
             }
         }
         let raw_row = &raw[y as usize * w..(y as usize + 1) * w];
+        // Branch-free: the mask weighs each pixel 0 or 1.
         for (&v, &b) in raw_row.iter().zip(&bg) {
-            if b != 0 {
-                let v = f64::from(v);
-                n += 1;
-                s += v;
-                s2 += v * v;
-            }
+            let (v, m) = (f64::from(v), f64::from(b));
+            n += usize::from(b);
+            s += m * v;
+            s2 += m * v * v;
         }
     }
     match n {
