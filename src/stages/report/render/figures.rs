@@ -141,9 +141,11 @@ impl Figure for CrossoverFigure {
                     PathElement::new(vec![(x - 10, y), (x + 10, y)], c.stroke_width(3))
                 });
         }
+        // D²min/R² rises with η^s, so the lower right is the empty corner; the legend
+        // grows with the data sets and covered the binned curves in the upper left.
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
+            .position(SeriesLabelPosition::LowerRight)
             .label_font((FONT_FAMILY, 14))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
