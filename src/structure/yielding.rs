@@ -216,7 +216,11 @@ pub fn yield_point(
     let yielded = eps_b.len();
     Yield::Reached(YieldPoint {
         eps_y: knee,
-        eps_interval: interval(eps_b, knee),
+        eps_interval: {
+            // A strain below the origin is no yield strain.
+            let [lo, hi] = interval(eps_b, knee);
+            [lo.max(0.0), hi]
+        },
         sigma_y: m * knee,
         sigma_interval: interval(sig_b, m * knee),
         modulus: m,
