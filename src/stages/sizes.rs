@@ -276,7 +276,14 @@ pub fn scan(dirs: &[PathBuf]) -> Result<SizeScan> {
         &col(&|r| r.sigma),
         &col(&|r| r.sigma_err),
     );
-    let checks = (rows.len() >= 2).then(|| ScanChecks {
+    let checks = checks(&rows);
+    Ok(SizeScan { rows, fit, checks })
+}
+
+/// The claims across the runs (None with fewer than two).
+fn checks(rows: &[SizeRow]) -> Option<ScanChecks> {
+    let col = |f: &dyn Fn(&SizeRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
+    (rows.len() >= 2).then(|| ScanChecks {
         sigma_over_w0_spread: spread(&col(&|r| r.sigma / r.w0_over_d)),
         sigma_y_over_w0_spread: rows
             .iter()
@@ -289,8 +296,7 @@ pub fn scan(dirs: &[PathBuf]) -> Result<SizeScan> {
             k.iter().copied().fold(f64::NEG_INFINITY, f64::max)
                 - k.iter().copied().fold(f64::INFINITY, f64::min)
         },
-    });
-    Ok(SizeScan { rows, fit, checks })
+    })
 }
 
 /// The scan's tables where `out` says.
@@ -392,6 +398,53 @@ mod tests {
         let g = fit_through_origin(&x, &[5.0, 12.0, 18.0], &[0.1, 0.1, 0.1]).unwrap();
         assert!(g.c_interval[1] - g.c_interval[0] > 10.0 * (f.c_interval[1] - f.c_interval[0]));
         assert!(fit_through_origin(&[1.0], &[1.0], &[1.0]).is_none());
+    }
+
+    /// The σ_y/W0 check: the spread of σ_y/W0 when every run yields (proportional σ_y
+    /// holds, a σ_y growing faster than W0 does not), none when one run does not.
+    #[test]
+    fn the_yield_check_spreads_sigma_y_over_w0() {
+        use crate::structure::yielding::{Yield, YieldPoint};
+        let row = |w0: f64, sigma_y: Option<f64>| SizeRow {
+            run: PathBuf::new(),
+            n: 0,
+            w0_over_d: w0,
+            h0_over_d: 2.0 * w0,
+            sigma: 0.7 * w0,
+            sigma_err: 0.1,
+            kappa: 0.7,
+            chi: [1.4, 1.8],
+            pressure: Err(String::new()),
+            yielding: match sigma_y {
+                Some(s) => Yield::Reached(YieldPoint {
+                    eps_y: 0.02,
+                    eps_interval: [0.01, 0.03],
+                    sigma_y: s,
+                    sigma_interval: [s - 1.0, s + 1.0],
+                    modulus: s / 0.02,
+                    hardening: 0.0,
+                    replicates: 0,
+                    replicates_yielded: 0,
+                }),
+                None => Yield::NotReached("still rising".into()),
+            },
+            curves: Default::default(),
+        };
+        let c = checks(&[row(10.0, Some(6.0)), row(20.0, Some(12.6))]).unwrap();
+        let s = c.sigma_y_over_w0_spread.unwrap();
+        assert!((s - 0.03 / 0.615).abs() < 1e-9, "{s}");
+        let c = checks(&[row(10.0, Some(5.0)), row(20.0, Some(14.0))]).unwrap();
+        assert!(c.sigma_y_over_w0_spread.unwrap() > 0.3);
+        assert_eq!(c.sigma_over_w0_spread, 0.0);
+        let c = checks(&[row(10.0, Some(6.0)), row(20.0, None)]).unwrap();
+        assert!(c.sigma_y_over_w0_spread.is_none());
+        assert!(checks(&[row(10.0, Some(6.0))]).is_none());
+        // The CSV columns: the point and its intervals, NaN when not reached.
+        assert_eq!(
+            row(10.0, Some(6.0)).yield_columns(),
+            [0.02, 0.01, 0.03, 6.0, 5.0, 7.0]
+        );
+        assert!(row(10.0, None).yield_columns().iter().all(|v| v.is_nan()));
     }
 
     #[test]
