@@ -343,13 +343,16 @@ enum Cmd {
     },
     /// A pillar size scan's flow stress (li-granular-pillars Fig. 10a, b): per
     /// `simulate pillar` run ⟨σ⟩ over 0.05 ≤ ε ≤ 0.2 (m g μ/D) and κ, against W0; the
-    /// fit ⟨σ⟩ = c W0/D through the origin with its 95 % interval.
+    /// fit ⟨σ⟩ = c W0/D through the origin with its 95 % interval; the yield point ε_y,
+    /// σ_y of each σ(ε) (Sec. III; docs/size-scan.md), "not reached" for a curve still
+    /// rising at ε = 0.2.
     Sizes {
         /// `simulate pillar` output directories (run each to ε ≥ 0.2).
         #[arg(required = true)]
         runs: Vec<PathBuf>,
         /// One row per run: N, W0/D, ⟨σ⟩ and its error (m g μ/D), ⟨κ⟩, χ = W/W0 at
-        /// ε = 0.1 and 0.2, the bar pressure at the interface's centre (m g μ/D).
+        /// ε = 0.1 and 0.2, the bar pressure at the interface's centre (m g μ/D), ε_y and
+        /// σ_y (m g μ/D) with their 95 % intervals (NaN where not reached).
         #[arg(short, long)]
         output: PathBuf,
         /// Also every run's frames: ε, σ (m g μ/D), κ, χ (Figs. 10a, 10d, shape scaling).
