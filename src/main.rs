@@ -343,13 +343,16 @@ enum Cmd {
     },
     /// A pillar size scan's flow stress (li-granular-pillars Fig. 10a, b): per
     /// `simulate pillar` run ⟨σ⟩ over 0.05 ≤ ε ≤ 0.2 (m g μ/D) and κ, against W0; the
-    /// fit ⟨σ⟩ = c W0/D through the origin with its 95 % interval.
+    /// fit ⟨σ⟩ = c W0/D through the origin with its 95 % interval; the yield point ε_y,
+    /// σ_y of each σ(ε) (Sec. III; docs/size-scan.md), "not reached" for a curve still
+    /// rising at ε = 0.2.
     Sizes {
         /// `simulate pillar` output directories (run each to ε ≥ 0.2).
         #[arg(required = true)]
         runs: Vec<PathBuf>,
         /// One row per run: N, W0/D, ⟨σ⟩ and its error (m g μ/D), ⟨κ⟩, χ = W/W0 at
-        /// ε = 0.1 and 0.2, the bar pressure at the interface's centre (m g μ/D).
+        /// ε = 0.1 and 0.2, the bar pressure at the interface's centre (m g μ/D), ε_y and
+        /// σ_y (m g μ/D) with their 95 % intervals (NaN where not reached).
         #[arg(short, long)]
         output: PathBuf,
         /// Also every run's frames: ε, σ (m g μ/D), κ, χ (Figs. 10a, 10d, shape scaling).
@@ -845,6 +848,24 @@ fn run(cli: Cli) -> Result<()> {
                 None => println!("fit         needs two runs or more"),
             }
             for r in rows {
+                match &r.yielding {
+                    pillar_pipe::structure::yielding::Yield::Reached(p) => println!(
+                        "yield       N = {:6}  eps_y = {:.4} [{:.4}, {:.4}]  sigma_y = {:.3} [{:.3}, {:.3}] m g mu/D  sigma_y/W0 = {:.4}",
+                        r.n,
+                        p.eps_y,
+                        p.eps_interval[0],
+                        p.eps_interval[1],
+                        p.sigma_y,
+                        p.sigma_interval[0],
+                        p.sigma_interval[1],
+                        p.sigma_y / r.w0_over_d
+                    ),
+                    pillar_pipe::structure::yielding::Yield::NotReached(why) => {
+                        println!("yield       N = {:6}  not reached: {why}", r.n)
+                    }
+                }
+            }
+            for r in rows {
                 println!(
                     "shape       N = {:6}  chi = W/W0: {:.3} at eps = 0.1, {:.3} at 0.2",
                     r.n, r.chi[0], r.chi[1]
@@ -866,6 +887,16 @@ fn run(cli: Cli) -> Result<()> {
                     100.0 * c.sigma_over_w0_spread,
                     verdict(c.sigma_over_w0_spread <= 0.10)
                 );
+                match c.sigma_y_over_w0_spread {
+                    Some(s) => println!(
+                        "check       sigma_y/W0 equal across sizes within 10 %: spread {:.1} % ({})",
+                        100.0 * s,
+                        verdict(s <= 0.10)
+                    ),
+                    None => println!(
+                        "check       sigma_y/W0 equal across sizes within 10 %: not made (a run does not yield)"
+                    ),
+                }
                 println!(
                     "check       kappa equal across sizes within 0.03: spread {:.3} ({})",
                     c.kappa_spread,

@@ -2,7 +2,8 @@
 //! each `simulate pillar` run, ⟨σ⟩ over 0.05 ≤ ε ≤ 0.2 in m g μ/D with its error, the
 //! mean dissipation ratio κ there (Fig. 10d), W0 and H0 in D; and the fit ⟨σ⟩ = c W0/D
 //! through the origin with its 95 % interval; the shape scaling χ = W/W0 at ε = 0.1
-//! and 0.2, the contact pressure along the bar (Fig. 10c, `bar_pressure`), and the
+//! and 0.2, the contact pressure along the bar (Fig. 10c, `bar_pressure`), the yield
+//! point ε_y, σ_y of each curve (Sec. III, [`crate::structure::yielding`]), and the
 //! paper's claims as checks across the sizes. Optionally the curves of every run
 //! (σ, κ, χ against ε) and the pressure profiles, for overlays.
 
@@ -33,15 +34,38 @@ pub struct SizeRow {
     /// there is none.
     #[serde(skip)]
     pub pressure: std::result::Result<(crate::structure::pressure::PressureProfile, usize), String>,
+    /// The yield point of σ(ε) over 0 ≤ ε ≤ `WINDOW.1` (σ_y in m g μ/D), or why none.
+    #[serde(skip)]
+    pub yielding: crate::structure::yielding::Yield,
     /// Frames of the run: ε, σ (m g μ/D), κ, χ.
     #[serde(skip)]
     pub curves: [Vec<f64>; 4],
 }
 
+/// Bootstrap replicates of the yield point's interval, and their seed.
+pub const YIELD_REPLICATES: usize = 200;
+pub const YIELD_SEED: u64 = 36;
+
 /// The strains at which χ = W/W0 is compared across sizes.
 pub const CHI_AT: [f64; 2] = [0.1, 0.2];
 
 impl SizeRow {
+    /// ε_y, σ_y and their intervals: [ε_y, lo, hi, σ_y, lo, hi], NaN where the curve does
+    /// not yield.
+    pub fn yield_columns(&self) -> [f64; 6] {
+        match self.yielding.point() {
+            Some(p) => [
+                p.eps_y,
+                p.eps_interval[0],
+                p.eps_interval[1],
+                p.sigma_y,
+                p.sigma_interval[0],
+                p.sigma_interval[1],
+            ],
+            None => [f64::NAN; 6],
+        }
+    }
+
     /// The pressure at the centre of the interface: the mean of the middle 40 % of x/W
     /// (the paper's "saturated values around the centre"), m g μ/D.
     pub fn p_centre(&self) -> f64 {
@@ -59,11 +83,15 @@ impl SizeRow {
 }
 
 /// The paper's size-independence claims (li-granular-pillars Sec. V) as numbers: the
-/// relative spread (max − min over the mean) across the runs of ⟨σ⟩/W0 and of χ at
-/// `CHI_AT`, and the absolute spread of ⟨κ⟩. The tolerances: 10 %, 5 %, 0.03.
+/// relative spread (max − min over the mean) across the runs of ⟨σ⟩/W0, of σ_y/W0 (the
+/// abstract's "the yield stress of the pillars increases linearly with pillar size") and
+/// of χ at `CHI_AT`, and the absolute spread of ⟨κ⟩. The tolerances: 10 %, 10 %,
+/// 5 %, 0.03.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ScanChecks {
     pub sigma_over_w0_spread: f64,
+    /// None when a run does not yield (the check cannot be made).
+    pub sigma_y_over_w0_spread: Option<f64>,
     pub chi_spread: [f64; 2],
     pub kappa_spread: f64,
 }
@@ -148,6 +176,8 @@ fn row(dir: &Path) -> Result<SizeRow> {
         ));
     }
     let mean = |v: &[usize], c: &[f64]| v.iter().map(|&k| c[k]).sum::<f64>() / v.len() as f64;
+    let yielding =
+        crate::structure::yielding::yield_point(&eps, &sig, WINDOW.1, YIELD_REPLICATES, YIELD_SEED);
     let blocks: Vec<f64> = idx
         .chunks(idx.len().div_ceil(4))
         .map(|b| mean(b, &sig))
@@ -177,6 +207,7 @@ fn row(dir: &Path) -> Result<SizeRow> {
             super::bar_pressure::BINS,
         )
         .map_err(|e| e.to_string()),
+        yielding,
         curves: [eps, sig, kap, chi],
     })
 }
@@ -245,16 +276,27 @@ pub fn scan(dirs: &[PathBuf]) -> Result<SizeScan> {
         &col(&|r| r.sigma),
         &col(&|r| r.sigma_err),
     );
-    let checks = (rows.len() >= 2).then(|| ScanChecks {
+    let checks = checks(&rows);
+    Ok(SizeScan { rows, fit, checks })
+}
+
+/// The claims across the runs (None with fewer than two).
+fn checks(rows: &[SizeRow]) -> Option<ScanChecks> {
+    let col = |f: &dyn Fn(&SizeRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
+    (rows.len() >= 2).then(|| ScanChecks {
         sigma_over_w0_spread: spread(&col(&|r| r.sigma / r.w0_over_d)),
+        sigma_y_over_w0_spread: rows
+            .iter()
+            .map(|r| r.yielding.point().map(|p| p.sigma_y / r.w0_over_d))
+            .collect::<Option<Vec<f64>>>()
+            .map(|v| spread(&v)),
         chi_spread: [0, 1].map(|k| spread(&col(&|r| r.chi[k]))),
         kappa_spread: {
             let k = col(&|r| r.kappa);
             k.iter().copied().fold(f64::NEG_INFINITY, f64::max)
                 - k.iter().copied().fold(f64::INFINITY, f64::min)
         },
-    });
-    Ok(SizeScan { rows, fit, checks })
+    })
 }
 
 /// The scan's tables where `out` says.
@@ -276,6 +318,12 @@ pub fn write(scan: &SizeScan, out: &SizeOutputs) -> Result<()> {
             Column::new("chi_at_0_1".into(), col(&|r| r.chi[0])),
             Column::new("chi_at_0_2".into(), col(&|r| r.chi[1])),
             Column::new("p_centre".into(), col(&|r| r.p_centre())),
+            Column::new("eps_y".into(), col(&|r| r.yield_columns()[0])),
+            Column::new("eps_y_lo".into(), col(&|r| r.yield_columns()[1])),
+            Column::new("eps_y_hi".into(), col(&|r| r.yield_columns()[2])),
+            Column::new("sigma_y".into(), col(&|r| r.yield_columns()[3])),
+            Column::new("sigma_y_lo".into(), col(&|r| r.yield_columns()[4])),
+            Column::new("sigma_y_hi".into(), col(&|r| r.yield_columns()[5])),
         ],
     )
     .map_err(|e| Error::polars("the size-scan table", e))?;
@@ -350,6 +398,53 @@ mod tests {
         let g = fit_through_origin(&x, &[5.0, 12.0, 18.0], &[0.1, 0.1, 0.1]).unwrap();
         assert!(g.c_interval[1] - g.c_interval[0] > 10.0 * (f.c_interval[1] - f.c_interval[0]));
         assert!(fit_through_origin(&[1.0], &[1.0], &[1.0]).is_none());
+    }
+
+    /// The σ_y/W0 check: the spread of σ_y/W0 when every run yields (proportional σ_y
+    /// holds, a σ_y growing faster than W0 does not), none when one run does not.
+    #[test]
+    fn the_yield_check_spreads_sigma_y_over_w0() {
+        use crate::structure::yielding::{Yield, YieldPoint};
+        let row = |w0: f64, sigma_y: Option<f64>| SizeRow {
+            run: PathBuf::new(),
+            n: 0,
+            w0_over_d: w0,
+            h0_over_d: 2.0 * w0,
+            sigma: 0.7 * w0,
+            sigma_err: 0.1,
+            kappa: 0.7,
+            chi: [1.4, 1.8],
+            pressure: Err(String::new()),
+            yielding: match sigma_y {
+                Some(s) => Yield::Reached(YieldPoint {
+                    eps_y: 0.02,
+                    eps_interval: [0.01, 0.03],
+                    sigma_y: s,
+                    sigma_interval: [s - 1.0, s + 1.0],
+                    modulus: s / 0.02,
+                    hardening: 0.0,
+                    replicates: 0,
+                    replicates_yielded: 0,
+                }),
+                None => Yield::NotReached("still rising".into()),
+            },
+            curves: Default::default(),
+        };
+        let c = checks(&[row(10.0, Some(6.0)), row(20.0, Some(12.6))]).unwrap();
+        let s = c.sigma_y_over_w0_spread.unwrap();
+        assert!((s - 0.03 / 0.615).abs() < 1e-9, "{s}");
+        let c = checks(&[row(10.0, Some(5.0)), row(20.0, Some(14.0))]).unwrap();
+        assert!(c.sigma_y_over_w0_spread.unwrap() > 0.3);
+        assert_eq!(c.sigma_over_w0_spread, 0.0);
+        let c = checks(&[row(10.0, Some(6.0)), row(20.0, None)]).unwrap();
+        assert!(c.sigma_y_over_w0_spread.is_none());
+        assert!(checks(&[row(10.0, Some(6.0))]).is_none());
+        // The CSV columns: the point and its intervals, NaN when not reached.
+        assert_eq!(
+            row(10.0, Some(6.0)).yield_columns(),
+            [0.02, 0.01, 0.03, 6.0, 5.0, 7.0]
+        );
+        assert!(row(10.0, None).yield_columns().iter().all(|v| v.is_nan()));
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! Structure of a packing: the pair distribution g(r) by the species at the centre
 //! (li-granular-pillars Fig. 2: small-centred and large-centred g(r) against r/D), and
 //! the pillar's outline ([`Outline`], Fig. 9) with a distance between rescaled outlines,
-//! and the transient shear lines of a J2 map ([`shear_lines()`], Fig. 11).
+//! the transient shear lines of a J2 map ([`shear_lines()`], Fig. 11), and the yield
+//! point of a stress–strain curve ([`yielding`], Sec. III, Fig. 4).
 //!
 //! An open pillar has edges, where a shell around a grain reaches into empty space and
 //! g(r) would fall below 1 for no physical reason. So only centres at least r_max inside
@@ -18,6 +19,7 @@ mod outline;
 mod pair_counts;
 pub mod pressure;
 mod shear_lines;
+pub mod yielding;
 
 pub use outline::{Outline, shape_distance};
 pub use shear_lines::{ShearLine, ShearLineOptions, ShearLineSummary, ShearLines, shear_lines};

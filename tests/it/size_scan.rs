@@ -44,6 +44,9 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "Fig. 9",
         "Fig. 2",
         "⟨σ⟩/W0 independent of size",
+        "σ_y/W0 independent of size",
+        "ε_y (95 %)",
+        "Stress–strain with the yield point (Fig. 4)",
         "Fig. 11",
         "shear-line width between 1.5 and 3 D",
     ] {

@@ -196,6 +196,27 @@ fn flow_stress_scales_with_the_width() {
         assert!(c1[k] > 1.05 && c2[k] > c1[k], "χ {c1:?} {c2:?}");
     }
     assert!((c2[0] / c2[1] - 1.0).abs() < 0.15, "χ(0.2) {c2:?}");
+    // Yield (Sec. III): both curves yield at a small strain (0.011 and 0.018 here), below
+    // the flow stress and near it, the wider pillar at the higher stress; each point inside
+    // its interval; the check of σ_y/W0 across sizes is printed with its verdict.
+    let col = |name: &str| t.f64(name).unwrap();
+    let (ey, ey_lo, ey_hi) = (col("eps_y"), col("eps_y_lo"), col("eps_y_hi"));
+    let (sy, sy_lo, sy_hi) = (col("sigma_y"), col("sigma_y_lo"), col("sigma_y_hi"));
+    for k in 0..2 {
+        assert!(ey[k] > 0.002 && ey[k] < 0.05, "ε_y {ey:?}");
+        assert!(ey_lo[k] <= ey[k] && ey[k] <= ey_hi[k] && ey_lo[k] >= 0.0);
+        assert!(sy_lo[k] <= sy[k] && sy[k] <= sy_hi[k]);
+        assert!(
+            sy[k] > 0.5 * s[k] && sy[k] < 1.2 * s[k],
+            "σ_y {sy:?} against ⟨σ⟩ {s:?}"
+        );
+    }
+    assert!(sy[1] > 1.4 * sy[0], "σ_y {sy:?}");
+    assert!(text.contains("yield       N =    120  eps_y = "), "{text}");
+    assert!(
+        text.contains("check       sigma_y/W0 equal across sizes within 10 %: spread"),
+        "{text}"
+    );
     let cv = read_table(&curves, &[]).unwrap();
     let (n, chi) = (cv.i64("n").unwrap(), cv.f64("chi").unwrap());
     assert!(n.contains(&120) && n.contains(&360));

@@ -81,6 +81,7 @@ pub fn strain_blocks(
                 Some(points) => out.push(StrainSeries {
                     label: label.to_string(),
                     points,
+                    yield_point: None,
                 }),
                 None => return Ok(None),
             }
@@ -96,6 +97,36 @@ pub fn strain_blocks(
             "σ = F_bar / W",
         ),
     };
+    // The yield point of each stress curve (docs/size-scan.md, "Yield").
+    let mut series = series;
+    let mut yields = Vec::new();
+    for ser in &mut series {
+        let (e, s): (Vec<f64>, Vec<f64>) = ser.points.iter().copied().unzip();
+        match crate::structure::yielding::yield_point(
+            &e,
+            &s,
+            crate::stages::sizes::WINDOW.1,
+            crate::stages::sizes::YIELD_REPLICATES,
+            crate::stages::sizes::YIELD_SEED,
+        ) {
+            crate::structure::yielding::Yield::Reached(p) => {
+                yields.push(format!(
+                    "{}: ε_y = {:.4} [{:.4}, {:.4}], σ_y = {:.3} [{:.3}, {:.3}] {unit}",
+                    ser.label,
+                    p.eps_y,
+                    p.eps_interval[0],
+                    p.eps_interval[1],
+                    p.sigma_y,
+                    p.sigma_interval[0],
+                    p.sigma_interval[1]
+                ));
+                ser.yield_point = Some(p);
+            }
+            crate::structure::yielding::Yield::NotReached(why) => {
+                yields.push(format!("{}: yield not reached ({why})", ser.label))
+            }
+        }
+    }
     let mut blocks = Vec::new();
     let mut figure = |fig: StrainCurveFigure, file: &str, caption: String| -> Result<()> {
         let saved = save(&fig, &figdir.join(file))?;
@@ -110,12 +141,15 @@ pub fn strain_blocks(
     };
     figure(
         StrainCurveFigure {
-            title: "Stress–strain (Fig. 4)".into(),
+            title: "Stress–strain with the yield point (Fig. 4)".into(),
             y_desc: format!("σ ({unit})"),
             series,
         },
         "stress_strain",
-        format!("{eq} against ε = ΔH/H0 (Li et al. Fig. 4)."),
+        format!(
+            "{eq} against ε = ΔH/H0 (Li et al. Fig. 4). Dashed: the elastic line of the yield rule (a least-squares broken stick over 0 ≤ ε ≤ 0.2, docs/size-scan.md) up to the yield point ×, its bars the 95 % bootstrap intervals of ε_y and σ_y. {}. The paper's stages 1–6 are not marked: it gives no strains for them.",
+            yields.join("; ")
+        ),
     )?;
     if let Some(series) = curves("kappa_exact")? {
         figure(

@@ -161,6 +161,9 @@ pub struct StrainSeries {
     pub label: String,
     /// (ε, y) pairs; points with a non-finite y (κ where P_in = 0) are skipped.
     pub points: Vec<(f64, f64)>,
+    /// A yield point to mark (stress curves): the elastic line from the origin to it,
+    /// dashed, and the point with its intervals as bars.
+    pub yield_point: Option<crate::structure::yielding::YieldPoint>,
 }
 
 /// A quantity against strain ε = ΔH/H0: stress (Fig. 4), κ = P_g-s/P_in (Fig. 10d).
@@ -211,6 +214,39 @@ impl Figure for StrainCurveFigure {
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x - 10, y), (x + 10, y)], c.stroke_width(2))
                 });
+            if let Some(p) = &ser.yield_point {
+                // The elastic line, dashed: ten pieces from the origin to (ε_y, σ_y).
+                chart
+                    .draw_series((0..10).step_by(2).map(|j| {
+                        let at = |q: f64| (q * p.eps_y, q * p.sigma_y);
+                        PathElement::new(
+                            vec![at(j as f64 / 10.0), at((j + 1) as f64 / 10.0)],
+                            BLACK.stroke_width(2),
+                        )
+                    }))
+                    .map_err(s)?;
+                chart
+                    .draw_series([
+                        PathElement::new(
+                            vec![
+                                (p.eps_interval[0], p.sigma_y),
+                                (p.eps_interval[1], p.sigma_y),
+                            ],
+                            BLACK.stroke_width(1),
+                        ),
+                        PathElement::new(
+                            vec![
+                                (p.eps_y, p.sigma_interval[0]),
+                                (p.eps_y, p.sigma_interval[1]),
+                            ],
+                            BLACK.stroke_width(1),
+                        ),
+                    ])
+                    .map_err(s)?;
+                chart
+                    .draw_series([Cross::new((p.eps_y, p.sigma_y), 7, c.stroke_width(3))])
+                    .map_err(s)?;
+            }
         }
         chart
             .configure_series_labels()
