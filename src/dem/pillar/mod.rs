@@ -20,6 +20,7 @@ pub mod kernels;
 pub mod pack;
 pub mod params;
 pub mod phases;
+pub mod stress;
 
 use crate::dem::base::forces::ContactRecord;
 use crate::dem::base::grains::{Grains, LARGE};
@@ -339,7 +340,18 @@ impl PillarSim {
 
     /// Engineering strain ε = ΔH/H0 (Sec. III), H0 the initial bar separation.
     pub fn strain(&self) -> f64 {
-        (self.top_y0 - self.top_y()) / (self.top_y0 - self.bottom_y)
+        stress::strain(self.top_y0, self.bottom_y, self.top_y())
+    }
+
+    /// The bar state [`stress::stress_point`] turns into ε, σ and P_in, with the top
+    /// bar force `top_force` (N).
+    pub fn bar_state(&self, top_force: f64) -> stress::BarState {
+        stress::BarState {
+            top_y0: self.top_y0,
+            bottom_y: self.bottom_y,
+            top_y: self.top_y(),
+            top_force,
+        }
     }
 
     /// Advance one time step δt (on this thread; `advance` runs many on several).

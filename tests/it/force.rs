@@ -1,0 +1,313 @@
+//! `ingest-force`: a force sensor's CSV → bar_forces and stress_strain (li-granular-pillars
+//! Fig. 4a), with the simulator's definitions of ε and σ; bad input named by file, line
+//! and column.
+
+use crate::common::{cli, tmpdir};
+use pillar_pipe::dem::pillar::params::PillarParams;
+use pillar_pipe::io::table::read_table;
+use std::path::Path;
+
+fn col(p: &Path, name: &str) -> Vec<f64> {
+    read_table(p, &[]).unwrap().f64(name).unwrap()
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1e-300)
+}
+
+/// m g μ / D of the paper's grains (N/m): the default stress unit.
+fn paper_unit() -> f64 {
+    PillarParams::paper().stress_unit()
+}
+
+/// Constant force at a constant bar speed: σ = F / W on every row, ε = v t / H0; units
+/// and geometry from `ingest.toml` beside the file, the force's unit in the header.
+#[test]
+fn constant_force_gives_constant_stress() {
+    let d = tmpdir("force-const");
+    std::fs::write(
+        d.join("ingest.toml"),
+        "unit = \"cm\"\nbar_speed = 0.01\nheight = 10.0\nwidth = 5.0\ntime_unit = \"s\"\n",
+    )
+    .unwrap();
+    let csv = d.join("sensor.csv");
+    let mut text = String::from("time,force [N]\n");
+    for k in 0..=20 {
+        text.push_str(&format!("{},0.5\n", 5 * k));
+    }
+    std::fs::write(&csv, text).unwrap();
+    let (ok, out) = cli(&["ingest-force", csv.to_str().unwrap()]);
+    assert!(ok, "{out}");
+    assert!(out.contains("ingest.toml"), "{out}");
+    let bar = d.join("sensor.bar_forces.parquet");
+    let ss = d.join("sensor.stress_strain.parquet");
+    // bar_forces: the simulator's columns and units (s, N, cm).
+    assert_eq!(
+        read_table(&bar, &[]).unwrap().columns(),
+        pillar_pipe::schema::load("bar_forces").names()
+    );
+    let (t, top_y) = (col(&bar, "time"), col(&bar, "top_y"));
+    for (t, y) in t.iter().zip(&top_y) {
+        assert!(close(*y, 10.0 - 0.01 * t), "top_y {y} at t {t}");
+    }
+    assert!(col(&bar, "bottom_y").iter().all(|y| *y == 0.0));
+    assert!(col(&bar, "top_force").iter().all(|f| *f == 0.5));
+    // σ = 0.5 N / 0.05 m = 10 N/m; ε = 0.01 cm/s × t / 10 cm.
+    let (e, s, r) = (
+        col(&ss, "strain"),
+        col(&ss, "stress"),
+        col(&ss, "stress_reduced"),
+    );
+    let time = col(&ss, "time");
+    for i in 0..e.len() {
+        assert!(close(s[i], 10.0), "σ {}", s[i]);
+        assert!(close(r[i], 10.0 / paper_unit()), "σ/(mgμ/D) {}", r[i]);
+        assert!((e[i] - 0.001 * time[i]).abs() < 1e-12, "ε {}", e[i]);
+    }
+    assert!(close(*e.last().unwrap(), 0.1));
+    // P_in = F v_c = 0.5 N × 1e-4 m/s.
+    assert!(col(&ss, "p_in").iter().all(|p| close(*p, 5e-5)));
+    // Every stress_strain column written is one of the simulator's, the required all.
+    let sch = pillar_pipe::schema::load("stress_strain");
+    let written = read_table(&ss, &[]).unwrap().columns();
+    for c in &written {
+        assert!(sch.column(c).is_some(), "{c} not in the schema");
+    }
+    for c in sch.required() {
+        assert!(written.iter().any(|w| w == c), "{c} required, not written");
+    }
+}
+
+/// A force ramp F = a·d against bar travel d (no time column: t = d / v_c), in mN and mm,
+/// units in comment lines: σ(ε) = a H0 / W · ε, a known slope.
+#[test]
+fn force_ramp_gives_known_slope() {
+    let d = tmpdir("force-ramp");
+    let csv = d.join("ramp.csv");
+    // a = 40 mN/mm = 40 N/m; H0 = 200 mm, W = 100 mm: dσ/dε = 40 × 0.2 / 0.1 = 80 N/m.
+    let mut text = String::from(
+        "# force sensor, bar travel from the crosshead\n# force_unit = mN\n# unit = mm\n# height = 200\n# width = 100\n# bar_speed = 0.5\nindex;displacement;force\n",
+    );
+    for k in 0..=40 {
+        let disp = 0.5 * k as f64;
+        text.push_str(&format!("{k};{disp};{}\n", 40.0 * disp));
+    }
+    std::fs::write(&csv, text).unwrap();
+    let ss = d.join("ss.csv");
+    let (ok, out) = cli(&[
+        "ingest-force",
+        csv.to_str().unwrap(),
+        "-o",
+        d.join("bf.parquet").to_str().unwrap(),
+        "--stress-strain",
+        ss.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}");
+    let (e, s, t) = (col(&ss, "strain"), col(&ss, "stress"), col(&ss, "time"));
+    for i in 0..e.len() {
+        assert!(
+            (s[i] - 80.0 * e[i]).abs() < 1e-9,
+            "σ {} at ε {}",
+            s[i],
+            e[i]
+        );
+        // t = d / v_c, d = 0.5 k mm at 0.5 mm/s.
+        assert!((t[i] - i as f64).abs() < 1e-9, "t {}", t[i]);
+    }
+    assert!(close(e[40], 0.1));
+    // A flag overrides the file's comment: W = 50 mm doubles σ.
+    let (ok, out) = cli(&[
+        "ingest-force",
+        csv.to_str().unwrap(),
+        "--width",
+        "50",
+        "--stress-strain",
+        ss.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}");
+    let (e, s) = (col(&ss, "strain"), col(&ss, "stress"));
+    assert!((s[40] - 160.0 * e[40]).abs() < 1e-9, "σ {}", s[40]);
+}
+
+/// Run on `text` and return the error output (the command must fail).
+fn refused(name: &str, text: &str, extra: &[&str]) -> String {
+    let d = tmpdir(name);
+    let csv = d.join("bad.csv");
+    std::fs::write(&csv, text).unwrap();
+    let mut a = vec!["ingest-force", csv.to_str().unwrap()];
+    a.extend_from_slice(extra);
+    let (ok, out) = cli(&a);
+    assert!(!ok, "accepted:\n{out}");
+    assert!(out.contains("bad.csv"), "no file name: {out}");
+    out
+}
+
+const GEOMETRY: &str = "# unit = cm\n# height = 20\n# width = 10\n# bar_speed = 0.01\n";
+
+#[test]
+fn a_missing_force_column_is_named() {
+    let out = refused(
+        "force-nocol",
+        &format!("{GEOMETRY}# force_unit = N\ntime,load_cell_volts\n0,1\n1,2\n"),
+        &[],
+    );
+    assert!(out.contains("line 6, column 'force'"), "{out}");
+    assert!(out.contains("no force column"), "{out}");
+}
+
+#[test]
+fn a_non_monotonic_time_is_named() {
+    let out = refused(
+        "force-time",
+        &format!("{GEOMETRY}time [s],force [N]\n0,0\n1,0.1\n3,0.2\n2,0.3\n"),
+        &[],
+    );
+    // Line 9 (`2,0.3`) goes back in time.
+    assert!(out.contains("line 9, column 'time [s]'"), "{out}");
+    assert!(out.contains("does not increase"), "{out}");
+    // Without a time column, the displacement must increase likewise.
+    let out = refused(
+        "force-disp",
+        &format!("{GEOMETRY}displacement,force [N]\n0,0\n0.1,0.1\n0.1,0.2\n"),
+        &[],
+    );
+    assert!(out.contains("line 8, column 'displacement'"), "{out}");
+}
+
+#[test]
+fn a_unit_not_understood_is_named() {
+    // In the header.
+    let out = refused(
+        "force-unit-h",
+        &format!("{GEOMETRY}time [s],force [stone]\n0,0\n1,1\n"),
+        &[],
+    );
+    assert!(out.contains("line 5, column 'force [stone]'"), "{out}");
+    assert!(
+        out.contains("'stone' not understood") && out.contains("mN"),
+        "{out}"
+    );
+    // In a comment line.
+    let out = refused(
+        "force-unit-c",
+        &format!("# force_unit = pound\n{GEOMETRY}time [s],force\n0,0\n1,1\n"),
+        &[],
+    );
+    assert!(out.contains("line 1, column 'force_unit'"), "{out}");
+    // A flag.
+    let out = refused(
+        "force-unit-f",
+        &format!("{GEOMETRY}time,force [N]\n0,0\n1,1\n"),
+        &["--time-unit", "fortnight"],
+    );
+    assert!(
+        out.contains("--time-unit") && out.contains("fortnight"),
+        "{out}"
+    );
+    // No unit at all.
+    let out = refused(
+        "force-unit-none",
+        &format!("{GEOMETRY}time [s],force\n0,0\n1,1\n"),
+        &[],
+    );
+    assert!(
+        out.contains("line 5, column 'force'") && out.contains("no force unit"),
+        "{out}"
+    );
+    // Header and setting disagree.
+    let out = refused(
+        "force-unit-clash",
+        &format!("# force_unit = N\n{GEOMETRY}time [s],force [mN]\n0,0\n1,1\n"),
+        &[],
+    );
+    assert!(out.contains("disagrees with force_unit"), "{out}");
+}
+
+#[test]
+fn a_bad_number_and_missing_geometry_are_named() {
+    let out = refused(
+        "force-num",
+        &format!("{GEOMETRY}time [s],force [N]\n0,0\n1,abc\n"),
+        &[],
+    );
+    assert!(
+        out.contains("line 7, column 'force [N]'") && out.contains("'abc'"),
+        "{out}"
+    );
+    let out = refused(
+        "force-noh",
+        "# unit = cm\n# width = 10\ntime [s],force [N]\n0,0\n1,1\n",
+        &["--bar-speed", "0.01"],
+    );
+    assert!(out.contains("height") && out.contains("H0"), "{out}");
+}
+
+#[test]
+fn help_states_units() {
+    let (ok, out) = cli(&["ingest-force", "--help"]);
+    assert!(ok, "{out}");
+    for needle in [
+        "N, mN, kN",
+        "s, ms, us, min",
+        "m, cm, mm, um",
+        "length unit per second",
+        "m g μ / D",
+        "time s, forces N, bar faces cm",
+    ] {
+        assert!(out.contains(needle), "--help lacks '{needle}':\n{out}");
+    }
+}
+
+/// The simulator's own bar_forces, turned into stress–strain by `ingest-force`'s code
+/// with the simulator's widths, give the simulator's ε, σ, σ/(m g μ / D) and P_in: one
+/// definition for Fig. 4a and Fig. 4b.
+#[test]
+fn the_simulators_bar_forces_give_its_stress_strain() {
+    let d = tmpdir("force-sim");
+    let (ok, out) = cli(&[
+        "simulate",
+        "pillar",
+        "--n",
+        "120",
+        "--preset",
+        "fast",
+        "--strain",
+        "0.02",
+        "--quiet",
+        "-o",
+        d.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}");
+    let bar = read_table(&d.join("bar_forces.parquet"), &[]).unwrap();
+    let ss = d.join("stress_strain.parquet");
+    let p = PillarParams::fast();
+    let top_y = bar.f64("top_y").unwrap();
+    let mine = pillar_pipe::stages::force::stress_strain(
+        &bar.df,
+        top_y[0],
+        &col(&ss, "width"),
+        p.stress_unit(),
+        p.bar_speed,
+    )
+    .unwrap();
+    let t = pillar_pipe::io::table::Table {
+        df: mine,
+        file: "mine".into(),
+        format: pillar_pipe::io::table::TableFormat::Parquet,
+    };
+    for c in [
+        "time",
+        "strain",
+        "stress",
+        "stress_reduced",
+        "p_in",
+        "top_force",
+    ] {
+        let (a, b) = (t.f64(c).unwrap(), col(&ss, c));
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() <= 1e-9 * y.abs().max(1e-9), "{c}: {x} vs {y}");
+        }
+    }
+    assert!(col(&ss, "stress").iter().any(|s| *s > 0.0));
+}
