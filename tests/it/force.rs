@@ -311,3 +311,43 @@ fn the_simulators_bar_forces_give_its_stress_strain() {
     }
     assert!(col(&ss, "stress").iter().any(|s| *s > 0.0));
 }
+
+/// In a pipeline, an ingest stage's `force` file gives the branch's measured
+/// stress–strain, drawn in the report beside the simulated one (Fig. 4a beside 4b).
+#[test]
+fn a_pipeline_reports_measured_beside_simulated() {
+    let d = tmpdir("force-pipe");
+    let csv = d.join("sensor.csv");
+    // 0.5 N on W = 10 cm: σ = 5 N/m; H0 = 20 cm at 0.0084667 cm/s.
+    let mut text = String::from(
+        "# unit = cm\n# height = 20\n# width = 10\n# bar_speed = 0.0084667\ntime [s],force [N]\n",
+    );
+    for k in 0..=30 {
+        text.push_str(&format!("{},0.5\n", 10 * k));
+    }
+    std::fs::write(&csv, text).unwrap();
+    let file = d.join("p.toml");
+    std::fs::write(
+        &file,
+        crate::common::with_ingest(
+            "[simulation.simulate]\nn = 120\nstrain = 0.02\n\n[report]\ndatasets = [\"experiment\", \"simulation\"]\n",
+        )
+        .replace(
+            "input = \"data/sample/tracks.csv\"\n",
+            &format!("input = \"data/sample/tracks.csv\"\nforce = '{}'\n", csv.display()),
+        ),
+    )
+    .unwrap();
+    let runs = d.join("runs");
+    crate::common::run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    let m = crate::common::latest(&runs);
+    assert_eq!(m["metrics"]["experiment.ingest"]["force_rows"], 31, "{m}");
+    let dir = runs.join(m["run_id"].as_str().unwrap());
+    let svg = std::fs::read_to_string(dir.join("figures/stress_strain.svg")).unwrap();
+    assert!(
+        svg.contains("experiment") && svg.contains("simulation"),
+        "{svg}"
+    );
+    // The simulation's κ is still drawn (the sensor has none).
+    assert!(dir.join("figures/kappa.svg").is_file());
+}
