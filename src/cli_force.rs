@@ -45,7 +45,7 @@ pub struct IngestForceArgs {
     /// Initial pillar height H0 (bar separation at time 0), length unit: ε = travel / H0.
     #[arg(long)]
     pub height: Option<f64>,
-    /// Pillar width W at the top edge, length unit: σ = F_bar / W.
+    /// Pillar width W at the top edge, length unit: σ = F_bar / W (or --tracks).
     #[arg(long)]
     pub width: Option<f64>,
     /// Large-grain diameter D, length unit, for σ in m g μ / D [default: 0.635 cm, the paper's].
@@ -57,6 +57,11 @@ pub struct IngestForceArgs {
     /// Grain–substrate friction μ, for σ in m g μ / D [default: 0.23, the paper's].
     #[arg(long)]
     pub mu: Option<f64>,
+    /// The experiment's tracks (canonical, e.g. from `ingest`: y = 0 at the bottom bar
+    /// face, frame times in s): W measured per frame as the simulator does (grains within
+    /// 2 D of the top bar), interpolated to the sensor's times, instead of one --width.
+    #[arg(long)]
+    pub tracks: Option<PathBuf>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -76,6 +81,8 @@ pub fn ingest_force(a: IngestForceArgs) -> Result<()> {
         grain_size: a.grain_size,
         grain_mass: a.grain_mass,
         mu: a.mu,
+        tracks: a.tracks,
+        width_over_tracks: false,
     };
     let rep = force::run(&a.input, &bar, &ss, &opt)
         .with_context(|| format!("ingest-force {}", a.input.display()))?;

@@ -93,9 +93,13 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 json!({"n": r.summary.particles_per_frame_max, "frames": r.summary.frames});
             // The experiment's force sensor (Fig. 4a), read as `ingest-force` does.
             if let Some(force) = s.files.get("force") {
+                // W per frame from the tracks just written, unless the sensor's settings
+                // give one W.
                 let opt = stages::force::ForceOptions {
                     unit: p.unit.clone(),
                     bar_speed: p.bar_speed,
+                    tracks: Some(out.join("tracks.parquet")),
+                    width_over_tracks: true,
                     ..Default::default()
                 };
                 let f = stages::force::run(

@@ -4,7 +4,7 @@
 //! beside Fig. 4b). The format is in `docs/ingest.md` ("Force sensor").
 
 use crate::dem::pillar::params::PillarParams;
-use crate::dem::pillar::stress::{BarState, stress_point};
+use crate::dem::pillar::stress::{BarState, WIDTH_BAND_D, stress_point, width_near_top};
 use crate::error::{Error, Result};
 use crate::io::table::{Table, write_table};
 use crate::stages::ingest::{IngestSettings, read_settings, settings_path};
@@ -38,6 +38,13 @@ pub struct ForceOptions {
     pub grain_mass: Option<f64>,
     /// Grain–substrate friction μ (default the paper's 0.23).
     pub mu: Option<f64>,
+    /// The experiment's tracks (canonical, y = 0 at the bottom bar face, times in s):
+    /// W measured per frame as the simulator does (grains within 2 D of the top bar),
+    /// instead of the one `width`.
+    pub tracks: Option<PathBuf>,
+    /// A `width` setting wins over `tracks` (a pipeline's ingest stage offers its tracks;
+    /// the CLI's explicit --tracks wins over a width).
+    pub width_over_tracks: bool,
 }
 
 /// Keys of [`ForceOptions`] as they are spelled in a comment line and `ingest.toml`.
@@ -566,11 +573,12 @@ pub fn read(input: &Path, opt: &ForceOptions) -> Result<(DataFrame, DataFrame, F
         }
     };
     let width = match num("width")? {
-        Some(v) => v * need_len("width")?,
+        Some(v) => Some(v * need_len("width")?),
+        None if opt.tracks.is_some() => None,
         None => {
             return Err(missing(
                 "width",
-                "the pillar width W at the top edge is needed for σ = F_bar / W",
+                "the pillar width W at the top edge is needed for σ = F_bar / W (or tracks to measure it per frame)",
             ));
         }
     };
@@ -684,10 +692,44 @@ pub fn read(input: &Path, opt: &ForceOptions) -> Result<(DataFrame, DataFrame, F
         ],
     )
     .map_err(|e| Error::polars("building bar_forces", e))?;
+    let tracks = opt
+        .tracks
+        .as_ref()
+        .filter(|_| !(opt.width_over_tracks && width.is_some()));
+    let (widths, width_from) = match tracks {
+        Some(tp) => {
+            if width.is_some() {
+                warnings.push(format!(
+                    "width given and tracks too: W is measured per frame from {}",
+                    tp.display()
+                ));
+            }
+            let top: Vec<f64> = disp.iter().map(|d| height - d).collect();
+            let w = widths_from_tracks(tp, &time, &top, WIDTH_BAND_D * p.d_large)?;
+            let (t0, t1) = (w[0].0, w[w.len() - 1].0);
+            if time[0] < t0 - 1e-9 || time[n - 1] > t1 + 1e-9 {
+                warnings.push(format!(
+                    "the sensor's times {}–{} s reach beyond the tracked frames' {t0}–{t1} s: W held at the nearest frame's there",
+                    time[0],
+                    time[n - 1]
+                ));
+            }
+            let (wt, wv): (Vec<f64>, Vec<f64>) = w.iter().copied().unzip();
+            let per_row = time.iter().map(|t| interp(&wt, &wv, *t) * CM).collect();
+            (
+                per_row,
+                serde_json::json!({"tracks": tp.display().to_string(), "frames": w.len(), "band_m": WIDTH_BAND_D * p.d_large}),
+            )
+        }
+        None => {
+            let w = width.expect("required without tracks");
+            (vec![w * CM; n], serde_json::json!({"constant_m": w}))
+        }
+    };
     let ss = stress_strain(
         &bar,
         height * CM,
-        &vec![width * CM; n],
+        &widths,
         p.stress_unit(),
         bar_speed.unwrap_or(f64::NAN),
     )?;
@@ -704,6 +746,7 @@ pub fn read(input: &Path, opt: &ForceOptions) -> Result<(DataFrame, DataFrame, F
             serde_json::json!({"value": s.value, "from": describe(s)}),
         );
     }
+    resolved.insert("width_from".into(), width_from);
     resolved.insert(
         "stress_unit_n_per_m".into(),
         serde_json::json!(p.stress_unit()),
@@ -725,6 +768,83 @@ pub fn read(input: &Path, opt: &ForceOptions) -> Result<(DataFrame, DataFrame, F
         warnings,
     };
     Ok((bar, ss, report))
+}
+
+/// Linear interpolation of y(x) at `at`, x increasing, held at the ends.
+fn interp(x: &[f64], y: &[f64], at: f64) -> f64 {
+    let k = x.partition_point(|v| *v < at);
+    if k == 0 {
+        return y[0];
+    }
+    if k >= x.len() {
+        return y[x.len() - 1];
+    }
+    let (x0, x1) = (x[k - 1], x[k]);
+    let f = if x1 > x0 { (at - x0) / (x1 - x0) } else { 1.0 };
+    y[k - 1] + f * (y[k] - y[k - 1])
+}
+
+/// W per tracked frame, (time s, W m), from the experiment's tracks with the simulator's
+/// rule ([`width_near_top`]: grains within `band` m of the top bar), the top bar's face at
+/// each frame's time interpolated from the sensor's (`time` s, `top` m). Frames with no
+/// grain in the band are skipped; none at all is an error.
+pub fn widths_from_tracks(
+    path: &Path,
+    time: &[f64],
+    top: &[f64],
+    band: f64,
+) -> Result<Vec<(f64, f64)>> {
+    let file = path.display().to_string();
+    let (t, _) = crate::io::read_tracks(path)?;
+    let lf = unit_factor("length", &t.meta.length_unit).ok_or_else(|| {
+        Error::input(
+            &file,
+            format!(
+                "length unit '{}' is not one of {}: W needs the tracks in real units",
+                t.meta.length_unit,
+                known_units("length")
+            ),
+        )
+    })?;
+    let tf = unit_factor("time", &t.meta.time_unit);
+    let scale = |v: &[f64]| v.iter().map(|v| v * lf).collect::<Vec<_>>();
+    let mut out = Vec::new();
+    for (frame, r) in t.frame_ranges() {
+        let ft = match (&t.time, t.meta.frame_time, tf) {
+            (Some(tt), _, Some(tf)) => tt[r.start] * tf,
+            (None, Some(dt), Some(tf)) => frame as f64 * dt * tf,
+            _ => {
+                return Err(Error::input(
+                    &file,
+                    format!(
+                        "no frame times in seconds (time unit '{}', frame time {:?}): give ingest a frame time",
+                        t.meta.time_unit, t.meta.frame_time
+                    ),
+                ));
+            }
+        };
+        let w = width_near_top(
+            &scale(&t.x[r.clone()]),
+            &scale(&t.y[r.clone()]),
+            &scale(&t.radius[r.clone()]),
+            interp(time, top, ft),
+            band,
+        );
+        if w > 0.0 {
+            out.push((ft, w));
+        }
+    }
+    if out.is_empty() {
+        let ymax = t.y.iter().fold(f64::NEG_INFINITY, |a, b| a.max(*b)) * lf;
+        return Err(Error::input(
+            &file,
+            format!(
+                "no grain within {band} m of the top bar in any frame (the top bar at {} m at the sensor's first row, the highest grain centre at {ymax} m): the tracks' y = 0 must be the bottom bar face and `height` the initial bar separation",
+                top[0]
+            ),
+        ));
+    }
+    Ok(out)
 }
 
 /// A `bar_forces` table (s, N, cm; data_schema/bar_forces.schema.json) → the

@@ -318,9 +318,10 @@ fn the_simulators_bar_forces_give_its_stress_strain() {
 fn a_pipeline_reports_measured_beside_simulated() {
     let d = tmpdir("force-pipe");
     let csv = d.join("sensor.csv");
-    // 0.5 N on W = 10 cm: σ = 5 N/m; H0 = 20 cm at 0.0084667 cm/s.
+    // 0.5 N, H0 = 24.69 cm (the sample's top bar at frame 0) at 0.0084667 cm/s; no
+    // width, so W comes from the sample's tracks frame by frame.
     let mut text = String::from(
-        "# unit = cm\n# height = 20\n# width = 10\n# bar_speed = 0.0084667\ntime [s],force [N]\n",
+        "# unit = cm\n# height = 24.69\n# bar_speed = 0.0084667\ntime [s],force [N]\n",
     );
     for k in 0..=30 {
         text.push_str(&format!("{},0.5\n", 10 * k));
@@ -343,6 +344,18 @@ fn a_pipeline_reports_measured_beside_simulated() {
     let m = crate::common::latest(&runs);
     assert_eq!(m["metrics"]["experiment.ingest"]["force_rows"], 31, "{m}");
     let dir = runs.join(m["run_id"].as_str().unwrap());
+    // W from the sample's tracks: about 12 cm at the start, widening as it flows.
+    let ss = runs
+        .join("cache")
+        .read_dir()
+        .unwrap()
+        .flatten()
+        .map(|e| e.path().join("stress_strain.parquet"))
+        .find(|p| p.is_file() && p.to_string_lossy().contains("ingest"))
+        .expect("the ingest stage's stress_strain");
+    let w = col(&ss, "width");
+    assert!(w[0] > 10.0 && w[0] < 14.0, "W {w:?}");
+    assert!(w[30] > w[0], "W {w:?}");
     let svg = std::fs::read_to_string(dir.join("figures/stress_strain.svg")).unwrap();
     assert!(
         svg.contains("experiment") && svg.contains("simulation"),
@@ -350,4 +363,84 @@ fn a_pipeline_reports_measured_beside_simulated() {
     );
     // The simulation's κ is still drawn (the sensor has none).
     assert!(dir.join("figures/kappa.svg").is_file());
+}
+
+/// With the experiment's tracks, W is measured per frame by the simulator's rule (the
+/// grains within 2 D of the top bar) and interpolated to the sensor's times: a planted
+/// top row 11 cm wide at t = 0 and 21 cm at t = 10 s, over a wider base out of the band.
+#[test]
+fn tracks_give_the_width_per_frame() {
+    let d = tmpdir("force-tracks");
+    let mut rows = String::from("frame,particle,x,y,radius\n");
+    let mut id = 0;
+    for (frame, n_top) in [(0, 11), (1, 21)] {
+        for i in 0..n_top {
+            rows.push_str(&format!("{frame},{id},{}.5,19.5,0.5\n", i));
+            id += 1;
+        }
+        // A base 101 cm wide, 19 cm below the top bar: outside the 2 cm band.
+        for i in 0..101 {
+            rows.push_str(&format!(
+                "{frame},{},{}.0,0.5,0.5\n",
+                1000 + i,
+                i as i64 - 50
+            ));
+        }
+        id = 100;
+    }
+    let raw = d.join("raw.csv");
+    std::fs::write(&raw, rows).unwrap();
+    let tracks = d.join("tracks.parquet");
+    let (ok, out) = cli(&[
+        "ingest",
+        raw.to_str().unwrap(),
+        "--unit",
+        "cm",
+        "--frame-time",
+        "10",
+        "-o",
+        tracks.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}");
+    let csv = d.join("sensor.csv");
+    // H0 = 20 cm, the bar nearly still (1e-4 cm/s), D = 1 cm: the band is 2 cm.
+    std::fs::write(
+        &csv,
+        "# unit = cm\n# height = 20\n# grain_size = 1\n# bar_speed = 0.0001\ntime [s],force [N]\n0,1.1\n5,1.6\n10,2.1\n15,2.1\n",
+    )
+    .unwrap();
+    let ss = d.join("ss.csv");
+    let (ok, out) = cli(&[
+        "ingest-force",
+        csv.to_str().unwrap(),
+        "--tracks",
+        tracks.to_str().unwrap(),
+        "--stress-strain",
+        ss.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{out}");
+    // W = 11, 16 (interpolated), 21, 21 (held past the last frame) cm; F/W = 10 N/m.
+    let w = col(&ss, "width");
+    for (a, b) in w.iter().zip([11.0, 16.0, 21.0, 21.0]) {
+        assert!((a - b).abs() < 1e-9, "W {w:?}");
+    }
+    assert!(col(&ss, "stress").iter().all(|s| (s - 10.0).abs() < 1e-9));
+    assert!(out.contains("reach beyond the tracked frames"), "{out}");
+    // Tracks whose grains never come near the top bar (a wrong height) are refused.
+    std::fs::write(
+        &csv,
+        "# unit = cm\n# height = 40\n# grain_size = 1\n# bar_speed = 0.0001\ntime [s],force [N]\n0,1\n10,1\n",
+    )
+    .unwrap();
+    let (ok, out) = cli(&[
+        "ingest-force",
+        csv.to_str().unwrap(),
+        "--tracks",
+        tracks.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && out.contains("no grain within") && out.contains("tracks.parquet"),
+        "{out}"
+    );
 }

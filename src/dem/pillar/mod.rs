@@ -407,16 +407,8 @@ impl PillarSim {
     /// Lateral extent (m), radii included, of the grains whose centres lie within
     /// `band` of the top bar (the paper's pillar width W at the top edge).
     pub fn width_near_top(&self, band: f64) -> f64 {
-        let top = self.top_y();
         let g = &self.grains;
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for i in 0..g.len() {
-            if top - g.y[i] <= band {
-                lo = lo.min(g.x[i] - g.radius[i]);
-                hi = hi.max(g.x[i] + g.radius[i]);
-            }
-        }
-        if hi > lo { hi - lo } else { 0.0 }
+        stress::width_near_top(&g.x, &g.y, &g.radius, self.top_y(), band)
     }
 
     /// Span (m), radii included, of the grains touching the top bar.

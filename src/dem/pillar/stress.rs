@@ -30,6 +30,19 @@ pub struct StressPoint {
     pub p_in: f64,
 }
 
+/// The pillar width W at the top edge: the lateral extent, radii included, of the grains
+/// whose centres lie within `band` below the top bar's face `top` (0 when there are none).
+pub fn width_near_top(x: &[f64], y: &[f64], radius: &[f64], top: f64, band: f64) -> f64 {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for i in 0..x.len() {
+        if top - y[i] <= band {
+            lo = lo.min(x[i] - radius[i]);
+            hi = hi.max(x[i] + radius[i]);
+        }
+    }
+    if hi > lo { hi - lo } else { 0.0 }
+}
+
 /// Engineering strain ε = ΔH/H0 (Sec. III) with the bottom bar fixed at `bottom_y`.
 pub fn strain(top_y0: f64, bottom_y: f64, top_y: f64) -> f64 {
     (top_y0 - top_y) / (top_y0 - bottom_y)
