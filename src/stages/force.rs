@@ -201,6 +201,8 @@ type Header = (usize, Vec<(&'static str, Col)>, char, usize);
 fn parse_sensor(path: &Path) -> Result<Sensor> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    // A spreadsheet's byte-order mark is not part of the first name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut comments = Vec::new();
     let mut header: Option<Header> = None;
     let mut rows = Vec::new();
@@ -392,7 +394,20 @@ fn setting_err(file: &str, key: &str, s: &Setting, msg: String) -> Error {
     match &s.origin {
         Origin::Flag => Error::param(format!("--{}", key.replace('_', "-")), msg),
         Origin::Comment(line) => value_err(file, *line, key, msg),
-        Origin::Toml(p) => Error::input(p.display(), format!("{key}: {msg}")),
+        Origin::Toml(p) => {
+            // The key's line in the settings file, where it can be found.
+            let line = std::fs::read_to_string(p).ok().and_then(|t| {
+                t.lines().position(|l| {
+                    l.trim_start()
+                        .strip_prefix(key)
+                        .is_some_and(|r| r.trim_start().starts_with('='))
+                })
+            });
+            match line {
+                Some(i) => value_err(&p.display().to_string(), i + 1, key, msg),
+                None => Error::input(p.display(), format!("{key}: {msg}")),
+            }
+        }
     }
 }
 
@@ -655,7 +670,7 @@ pub fn read(input: &Path, opt: &ForceOptions) -> Result<(DataFrame, DataFrame, F
             *n,
             c,
             format!(
-                "bar travel {} m at row {} reaches the pillar height H0 = {height} m",
+                "bar travel {:.6} m at row {} reaches the pillar height H0 = {height:.6} m",
                 d,
                 k + 1
             ),

@@ -194,6 +194,21 @@ fn a_unit_not_understood_is_named() {
         &[],
     );
     assert!(out.contains("line 1, column 'force_unit'"), "{out}");
+    // In ingest.toml beside the file: that file, the key's line.
+    let d = tmpdir("force-unit-t");
+    std::fs::write(
+        d.join("ingest.toml"),
+        "unit = \"cm\"\ntime_unit = \"jiffy\"\n",
+    )
+    .unwrap();
+    let csv = d.join("s.csv");
+    std::fs::write(&csv, format!("{GEOMETRY}time,force [N]\n0,0\n1,1\n")).unwrap();
+    let (ok, out) = cli(&["ingest-force", csv.to_str().unwrap()]);
+    assert!(!ok, "{out}");
+    assert!(
+        out.contains("ingest.toml: line 2, column 'time_unit'") && out.contains("'jiffy'"),
+        "{out}"
+    );
     // A flag.
     let out = refused(
         "force-unit-f",
@@ -443,4 +458,32 @@ fn tracks_give_the_width_per_frame() {
         !ok && out.contains("no grain within") && out.contains("tracks.parquet"),
         "{out}"
     );
+}
+
+/// A spreadsheet's export: byte-order mark, CRLF line ends, tabs, quoted names, units in
+/// parentheses, an unused column.
+#[test]
+fn a_spreadsheet_export_reads() {
+    let d = tmpdir("force-bom");
+    let csv = d.join("export.csv");
+    std::fs::write(
+        &csv,
+        "\u{feff}# height = 10\r\n# width = 5\r\n# unit = cm\r\n\"Time (ms)\"\t\"Load (gf)\"\tchannel\r\n0\t0\t1\r\n1000\t51\t1\r\n",
+    )
+    .unwrap();
+    let ss = d.join("ss.csv");
+    let (ok, out) = cli(&[
+        "ingest-force",
+        csv.to_str().unwrap(),
+        "--bar-speed",
+        "0.01",
+        "--stress-strain",
+        ss.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}");
+    // 51 gf = 0.50014 N on 5 cm; t = 1 s, ε = 0.01 / 10.
+    let (t, s, e) = (col(&ss, "time"), col(&ss, "stress"), col(&ss, "strain"));
+    assert_eq!(t, [0.0, 1.0]);
+    assert!(close(s[1], 51.0 * 9.80665e-3 / 0.05), "σ {s:?}");
+    assert!(close(e[1], 0.001), "ε {e:?}");
 }
