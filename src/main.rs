@@ -3,6 +3,7 @@
 mod cli_bench;
 mod cli_camera;
 mod cli_camera_render;
+mod cli_force;
 mod cli_runs;
 mod cli_sim;
 
@@ -70,6 +71,7 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    IngestForce(cli_force::IngestForceArgs),
     /// Per-particle J, η, η^s, J2, D²min and velocity between frames t and t+Δt
     /// (Li et al. Eqs. 13–18); writes the `kinematics` table.
     Kinematics {
@@ -235,7 +237,9 @@ enum Cmd {
     },
     /// One task of a Slurm job array submitted by `run`/`sweep --executor slurm`.
     #[command(hide = true)]
-    SlurmJob { spec: PathBuf },
+    SlurmJob {
+        spec: PathBuf,
+    },
     /// Tracked pipeline runs: list, show, compare.
     Runs {
         #[command(subcommand)]
@@ -709,6 +713,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Bench { what } => cli_bench::bench(what)?,
         Cmd::Simulate { what } => cli_sim::simulate(what)?,
         Cmd::Pack(a) => cli_sim::pack(a)?,
+        Cmd::IngestForce(a) => cli_force::ingest_force(a)?,
         Cmd::Locate(a) => cli_camera::locate(a)?,
         Cmd::Link(a) => cli_camera::link(a)?,
         Cmd::Track(a) => cli_camera::track(a)?,

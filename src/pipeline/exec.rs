@@ -88,9 +88,36 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                 &out.join("tracks.parquet"),
                 &p.options()?,
             )?;
+            let mut files = vec![("tracks", "tracks.parquet")];
+            let mut metrics =
+                json!({"n": r.summary.particles_per_frame_max, "frames": r.summary.frames});
+            // The experiment's force sensor (Fig. 4a), read as `ingest-force` does.
+            if let Some(force) = s.files.get("force") {
+                // W per frame from the tracks just written, unless the sensor's settings
+                // give one W.
+                let opt = stages::force::ForceOptions {
+                    unit: p.unit.clone(),
+                    bar_speed: p.bar_speed,
+                    tracks: Some(out.join("tracks.parquet")),
+                    width_over_tracks: true,
+                    ..Default::default()
+                };
+                let f = stages::force::run(
+                    force,
+                    &out.join("bar_forces.parquet"),
+                    &out.join("stress_strain.parquet"),
+                    &opt,
+                )?;
+                files.extend([
+                    ("bar_forces", "bar_forces.parquet"),
+                    ("stress_strain", "stress_strain.parquet"),
+                ]);
+                metrics["force_rows"] = json!(f.rows);
+                metrics["max_stress_reduced"] = json!(f.max_stress_reduced);
+            }
             Ok(Produced {
-                outputs: outputs(&[("tracks", "tracks.parquet")]),
-                metrics: json!({"n": r.summary.particles_per_frame_max, "frames": r.summary.frames}),
+                outputs: outputs(&files),
+                metrics,
                 summary: sum(&r),
             })
         }
@@ -293,6 +320,7 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
                     kinematics: ctx.optional(&d.kinematics, "kinematics"),
                     fit: ctx.optional(&d.fit, "fit"),
                     stress: ctx.optional(&d.stress, "stress_strain"),
+                    measured_stress: ctx.optional(&d.force, "stress_strain"),
                     // The same simulate stage writes the per-grain forces (Fig. 6).
                     forces: ctx.optional(&d.stress, "forces"),
                     shear: d

@@ -18,6 +18,9 @@ pub struct Dataset {
     pub fit: Option<String>,
     /// The simulate stage whose stress-strain and forces tables to plot.
     pub stress: Option<String>,
+    /// The ingest stage whose force sensor's stress-strain to plot (when it has one).
+    #[serde(default)]
+    pub force: Option<String>,
     /// A sheared-disk run (`shear` stage) of the branch.
     #[serde(default)]
     pub shear: Option<String>,
@@ -136,6 +139,7 @@ pub fn build(
                             ("kinematics", &d.kinematics),
                             ("fit", &d.fit),
                             ("stress", &d.stress),
+                            ("force", &d.force),
                             ("shear", &d.shear),
                             ("sweep", &d.sweep),
                         ] {
@@ -230,8 +234,19 @@ fn dataset(
         tracks: tracks.map(|s| s.name.clone()),
         kinematics: of(&[Kind::Kinematics], "kinematics")?.map(|s| s.name.clone()),
         fit: of(&[Kind::Fit], "fit")?.map(|s| s.name.clone()),
+        // A simulate stage's stress–strain, or an ingest stage's from a force sensor
+        // (absent without one: the report then finds no table).
         stress: tracks
             .filter(|s| s.kind == Kind::Simulate)
+            .map(|s| s.name.clone()),
+        // An experiment's force sensor, where its ingest stage has one (Fig. 4a).
+        force: raw
+            .iter()
+            .find(|s| {
+                s.branch.as_deref() == Some(b)
+                    && s.kind == Kind::Ingest
+                    && s.table.get("force").is_some()
+            })
             .map(|s| s.name.clone()),
         shear: of(&[Kind::Shear], "shear")?.map(|s| s.name.clone()),
         sweep: of(&[Kind::Sweep], "sweep")?.map(|s| s.name.clone()),

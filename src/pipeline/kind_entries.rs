@@ -5,7 +5,8 @@
 /// Each stage kind (by name) and the modules its stage function lives in; a kind's
 /// source key covers the files reachable from these in the import graph.
 pub const KIND_ENTRIES: &[(&str, &[&str])] = &[
-    ("ingest", &["src/stages/ingest.rs"]),
+    // `force` reads an ingest stage's force sensor (`ingest-force`).
+    ("ingest", &["src/stages/ingest.rs", "src/stages/force.rs"]),
     ("simulate", &["src/stages/simulate/mod.rs"]),
     ("kinematics", &["src/stages/kinematics.rs"]),
     ("fit", &["src/stages/fit/mod.rs"]),

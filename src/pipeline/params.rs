@@ -32,6 +32,8 @@ pub struct IngestParams {
     pub origin_px: Option<[f64; 2]>,
     pub bar_speed: Option<f64>,
     pub keep_detached: bool,
+    /// A force-sensor CSV (`ingest-force`) read beside the tracks.
+    pub force: Option<String>,
 }
 
 impl Default for IngestParams {
@@ -46,6 +48,7 @@ impl Default for IngestParams {
             origin_px: None,
             bar_speed: None,
             keep_detached: false,
+            force: None,
         }
     }
 }

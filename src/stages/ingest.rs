@@ -134,6 +134,20 @@ pub struct IngestSettings {
     pub origin_px: Option<[f64; 2]>,
     /// Bar speed v_c, length unit per second.
     pub bar_speed: Option<f64>,
+    /// Force sensor (`ingest-force`): unit of the force columns (N, mN, gf, ...).
+    pub force_unit: Option<String>,
+    /// Force sensor: unit of the time column (s, ms, min, ...).
+    pub time_unit: Option<String>,
+    /// Force sensor: initial pillar height H0, length unit.
+    pub height: Option<f64>,
+    /// Force sensor: pillar width W at the top edge, length unit.
+    pub width: Option<f64>,
+    /// Force sensor: large-grain diameter D, length unit (stress in m g μ / D).
+    pub grain_size: Option<f64>,
+    /// Force sensor: large-grain mass m, kg.
+    pub grain_mass: Option<f64>,
+    /// Force sensor: grain–substrate friction μ.
+    pub mu: Option<f64>,
 }
 
 /// The settings file that applies to `input`, if any.
@@ -148,20 +162,25 @@ pub fn settings_path(input: &Path) -> Option<PathBuf> {
     .find(|p| p.is_file())
 }
 
+/// Parse an `ingest.toml`; an error names its line.
+pub fn read_settings(path: &Path) -> Result<IngestSettings> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|sp| text[..sp.start].lines().count().max(1))
+            .unwrap_or(0);
+        Error::input(path.display(), format!("line {line}: {}", e.message()))
+    })
+}
+
 /// Fill the options the user did not give from the settings file beside the input.
 /// Returns the file used.
 pub fn apply_settings(input: &Path, opt: &mut IngestOptions) -> Result<Option<PathBuf>> {
     let Some(path) = settings_path(input) else {
         return Ok(None);
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-    let s: IngestSettings = toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|sp| text[..sp.start].lines().count().max(1))
-            .unwrap_or(0);
-        Error::input(path.display(), format!("line {line}: {}", e.message()))
-    })?;
+    let s = read_settings(&path)?;
     if (opt.format.is_none() || opt.format == Some(Format::Auto))
         && let Some(f) = &s.format
     {

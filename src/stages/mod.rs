@@ -2,6 +2,7 @@
 //! atomically with provenance, and returns a report. The CLI and the pipeline runner
 //! both call these; neither does any work of its own.
 
+pub mod force;
 pub mod ingest;
 
 /// Tool name and version recorded in every output.

@@ -10,6 +10,7 @@ mod camera_pipeline;
 mod camera_render;
 mod camera_track;
 mod fit;
+mod force;
 mod fuzz;
 mod ingest;
 mod interrupt;

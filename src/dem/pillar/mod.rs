@@ -20,6 +20,7 @@ pub mod kernels;
 pub mod pack;
 pub mod params;
 pub mod phases;
+pub mod stress;
 
 use crate::dem::base::forces::ContactRecord;
 use crate::dem::base::grains::{Grains, LARGE};
@@ -339,7 +340,18 @@ impl PillarSim {
 
     /// Engineering strain ε = ΔH/H0 (Sec. III), H0 the initial bar separation.
     pub fn strain(&self) -> f64 {
-        (self.top_y0 - self.top_y()) / (self.top_y0 - self.bottom_y)
+        stress::strain(self.top_y0, self.bottom_y, self.top_y())
+    }
+
+    /// The bar state [`stress::stress_point`] turns into ε, σ and P_in, with the top
+    /// bar force `top_force` (N).
+    pub fn bar_state(&self, top_force: f64) -> stress::BarState {
+        stress::BarState {
+            top_y0: self.top_y0,
+            bottom_y: self.bottom_y,
+            top_y: self.top_y(),
+            top_force,
+        }
     }
 
     /// Advance one time step δt (on this thread; `advance` runs many on several).
@@ -395,16 +407,8 @@ impl PillarSim {
     /// Lateral extent (m), radii included, of the grains whose centres lie within
     /// `band` of the top bar (the paper's pillar width W at the top edge).
     pub fn width_near_top(&self, band: f64) -> f64 {
-        let top = self.top_y();
         let g = &self.grains;
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for i in 0..g.len() {
-            if top - g.y[i] <= band {
-                lo = lo.min(g.x[i] - g.radius[i]);
-                hi = hi.max(g.x[i] + g.radius[i]);
-            }
-        }
-        if hi > lo { hi - lo } else { 0.0 }
+        stress::width_near_top(&g.x, &g.y, &g.radius, self.top_y(), band)
     }
 
     /// Span (m), radii included, of the grains touching the top bar.

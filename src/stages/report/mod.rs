@@ -37,6 +37,11 @@ pub struct DatasetInputs {
     /// drawn at the grains' positions in `tracks`.
     #[serde(default)]
     pub forces: Option<PathBuf>,
+    /// A force sensor's stress–strain table (`ingest-force`: `strain`, `stress`,
+    /// `stress_reduced` by sensor row), drawn with the stress–strain curves only (its
+    /// rows are not the tracks' frames).
+    #[serde(default)]
+    pub measured_stress: Option<PathBuf>,
     /// A sheared-disk run's directory (`summary.json`, `collision_angles.parquet`, …).
     #[serde(default)]
     pub shear: Option<PathBuf>,
@@ -189,11 +194,9 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
     }
 
     // Stress–strain and κ, where a data set has pillar data at all.
-    if opt
-        .datasets
-        .iter()
-        .any(|d| d.tracks.is_some() || d.stress.is_some() || d.fit.is_some())
-    {
+    if opt.datasets.iter().any(|d| {
+        d.tracks.is_some() || d.stress.is_some() || d.measured_stress.is_some() || d.fit.is_some()
+    }) {
         sections.push(Section {
             id: "stress".into(),
             title: "Stress–strain".into(),
@@ -244,6 +247,7 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
             ("kinematics", &d.kinematics),
             ("fit", &d.fit),
             ("stress", &d.stress),
+            ("measured stress", &d.measured_stress),
             ("forces", &d.forces),
             ("shear run", &d.shear),
             ("sweep", &d.sweep),

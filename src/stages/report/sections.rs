@@ -67,16 +67,29 @@ pub fn strain_blocks(
     figdir: &Path,
     figures: &mut Vec<SavedFigure>,
 ) -> Result<Vec<Block>> {
-    let tables: Vec<(&str, &Path)> = datasets
+    // Each data set's simulated curve and its measured one (a force sensor's, Fig. 4a).
+    let mut tables: Vec<(String, &Path)> = Vec::new();
+    for d in datasets {
+        match (d.stress.as_deref(), d.measured_stress.as_deref()) {
+            (Some(s), Some(m)) => {
+                tables.push((d.label.clone(), s));
+                tables.push((format!("{} (force sensor)", d.label), m));
+            }
+            (Some(p), None) | (None, Some(p)) => tables.push((d.label.clone(), p)),
+            (None, None) => {}
+        }
+    }
+    // κ is the simulator's alone.
+    let kappa_tables: Vec<(String, &Path)> = datasets
         .iter()
-        .filter_map(|d| d.stress.as_deref().map(|p| (d.label.as_str(), p)))
+        .filter_map(|d| d.stress.as_deref().map(|p| (d.label.clone(), p)))
         .collect();
     if tables.is_empty() {
         return Ok(vec![Block::Paragraph("No bar-force data in these inputs (trackpy experiments carry none unless a force table is given).".into())]);
     }
-    let curves = |col: &str| -> Result<Option<Vec<StrainSeries>>> {
+    let curves_of = |tables: &[(String, &Path)], col: &str| -> Result<Option<Vec<StrainSeries>>> {
         let mut out = Vec::new();
-        for (label, p) in &tables {
+        for (label, p) in tables {
             match strain_curve(p, col)? {
                 Some(points) => out.push(StrainSeries {
                     label: label.to_string(),
@@ -88,6 +101,7 @@ pub fn strain_blocks(
         }
         Ok(Some(out))
     };
+    let curves = |col: &str| curves_of(&tables, col);
     // The paper's unit m g μ / D where every table has it, so sizes compare (Fig. 4).
     let (series, unit, eq) = match curves("stress_reduced")? {
         Some(s) => (s, "m g μ / D", "σ = F_bar / W in units of m g μ / D"),
@@ -147,11 +161,18 @@ pub fn strain_blocks(
         },
         "stress_strain",
         format!(
-            "{eq} against ε = ΔH/H0 (Li et al. Fig. 4). Dashed: the elastic line of the yield rule (a least-squares broken stick over 0 ≤ ε ≤ 0.2, docs/size-scan.md) up to the yield point ×, its bars the 95 % bootstrap intervals of ε_y and σ_y. {}. The paper's stages 1–6 are not marked: it gives no strains for them.",
-            yields.join("; ")
+            "{eq} against ε = ΔH/H0 (Li et al. Fig. 4). Dashed: the elastic line of the yield rule (a least-squares broken stick over 0 ≤ ε ≤ 0.2, docs/size-scan.md) up to the yield point ×, its bars the 95 % bootstrap intervals of ε_y and σ_y. {}. The paper's stages 1–6 are not marked: it gives no strains for them.{}",
+            yields.join("; "),
+            if datasets.iter().any(|d| d.measured_stress.is_some()) {
+                " A force sensor's curve (Fig. 4a, `ingest-force`) divides by the one pillar width W it is given, the simulator's by W measured per frame."
+            } else {
+                ""
+            }
         ),
     )?;
-    if let Some(series) = curves("kappa_exact")? {
+    if let Some(series) = curves_of(&kappa_tables, "kappa_exact")?
+        && !series.is_empty()
+    {
         figure(
             StrainCurveFigure { title: "Substrate dissipation κ (Fig. 10d)".into(), y_desc: "κ = P_g-s / P_in".into(), series },
             "kappa",

@@ -4,6 +4,7 @@
 //! run's.
 
 use crate::dem::pillar::PillarSim;
+use crate::dem::pillar::stress::{WIDTH_BAND_D, stress_point};
 use crate::error::{Error, Result};
 use crate::io::table::{read_table, write_table};
 use polars::prelude::*;
@@ -152,9 +153,10 @@ impl Buffers {
 
         let p = &s.params;
         let d = p.d_large;
-        let w = s.width_near_top(2.0 * d);
-        let stress = if w > 0.0 { top / w } else { 0.0 };
-        let p_in = top * p.bar_speed;
+        let w = s.width_near_top(WIDTH_BAND_D * d);
+        // Sec. III's definitions, shared with `ingest-force` (a sensor's bar forces).
+        let sp = stress_point(s.bar_state(top), w, p.stress_unit(), p.bar_speed);
+        let p_in = sp.p_in;
         let p_exact = iv.substrate_power * k;
         let ss = &mut self.stress_strain;
         if let Some((_, Col::I64(c))) = ss.first_mut() {
@@ -162,14 +164,14 @@ impl Buffers {
         }
         for (name, v) in [
             ("time", t),
-            ("strain", s.strain()),
+            ("strain", sp.strain),
             ("top_force", top),
             ("bottom_force", bottom),
             ("width", w * CM),
             ("width_1d", s.width_near_top(d) * CM),
             ("width_contact", s.contact_span_top() * CM),
-            ("stress", stress),
-            ("stress_reduced", stress / p.stress_unit()),
+            ("stress", sp.stress),
+            ("stress_reduced", sp.stress_reduced),
             ("p_in", p_in),
             ("p_gs", st.p_gs),
             ("p_gs_exact", p_exact),
