@@ -71,6 +71,12 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
             assert!(p.is_file(), "{} missing", p.display());
         }
     }
+    // Issue 36 item 6: the J2 maps of every size stand at one strain, not at each
+    // run's busiest frame pair, and say which.
+    assert!(
+        html.contains("starting nearest ε = 0.1 (the same strain for every size"),
+        "the Fig. 11 maps' caption names their common strain"
+    );
     let g = std::fs::read_to_string(run_dir.join("figures/sizes_gofr_large.svg")).unwrap();
     assert!(
         g.contains("experiment"),

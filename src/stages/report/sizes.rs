@@ -391,10 +391,15 @@ fn shear_lines(
         };
         let by_frame = crate::stages::shear_lines::every_pair(&kin, &Default::default())?;
         let is_bulk = |l: &&ShearLine| l.angle_deg < BAR_LAYER_DEG;
-        // The frame pair with the most lines away from the bar layer, and its longest.
+        // The maps stand at one strain for every size (Fig. 11 compares sizes at one
+        // moment): the frame pair with a line away from the bar layer that starts
+        // nearest the frame at ε = MAP_STRAIN, and its longest such line. Each map's
+        // title states its own ε.
+        let target = frame_at_strain(&r.run, MAP_STRAIN)?;
         if let Some((frame, line)) = by_frame
             .iter()
-            .max_by_key(|(_, ls)| ls.iter().filter(is_bulk).count())
+            .filter(|(_, ls)| ls.iter().any(|l| is_bulk(&l)))
+            .min_by_key(|(f, _)| target.map_or(0, |t| (*f - t).abs()))
             .and_then(|(f, ls)| {
                 ls.iter()
                     .filter(is_bulk)
@@ -501,8 +506,8 @@ fn shear_lines(
     Ok(())
 }
 
-/// Fig. 11: for each run, the J2 map of the frame pair with the most shear lines and a
-/// zoom around its longest line (a square 12 D across, or 1.2 line lengths), on one
+/// Fig. 11: for each run, the J2 map of the frame pair nearest ε = `MAP_STRAIN` with a
+/// shear line away from the bar layer, and a zoom around its longest line (a square 12 D across, or 1.2 line lengths), on one
 /// log colour scale.
 fn j2_maps(
     f: &mut Figures,
@@ -559,9 +564,12 @@ fn j2_maps(
             panels,
         },
         "j2_lines",
-        "J2 at Δt of each run's kinematics stage (8/15 R/v_c in paper-sizes) for the frame pair with the most shear lines, and a zoom around its longest line: the transient shear lines of li-granular-pillars Fig. 11, about 45° to the compression axis and a few grains wide at every size.".into(),
+        "J2 at Δt of each run's kinematics stage (8/15 R/v_c in paper-sizes) for the frame pair starting nearest ε = 0.1 (the same strain for every size; each title gives its ε) among those with a shear line away from the bar layer, and a zoom around its longest line: the transient shear lines of li-granular-pillars Fig. 11, about 45° to the compression axis and a few grains wide at every size.".into(),
     )
 }
+
+/// The strain at which the Fig. 11 maps of every size stand.
+const MAP_STRAIN: f64 = 0.1;
 
 /// The strain of each frame of a run (its stress table).
 fn frame_at_strain(run: &Path, eps: f64) -> Result<Option<i64>> {
