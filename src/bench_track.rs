@@ -12,7 +12,7 @@
 
 use crate::bench_whole::median;
 use crate::camera::score::{TrackingScore, Truth, score};
-use crate::camera::{Feature, LinkOptions, LocateParams};
+use crate::camera::{LinkOptions, LocateParams};
 use crate::error::{Error, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -91,32 +91,6 @@ fn read_truth(path: &Path) -> Result<Vec<Truth>> {
         });
     }
     Ok(out)
-}
-
-/// A linked table's features and `particle` column.
-fn read_linked(path: &Path) -> Result<(Vec<Feature>, Vec<i64>)> {
-    let features = crate::io::features::read_features(path)?;
-    let file = path.display().to_string();
-    let mut rd = csv::Reader::from_path(path).map_err(|e| Error::input(&file, e.to_string()))?;
-    let head = rd
-        .headers()
-        .map_err(|e| Error::input(&file, e.to_string()))?
-        .clone();
-    let i = head
-        .iter()
-        .position(|h| h == "particle")
-        .ok_or_else(|| Error::input(&file, "no 'particle' column: not linked"))?;
-    let mut pid = Vec::with_capacity(features.len());
-    for (line, rec) in rd.records().enumerate() {
-        let rec = rec.map_err(|e| Error::input(&file, e.to_string()))?;
-        pid.push(rec[i].parse::<f64>().map_err(|e| Error::Value {
-            file: file.clone(),
-            loc: format!("line {}", line + 2),
-            column: "particle".into(),
-            msg: e.to_string(),
-        })? as i64);
-    }
-    Ok((features, pid))
 }
 
 /// Render the movie into `dir`, then `rounds` alternating whole runs of each tracker.
@@ -236,10 +210,10 @@ pub fn bench_track(
     bar.finish_and_clear();
     let truth = read_truth(&frames.join("ground_truth.csv"))?;
     let tol = settings.match_tolerance_px;
-    let (f, p) = read_linked(&ours_out)?;
+    let (f, p) = crate::io::features::read_linked(&ours_out)?;
     let ours_score = score(&truth, &f, Some(&p), tol);
     let trackpy_score = if trackpy.is_ok() {
-        let (f, p) = read_linked(&tp_out)?;
+        let (f, p) = crate::io::features::read_linked(&tp_out)?;
         Some(score(&truth, &f, Some(&p), tol))
     } else {
         None

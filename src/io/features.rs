@@ -36,11 +36,34 @@ pub const REQUIRED: &[&str] = &["x", "y", "frame"];
 /// Read a features table (CSV, or Parquet by extension). Errors name the file, and
 /// the line (row) and column of a bad value.
 pub fn read_features(path: &Path) -> Result<Vec<Feature>> {
+    Ok(read(path, false)?.0)
+}
+
+/// A linked table (what `link` and `track` write, or trackpy's `link`): the features
+/// and their `particle` ids, read in one pass; a missing `particle` column is an error
+/// naming the file.
+pub fn read_linked(path: &Path) -> Result<(Vec<Feature>, Vec<i64>)> {
+    let (features, particle) = read(path, true)?;
+    let particle = particle.ok_or_else(|| Error::MissingColumns {
+        file: path.display().to_string(),
+        missing: vec!["particle".into()],
+        found: FEATURE_COLUMNS.iter().map(|c| c.0.to_string()).collect(),
+        expected: vec!["particle".into()],
+    })?;
+    Ok((features, particle))
+}
+
+/// The read behind both: the features, and `particle` when asked for and present.
+fn read(path: &Path, with_particle: bool) -> Result<(Vec<Feature>, Option<Vec<i64>>)> {
     let file = path.display().to_string();
     let format = TableFormat::of(path);
-    let cols = match read_fast(path, format)? {
+    let mut spec: Vec<(&str, Expect)> = FEATURE_COLUMNS.to_vec();
+    if with_particle {
+        spec.push(("particle", Expect::Int));
+    }
+    let cols = match read_fast(path, format, &spec, with_particle)? {
         Some(c) => c,
-        None => read_slow(path)?,
+        None => read_slow(path, &spec, with_particle)?,
     };
     let loc = |r: usize| match format {
         TableFormat::Csv => format!("line {}", r + 2),
@@ -59,7 +82,7 @@ pub fn read_features(path: &Path) -> Result<Vec<Feature>> {
             }
         }
     }
-    Ok((0..cols.frame.len())
+    let features = (0..cols.frame.len())
         .map(|r| Feature {
             frame: cols.frame[r],
             x: x[r],
@@ -71,22 +94,29 @@ pub fn read_features(path: &Path) -> Result<Vec<Feature>> {
             raw_mass: raw_mass[r],
             ep: ep[r],
         })
-        .collect())
+        .collect();
+    Ok((features, cols.particle))
 }
 
-/// The float columns in `FEATURE_COLUMNS`' order, and `frame`.
+/// The float columns in `FEATURE_COLUMNS`' order, `frame`, and `particle` when read.
 struct Columns {
     floats: [Vec<f64>; 8],
     frame: Vec<i64>,
+    particle: Option<Vec<i64>>,
 }
 
 /// A plain numeric CSV with every column present and every value a number: the fast
 /// reader. `None`: anything else.
-fn read_fast(path: &Path, format: TableFormat) -> Result<Option<Columns>> {
+fn read_fast(
+    path: &Path,
+    format: TableFormat,
+    spec: &[(&str, Expect)],
+    with_particle: bool,
+) -> Result<Option<Columns>> {
     if format != TableFormat::Csv {
         return Ok(None);
     }
-    let Some(mut t) = read_numeric_csv(path, FEATURE_COLUMNS)? else {
+    let Some(mut t) = read_numeric_csv(path, spec)? else {
         return Ok(None);
     };
     if REQUIRED.iter().any(|c| !t.columns.contains_key(*c)) {
@@ -95,6 +125,15 @@ fn read_fast(path: &Path, format: TableFormat) -> Result<Option<Columns>> {
     let Some(frame) = t.take_i64("frame") else {
         return Ok(None);
     };
+    // A particle column that is not all whole numbers goes the slow way, which names
+    // the bad value's line.
+    let particle = match (with_particle, t.columns.contains_key("particle")) {
+        (true, true) => match t.take_i64("particle") {
+            Some(p) => Some(p),
+            None => return Ok(None),
+        },
+        _ => None,
+    };
     let rows = t.rows;
     let floats = FEATURE_COLUMNS[..8]
         .iter()
@@ -102,12 +141,16 @@ fn read_fast(path: &Path, format: TableFormat) -> Result<Option<Columns>> {
         .collect::<Vec<_>>()
         .try_into()
         .expect("eight float columns");
-    Ok(Some(Columns { floats, frame }))
+    Ok(Some(Columns {
+        floats,
+        frame,
+        particle,
+    }))
 }
 
 /// Through polars, whose path names the line and column of a bad value.
-fn read_slow(path: &Path) -> Result<Columns> {
-    let table = read_table_columns(path, FEATURE_COLUMNS, true)?;
+fn read_slow(path: &Path, spec: &[(&str, Expect)], with_particle: bool) -> Result<Columns> {
+    let table = read_table_columns(path, spec, true)?;
     if REQUIRED.iter().any(|c| !table.has(c)) {
         // The file's own columns, not only those read.
         let found = match table.format {
@@ -136,9 +179,15 @@ fn read_slow(path: &Path) -> Result<Columns> {
             vec![f64::NAN; rows]
         });
     }
+    let particle = if with_particle && table.has("particle") {
+        Some(table.i64("particle")?)
+    } else {
+        None
+    };
     Ok(Columns {
         floats: floats.try_into().expect("eight float columns"),
         frame: table.i64("frame")?,
+        particle,
     })
 }
 
@@ -295,5 +344,28 @@ mod tests {
         let p = tmp("badframe.csv", "y,x,frame\n1,2,0.5\n");
         let e = read_features(&p).unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("column 'frame'"), "{e}");
+    }
+
+    #[test]
+    fn linked_tables_read_their_particle_ids_in_the_same_pass() {
+        let fs = [feature(0, 1.5, 2.0), feature(1, 1.75, 2.25)];
+        let dir = std::env::temp_dir().join(format!("pp-linked-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("linked.csv");
+        write_features(&p, &fs, Some(&[7, 3])).unwrap();
+        let (got, pid) = read_linked(&p).unwrap();
+        assert_eq!(got, fs);
+        assert_eq!(pid, vec![7, 3]);
+        // Unlinked: the missing column is named.
+        write_features(&p, &fs, None).unwrap();
+        let e = read_linked(&p).unwrap_err().to_string();
+        assert!(e.contains("linked.csv") && e.contains("particle"), "{e}");
+        // A particle id that is not a whole number: its line and column.
+        let bad = tmp("bad-pid.csv", "y,x,frame,particle\n1,2,0,4\n1,2,1,4.5\n");
+        let e = read_linked(&bad).unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("particle"), "{e}");
+        // read_features ignores the column, as before.
+        assert_eq!(read_features(&bad).unwrap().len(), 2);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

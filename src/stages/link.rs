@@ -18,6 +18,11 @@ pub struct LinkRun {
     pub warnings: Vec<String>,
 }
 
+/// The sidecar's name for a linked table and its columns (`link` and `track` write it).
+pub const LINKED_TABLE: &str = "trackpy_linked";
+pub const LINKED_COLUMNS: &str =
+    "y, x, mass, size, ecc, signal, raw_mass, ep, frame, particle (trackpy's; px, y down)";
+
 /// Linked features are written as CSV in trackpy's columns: any other name is refused
 /// before any work is done.
 pub fn check_output(output: &Path) -> Result<()> {
@@ -62,8 +67,8 @@ pub fn run(input: &Path, output: &Path, opt: &LinkOptions) -> Result<LinkRun> {
     let r = &linked.report;
     let warnings = warnings(r, opt);
     let sidecar = serde_json::json!({
-        "table": "trackpy_linked",
-        "columns": "y, x, mass, size, ecc, signal, raw_mass, ep, frame, particle (trackpy's; px, y down)",
+        "table": LINKED_TABLE,
+        "columns": LINKED_COLUMNS,
         "report": r,
         "provenance": {
             "tool": crate::stages::TOOL, "tool_version": crate::stages::VERSION,

@@ -43,8 +43,8 @@ pub fn run(
         link: linked.report,
     };
     let sidecar = serde_json::json!({
-        "table": "trackpy_linked",
-        "columns": "y, x, mass, size, ecc, signal, raw_mass, ep, frame, particle (trackpy's; px, y down)",
+        "table": super::link::LINKED_TABLE,
+        "columns": super::link::LINKED_COLUMNS,
         "tool": super::TOOL,
         "tool_version": super::VERSION,
         "command": "track",
