@@ -27,9 +27,4 @@ pub mod synth;
 pub mod tracks;
 
 pub use error::{Error, Result};
-pub mod bench_dem;
-pub mod bench_fit;
-pub mod bench_gofr;
-pub mod bench_track;
-pub mod bench_whole;
 pub mod dem;

@@ -4,7 +4,7 @@
 //! the compute alone, alternating rounds, medians. Ours fills three histograms (all,
 //! small-centred, large-centred); freud's one.
 
-use crate::bench_whole::{median, write_npy};
+use crate::bench::whole::{median, write_npy};
 use crate::error::{Error, Result};
 use crate::geom::Vec2;
 use crate::structure::pair_distribution;
@@ -16,7 +16,7 @@ use std::process::Command;
 use std::time::Instant;
 
 /// The freud side, carried in the binary so the bench needs no checkout.
-const FREUD_SCRIPT: &str = include_str!("../bench/freud_gofr.py");
+const FREUD_SCRIPT: &str = include_str!("../../bench/freud_gofr.py");
 
 #[derive(Debug, Clone, Serialize)]
 pub struct GofrBench {

@@ -1,5 +1,12 @@
 //! Benchmarks of the hot paths, each against a reference measured in the same run
-//! (`pillar-pipe bench …`; never timed unit tests).
+//! (`pillar-pipe bench …`; never timed unit tests). This file holds the kinematics
+//! kernel's; the others have a module each.
+
+pub mod dem;
+pub mod fit;
+pub mod gofr;
+pub mod track;
+pub mod whole;
 
 use crate::error::{Error, Result};
 use crate::geom::{Mat2, Vec2};

@@ -222,7 +222,7 @@ pub fn line_exchange_ns(lines: usize, reps: u64) -> f64 {
         }
         std::hint::black_box(sum);
     });
-    crate::bench_whole::median(&times)
+    crate::bench::whole::median(&times)
 }
 
 /// The loaded state for LAMMPS: `grains.csv` (id, type, diameter, density, x, y, vx,

@@ -4,6 +4,7 @@
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use pillar_pipe::pipeline::slurm::SlurmOptions;
+use std::path::PathBuf;
 
 /// Where the work runs: `--executor slurm` and Slurm's options (shared by `run` and
 /// `sweep`; a pipeline file's `[executor]` table gives defaults for `run`).
@@ -53,6 +54,50 @@ impl ExecutorArgs {
             detach: self.detach,
         }
     }
+}
+
+/// Run a pipeline file (pipelines/*.toml): cached stages, recorded under RUNS_DIR/<id>/.
+#[derive(Args)]
+pub struct RunArgs {
+    pub pipeline: PathBuf,
+    /// Override a key, STAGE.KEY=VALUE; STAGE is a stage name or a kind (all stages of it).
+    #[arg(long = "set", value_name = "STAGE.KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Recompute this stage (name, kind or `all`) and everything downstream of it.
+    #[arg(long, value_name = "STAGE")]
+    pub force: Vec<String>,
+    #[arg(long)]
+    pub quiet: bool,
+    #[arg(long, default_value = "runs")]
+    pub runs_dir: PathBuf,
+    /// Validate the pipeline and show which stages are cached; run nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Check cached outputs' SHA-256 before using them (by default only their sizes).
+    #[arg(long)]
+    pub verify: bool,
+    /// Stages computed at once by the local executor (independent stages, e.g. a
+    /// sweep's grid points); default: the machine's cores. 1 runs them one by one.
+    #[arg(long, short = 'j', value_parser = clap::value_parser!(u64).range(1..))]
+    pub jobs: Option<u64>,
+    #[command(flatten)]
+    pub exec: ExecutorArgs,
+}
+
+/// `run PIPELINE`: the arguments as the pipeline runner takes them.
+pub fn run(a: RunArgs) -> Result<()> {
+    run_pipeline(pillar_pipe::pipeline::RunOptions {
+        pipeline: a.pipeline,
+        sets: a.set,
+        force: a.force,
+        quiet: a.quiet,
+        runs_dir: a.runs_dir,
+        dry_run: a.dry_run,
+        verify: a.verify,
+        slurm: a.exec.slurm(),
+        executor: a.exec.executor,
+        jobs: a.jobs.map(|j| j as usize),
+    })
 }
 
 #[derive(Subcommand)]

@@ -10,7 +10,7 @@
 //! sample's scale (31.496 px/cm: large grains 20 px, small 15 px across), as lit
 //! spheres (`--profile dome`).
 
-use crate::bench_whole::median;
+use crate::bench::whole::median;
 use crate::camera::score::{TrackingScore, Truth, score};
 use crate::camera::{LinkOptions, LocateParams};
 use crate::error::{Error, Result};
@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-const TRACKPY_SCRIPT: &str = include_str!("../bench/trackpy_track.py");
+const TRACKPY_SCRIPT: &str = include_str!("../../bench/trackpy_track.py");
 
 /// The settings both trackers get.
 #[derive(Debug, Clone, Serialize)]

@@ -214,7 +214,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
             bootstrap,
             json,
         } => {
-            let b = pillar_pipe::bench_fit::bench_fit(samples, starts, bootstrap);
+            let b = pillar_pipe::bench::fit::bench_fit(samples, starts, bootstrap);
             if json {
                 println!("{}", serde_json::to_string(&b)?);
             } else {
@@ -234,7 +234,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
             json,
         } => {
             for n in n {
-                let b = pillar_pipe::bench_dem::bench_shear(n, steps, warmup);
+                let b = pillar_pipe::bench::dem::bench_shear(n, steps, warmup);
                 if json {
                     println!("{}", serde_json::to_string(&b)?);
                 } else {
@@ -258,7 +258,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
             seed,
             bin,
         } => {
-            let c = pillar_pipe::bench_dem::compare_presets(n, strain, seed, bin)?;
+            let c = pillar_pipe::bench::dem::compare_presets(n, strain, seed, bin)?;
             println!("strain   sigma_fast  sigma_paper   (m g mu / D, binned means)");
             for (e, f, p) in &c.bins {
                 println!("{e:6.3}   {f:9.3}   {p:9.3}");
@@ -281,15 +281,15 @@ pub fn bench(what: BenchCmd) -> Result<()> {
             checkpoint,
             json,
         } => {
-            let results: Vec<pillar_pipe::bench_dem::PillarBench> = match &checkpoint {
-                Some(path) => vec![pillar_pipe::bench_dem::bench_checkpoint(path, steps)?],
+            let results: Vec<pillar_pipe::bench::dem::PillarBench> = match &checkpoint {
+                Some(path) => vec![pillar_pipe::bench::dem::bench_checkpoint(path, steps)?],
                 None => k
                     .iter()
                     .map(|&k| {
                         let dir = export
                             .as_ref()
                             .map(|d| d.join(format!("n{}", 1000 * k * k)));
-                        pillar_pipe::bench_dem::bench_pillar(
+                        pillar_pipe::bench::dem::bench_pillar(
                             k,
                             steps,
                             &preset,
@@ -353,7 +353,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
         } => {
             let processes = processes
                 .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-            let settings = pillar_pipe::bench_track::TrackSettings {
+            let settings = pillar_pipe::bench::track::TrackSettings {
                 px_per_unit,
                 locate: pillar_pipe::camera::LocateParams {
                     diameter,
@@ -369,7 +369,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                 match_tolerance_px: 7.5,
                 processes,
             };
-            let input = input.unwrap_or_else(pillar_pipe::bench_track::default_input);
+            let input = input.unwrap_or_else(pillar_pipe::bench::track::default_input);
             let (work, temp) = match dir {
                 Some(d) => (d, false),
                 None => (
@@ -378,7 +378,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                 ),
             };
             let exe = std::env::current_exe()?;
-            let b = pillar_pipe::bench_track::bench_track(
+            let b = pillar_pipe::bench::track::bench_track(
                 &exe, &input, &settings, rounds, &work, &python,
             );
             if temp {
@@ -428,7 +428,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
             json,
         } => {
             let tmp = std::env::temp_dir().join(format!("pillar-pipe-gofr-{}", std::process::id()));
-            let b = pillar_pipe::bench_gofr::bench_gofr(n, reps, rounds, &tmp, &python);
+            let b = pillar_pipe::bench::gofr::bench_gofr(n, reps, rounds, &tmp, &python);
             let _ = std::fs::remove_dir_all(&tmp);
             let b = b?;
             if json {
@@ -470,7 +470,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                 std::env::temp_dir().join(format!("pillar-pipe-whole-{}", std::process::id()));
             let at = dir.clone().unwrap_or_else(|| tmp.clone());
             let exe = std::env::current_exe()?;
-            let b = pillar_pipe::bench_whole::bench_kinematics_whole(&exe, n, reps, &at, &python);
+            let b = pillar_pipe::bench::whole::bench_kinematics_whole(&exe, n, reps, &at, &python);
             if dir.is_none() {
                 let _ = std::fs::remove_dir_all(&tmp);
             }

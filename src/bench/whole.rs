@@ -16,7 +16,7 @@ use std::process::Command;
 use std::time::Instant;
 
 /// The OVITO side, carried in the binary so the bench needs no checkout.
-const OVITO_SCRIPT: &str = include_str!("../bench/ovito_whole.py");
+const OVITO_SCRIPT: &str = include_str!("../../bench/ovito_whole.py");
 
 #[derive(Debug, Clone, Serialize)]
 pub struct WholeRun {

@@ -432,7 +432,7 @@ pub struct SweepArgs {
     #[arg(long)]
     quiet: bool,
     #[command(flatten)]
-    exec: crate::cli_runs::ExecutorArgs,
+    exec: crate::cli::runs::ExecutorArgs,
 }
 
 pub fn sweep(a: SweepArgs) -> Result<()> {
