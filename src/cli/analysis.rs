@@ -5,6 +5,7 @@ use super::parse_pair;
 use anyhow::{Context, Result};
 use clap::Args;
 use pillar_pipe::kinematics::Convention;
+use pillar_pipe::stages::fit::params::FitParams;
 use pillar_pipe::stages::ingest::{self, Format, IngestOptions};
 use pillar_pipe::stages::kinematics::{self as kin, KinematicsOptions, LagSpec};
 use std::path::PathBuf;
@@ -214,42 +215,9 @@ pub struct FitArgs {
     pub input: PathBuf,
     #[arg(short, long, default_value = "fit.json")]
     pub output: PathBuf,
-    /// Large-grain diameter D (length unit); default from the data.
-    #[arg(long)]
-    pub diameter: Option<f64>,
-    /// Bar speed v_c (length unit/s); default from the tracks' metadata.
-    #[arg(long)]
-    pub bar_speed: Option<f64>,
-    /// Start times in R/v_c (default every 2/3).
-    #[arg(long, value_delimiter = ',')]
-    pub starts: Option<Vec<f64>>,
-    /// Lags in R/v_c (default 2/15, 4/15, ..., 128/15).
-    #[arg(long, value_delimiter = ',')]
-    pub lags: Option<Vec<f64>>,
-    /// R_c in units of D.
-    #[arg(long, default_value_t = 1.25)]
-    pub rc_over_d: f64,
-    #[arg(long, value_enum, default_value = "binned-median")]
-    pub method: pillar_pipe::fit::Method,
-    #[arg(long, default_value_t = 5.0)]
-    pub bins_per_decade: f64,
-    #[arg(long, default_value_t = 10)]
-    pub min_bin_count: usize,
-    /// Bootstrap replicates over start times.
-    #[arg(long, default_value_t = 1000)]
-    pub bootstrap: usize,
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Fitted η^s (dimensionless): `coverage` (bins the protocol samples evenly:
-    /// inside the central 90 % of η^s of at least two lags, from at least half the
-    /// start times), `all`, or LO,HI.
-    #[arg(long, default_value = "coverage", value_parser = pillar_pipe::fit::RangeRule::parse)]
-    pub eta_range: pillar_pipe::fit::RangeRule,
-    /// Position noise σ per coordinate per frame of the tracks (length unit, frames
-    /// independent): sets the tracking-noise floor of D²min/R² instead of the data's
-    /// estimate; under the default range rule bins within 3 floors are left out.
-    #[arg(long, value_name = "SIGMA")]
-    pub position_noise: Option<f64>,
+    /// The fit's options, the same struct (names, defaults) as a pipeline's fit stage.
+    #[command(flatten)]
+    pub params: FitParams,
     /// Scatter table (default <output stem>.scatter.parquet).
     #[arg(long)]
     pub scatter: Option<PathBuf>,
@@ -258,42 +226,17 @@ pub struct FitArgs {
 }
 
 pub fn fit(args: FitArgs) -> Result<()> {
+    use pillar_pipe::stages::fit;
     let FitArgs {
         input,
         output,
-        diameter,
-        bar_speed,
-        starts,
-        lags,
-        rc_over_d,
-        method,
-        bins_per_decade,
-        min_bin_count,
-        bootstrap,
-        seed,
-        eta_range,
-        position_noise,
+        params,
         scatter,
         quiet,
     } = args;
-    use pillar_pipe::stages::fit;
     let opt = fit::FitOptions {
-        diameter,
-        bar_speed,
-        starts,
-        lags,
-        rc_over_d,
-        method,
-        binning: pillar_pipe::fit::Binning {
-            bins_per_decade,
-            min_count: min_bin_count,
-        },
-        bootstrap,
-        seed,
-        range: eta_range,
         scatter,
-        quiet,
-        position_noise,
+        ..params.options("fit", quiet)?
     };
     let rep =
         fit::run(&input, &output, &opt).with_context(|| format!("fit {}", input.display()))?;

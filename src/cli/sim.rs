@@ -226,6 +226,9 @@ pub struct ShearArgs {
     /// Fraction of the run discarded before averaging.
     #[arg(long, default_value_t = 0.25)]
     transient: f64,
+    /// Blocks the averaged part is cut into for the error bars (≥ 2).
+    #[arg(long, default_value_t = 10)]
+    blocks: usize,
     /// Strain-rate ramp up|down (Eqs. 38–41): γ̇ × 10^{±κ̃} every τ_e, from --rate to
     /// --rate-end; writes ramp.parquet (means over --window τ_e).
     #[arg(long)]
@@ -386,7 +389,7 @@ fn shear_options(a: ShearArgs) -> Result<(PathBuf, pillar_pipe::stages::shear::S
         output_every: a.output_every,
         sample_every: a.sample_every,
         transient: a.transient,
-        blocks: 10,
+        blocks: a.blocks,
         ramp: a.ramp,
         kappa: a.kappa,
         rate_end: a.rate_end,
@@ -417,6 +420,21 @@ pub struct SweepArgs {
     strain: f64,
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Δt/τ_e (default 0.05; 0.01 for Q < 0.5).
+    #[arg(long)]
+    dt: Option<f64>,
+    /// Steps between trajectory frames (default every 0.05 strain).
+    #[arg(long)]
+    output_every: Option<u64>,
+    /// Steps between samples of the series.
+    #[arg(long, default_value_t = 10)]
+    sample_every: u64,
+    /// Fraction of each run discarded before averaging.
+    #[arg(long, default_value_t = 0.25)]
+    transient: f64,
+    /// Blocks each run's averaged part is cut into for the error bars (≥ 2).
+    #[arg(long, default_value_t = 10)]
+    blocks: usize,
     /// Checkpoint each run every this many steps (0: none); a rerun resumes them.
     #[arg(long, default_value_t = 0)]
     checkpoint_every: u64,
@@ -446,6 +464,11 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
         model: a.model,
         strain: a.strain,
         seed: a.seed,
+        dt: a.dt,
+        output_every: a.output_every,
+        sample_every: a.sample_every,
+        transient: a.transient,
+        blocks: a.blocks,
         checkpoint_every: a.checkpoint_every,
         checkpoint_interval: a.checkpoint_interval,
         quiet: true,

@@ -125,7 +125,7 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let p: RenderParams = typed(&s.name, &s.params)?;
             // A pillar run's tracks: render finds its bars beside them.
             let tracks = ctx.input(s, "input", "tracks")?;
-            let r = stages::render::run(&tracks, &out.join("frames"), &p.options(q))?;
+            let r = stages::render::run(&tracks, &out.join("frames"), &p.options(false, q))?;
             Ok(Produced {
                 outputs: outputs(&[("frames", "frames")]),
                 metrics: json!({"frames": r.frames, "width": r.width, "height": r.height, "grains": r.grains, "bars": r.bars}),

@@ -5,15 +5,14 @@
 //! CLI and pipelines agree; the schema test checks the schema file documents them.
 
 use super::schema::Kind;
-use crate::camera::render::Profile;
+use crate::camera::render::{Camera, Profile};
 use crate::camera::{LinkOptions, LocateParams};
 use crate::error::{Error, Result};
-use crate::fit::{Binning, Method};
 use crate::kinematics::Convention;
-use crate::stages::fit::FitOptions;
+pub use crate::stages::fit::params::FitParams;
 use crate::stages::ingest::{Format, IngestOptions};
 use crate::stages::kinematics::{KinematicsOptions, LagSpec};
-use crate::stages::render::RenderOptions;
+use crate::stages::render::{ImageFormat, RenderOptions};
 use crate::stages::shear::ShearOptions;
 use crate::stages::simulate::SimulateOptions;
 use clap::ValueEnum;
@@ -70,56 +69,168 @@ impl IngestParams {
     }
 }
 
-/// A `render` stage: the camera emulator (`pillar-pipe render`) on an upstream
-/// stage's tracks; the camera settings users vary, the rest at `Camera`'s defaults.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+/// `render`'s options, defined once: the command line flattens this struct
+/// (`pillar-pipe render --gradient 0.2`) and a pipeline's render stage deserialises it
+/// (`gradient = 0.2`). Defaults are `RenderOptions::default()`'s and `Camera`'s.
+/// Brightness levels are fractions of the full scale (255 at 8 bit, 65535 at 16 bit);
+/// noise is in grey levels of the chosen bit depth; lengths on the image in pixels.
+#[derive(Debug, Clone, Serialize, Deserialize, clap::Args)]
 #[serde(deny_unknown_fields, default)]
 pub struct RenderParams {
+    /// The stage whose tracks are drawn (pipeline files; the command line takes a path).
+    #[arg(skip)]
     pub input: String,
+    /// Pixels per length unit of the tracks (e.g. 31.496 for cm at 80 px/inch).
+    #[arg(long)]
     pub px_per_unit: f64,
+    /// Render every N-th frame of the tracks.
+    #[arg(long, default_value_t = RenderOptions::default().every)]
     pub every: i64,
+    /// Frame image format.
+    #[arg(long, value_enum, default_value_t = RenderOptions::default().format)]
+    pub format: ImageFormat,
+    /// Bits per pixel: 8 or 16.
+    #[arg(long, default_value_t = Camera::default().bit_depth)]
     pub bit_depth: u8,
+    /// Grain brightness profile: flat (uniform disk, soft edge), gaussian (σ = r/2),
+    /// dome (lit sphere, brighter centre).
+    #[arg(long, value_enum, default_value_t = Camera::default().profile)]
     pub profile: Profile,
+    /// Grain brightness above the background, fraction of full scale.
+    #[arg(long, default_value_t = Camera::default().grain_level)]
+    pub level: f64,
+    /// Relative spread of the grains' brightness (each grain keeps its own, from the seed).
+    #[arg(long, default_value_t = Camera::default().brightness_spread)]
+    pub spread: f64,
+    /// Width σ of the grain's own edge before the blur, px (flat and dome profiles; the
+    /// imaged edge is √(edge² + blur²) wide, its 10–90 % rise 2.56 times that).
+    #[arg(long, default_value_t = Camera::default().edge_px)]
+    pub edge: f64,
+    /// Dome profile: centre-to-rim contrast, 0 … 1.
+    #[arg(long, default_value_t = Camera::default().dome_contrast)]
+    pub dome_contrast: f64,
+    /// Background brightness, fraction of full scale.
+    #[arg(long, default_value_t = Camera::default().background)]
+    pub background: f64,
+    /// Illumination gradient: fractional change across the frame (0.2: ±10 %).
+    #[arg(long, default_value_t = Camera::default().gradient)]
+    pub gradient: f64,
+    /// Direction in which the illumination rises, degrees (0: to the right, 90: down).
+    #[arg(long, default_value_t = Camera::default().gradient_angle_deg)]
+    pub gradient_angle: f64,
+    /// Relative frame-to-frame flicker of the illumination (standard deviation).
+    #[arg(long, default_value_t = Camera::default().flicker)]
+    pub flicker: f64,
+    /// Gaussian blur σ of the optics, px (0: none).
+    #[arg(long, default_value_t = Camera::default().blur_px)]
     pub blur: f64,
-    pub read_noise: f64,
+    /// Shot noise: photons per pixel at full scale (0: none).
+    #[arg(long, default_value_t = Camera::default().photons)]
     pub photons: f64,
+    /// Read noise, standard deviation in grey levels.
+    #[arg(long, default_value_t = Camera::default().read_noise)]
+    pub read_noise: f64,
+    /// Seed of the grains' brightness and of every frame's noise.
+    #[arg(long, default_value_t = Camera::default().seed)]
     pub seed: u64,
+    /// Least distance between the content and the frame's edges, px.
+    #[arg(long, default_value_t = RenderOptions::default().margin_px)]
+    pub margin: f64,
+    /// Frame size WIDTHxHEIGHT in px (a pipeline: [WIDTH, HEIGHT]) [default: the
+    /// content plus the margin].
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+    /// Do not draw a pillar run's bars.
+    #[arg(long)]
+    pub no_bars: bool,
+    /// Bar thickness in the tracks' length unit [default: 2 large-grain diameters].
+    #[arg(long)]
+    pub bar_thickness: Option<f64>,
+    /// Bar brightness above the background, fraction of full scale.
+    #[arg(long, default_value_t = RenderOptions::default().bar_level)]
+    pub bar_level: f64,
+}
+
+/// `WIDTHxHEIGHT` in px, each a whole number above 0.
+fn parse_size(s: &str) -> std::result::Result<(usize, usize), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}': expected WIDTHxHEIGHT, e.g. 640x480"))?;
+    let p = |v: &str| {
+        v.trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| format!("'{v}': expected a whole number of pixels > 0"))
+    };
+    Ok((p(w)?, p(h)?))
 }
 
 impl Default for RenderParams {
     fn default() -> Self {
         let o = RenderOptions::default();
+        let c = &o.camera;
         RenderParams {
             input: String::new(),
+            // No default scale: a pipeline must give it (0 is refused at load).
             px_per_unit: 0.0,
             every: o.every,
-            bit_depth: o.camera.bit_depth,
-            profile: o.camera.profile,
-            blur: o.camera.blur_px,
-            read_noise: o.camera.read_noise,
-            photons: o.camera.photons,
-            seed: o.camera.seed,
+            format: o.format,
+            bit_depth: c.bit_depth,
+            profile: c.profile,
+            level: c.grain_level,
+            spread: c.brightness_spread,
+            edge: c.edge_px,
+            dome_contrast: c.dome_contrast,
+            background: c.background,
+            gradient: c.gradient,
+            gradient_angle: c.gradient_angle_deg,
+            flicker: c.flicker,
+            blur: c.blur_px,
+            photons: c.photons,
+            read_noise: c.read_noise,
+            seed: c.seed,
+            margin: o.margin_px,
+            size: None,
+            no_bars: !o.bars,
+            bar_thickness: o.bar_thickness,
+            bar_level: o.bar_level,
         }
     }
 }
 
 impl RenderParams {
-    pub fn options(&self, quiet: bool) -> RenderOptions {
-        let d = RenderOptions::default();
+    /// The render's options; `overwrite` and `quiet` say how the command runs.
+    pub fn options(&self, overwrite: bool, quiet: bool) -> RenderOptions {
+        let (width, height) = self.size.unwrap_or((0, 0));
         RenderOptions {
             px_per_unit: self.px_per_unit,
             every: self.every,
-            camera: crate::camera::render::Camera {
+            format: self.format,
+            camera: Camera {
+                width,
+                height,
                 bit_depth: self.bit_depth,
                 profile: self.profile,
+                grain_level: self.level,
+                brightness_spread: self.spread,
+                edge_px: self.edge,
+                dome_contrast: self.dome_contrast,
+                background: self.background,
+                gradient: self.gradient,
+                gradient_angle_deg: self.gradient_angle,
+                flicker: self.flicker,
                 blur_px: self.blur,
-                read_noise: self.read_noise,
                 photons: self.photons,
+                read_noise: self.read_noise,
                 seed: self.seed,
-                ..d.camera.clone()
             },
+            margin_px: self.margin,
+            bars: !self.no_bars,
+            bar_thickness: self.bar_thickness,
+            bar_level: self.bar_level,
+            overwrite,
             quiet,
-            ..d
         }
     }
 }
@@ -128,10 +239,10 @@ impl RenderParams {
     /// The first camera setting out of its domain, as the render would find it, so a
     /// pipeline is refused at load: (key, what is wrong).
     pub fn problem(&self) -> Option<(String, String)> {
-        let cam = crate::camera::render::Camera {
+        let cam = Camera {
             width: 1,
             height: 1,
-            ..self.options(true).camera
+            ..self.options(false, true).camera
         };
         match cam.validate() {
             Ok(()) => None,
@@ -154,9 +265,16 @@ pub struct TrackParams {
     pub separation: Option<f64>,
     pub noise_size: f64,
     pub percentile: f64,
+    pub maxsize: Option<f64>,
+    pub smoothing_size: Option<usize>,
+    pub threshold: Option<f64>,
+    pub invert: bool,
+    pub topn: Option<usize>,
+    pub max_iterations: usize,
     pub search_range: f64,
     pub memory: usize,
     pub predict: bool,
+    pub subnet_limit: usize,
     pub px_per_unit: Option<f64>,
     pub origin_px: Option<[f64; 2]>,
     pub unit: Option<String>,
@@ -177,9 +295,16 @@ impl Default for TrackParams {
             separation: l.separation,
             noise_size: l.noise_size,
             percentile: l.percentile,
+            maxsize: l.maxsize,
+            smoothing_size: l.smoothing_size,
+            threshold: l.threshold,
+            invert: l.invert,
+            topn: l.topn,
+            max_iterations: l.max_iterations,
             search_range: 0.0,
             memory: k.memory,
             predict: k.predict,
+            subnet_limit: k.subnet_limit,
             px_per_unit: None,
             origin_px: None,
             unit: None,
@@ -198,13 +323,19 @@ impl TrackParams {
             separation: self.separation,
             noise_size: self.noise_size,
             percentile: self.percentile,
-            ..LocateParams::default()
+            maxsize: self.maxsize,
+            smoothing_size: self.smoothing_size,
+            threshold: self.threshold,
+            invert: self.invert,
+            topn: self.topn,
+            max_iterations: self.max_iterations,
         }
     }
     pub fn link(&self) -> LinkOptions {
         LinkOptions {
             memory: self.memory,
             predict: self.predict,
+            subnet_limit: self.subnet_limit,
             ..LinkOptions::new(self.search_range)
         }
     }
@@ -266,72 +397,6 @@ impl KinematicsParams {
             // A pipeline's later stages read every column.
             columns: Default::default(),
             quiet,
-        })
-    }
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FitParams {
-    pub input: String,
-    pub diameter: Option<f64>,
-    pub bar_speed: Option<f64>,
-    pub starts: Option<Vec<f64>>,
-    pub lags: Option<Vec<f64>>,
-    pub rc_over_d: f64,
-    pub method: Method,
-    pub bins_per_decade: f64,
-    pub min_bin_count: usize,
-    pub bootstrap: usize,
-    pub seed: u64,
-    /// `coverage`, `all` or `LO,HI` (see `fit --eta-range`).
-    pub eta_range: String,
-    /// Position noise σ per coordinate per frame (length unit; see `fit --position-noise`).
-    pub position_noise: Option<f64>,
-}
-
-impl Default for FitParams {
-    fn default() -> Self {
-        let d = FitOptions::default();
-        FitParams {
-            input: String::new(),
-            diameter: d.diameter,
-            bar_speed: d.bar_speed,
-            starts: d.starts,
-            lags: d.lags,
-            rc_over_d: d.rc_over_d,
-            method: d.method,
-            bins_per_decade: d.binning.bins_per_decade,
-            min_bin_count: d.binning.min_count,
-            bootstrap: d.bootstrap,
-            seed: d.seed,
-            eta_range: d.range.name(),
-            position_noise: d.position_noise,
-        }
-    }
-}
-
-impl FitParams {
-    pub fn options(&self, stage: &str, quiet: bool) -> Result<FitOptions> {
-        let range = crate::fit::RangeRule::parse(&self.eta_range)
-            .map_err(|e| Error::param(format!("{stage}.eta_range"), e))?;
-        Ok(FitOptions {
-            diameter: self.diameter,
-            bar_speed: self.bar_speed,
-            starts: self.starts.clone(),
-            lags: self.lags.clone(),
-            rc_over_d: self.rc_over_d,
-            method: self.method,
-            binning: Binning {
-                bins_per_decade: self.bins_per_decade,
-                min_count: self.min_bin_count,
-            },
-            bootstrap: self.bootstrap,
-            seed: self.seed,
-            range,
-            scatter: None,
-            quiet,
-            position_noise: self.position_noise,
         })
     }
 }

@@ -218,6 +218,15 @@ pub fn check(spec: &KeySpec, v: &toml::Value) -> std::result::Result<toml::Value
         ("float[]", T::Array(a)) if !a.is_empty() => floats(a).map(T::Array),
         ("string[]", T::Array(a)) if a.iter().all(|x| x.is_str()) => Ok(v.clone()),
         ("float[2]", T::Array(a)) if a.len() == 2 => floats(a).map(T::Array),
+        ("integer[2]", T::Array(a)) if a.len() == 2 => {
+            for x in a {
+                match x {
+                    T::Integer(i) => bound(*i as f64)?,
+                    o => return Err(format!("expected integers, found {}", o.type_str())),
+                }
+            }
+            Ok(v.clone())
+        }
         ("float{}", T::Table(t)) => {
             let mut out = toml::Table::new();
             for (k, x) in t {
@@ -247,6 +256,7 @@ fn describe(ty: &str) -> &'static str {
         "integer[]" => "a non-empty array of integers",
         "float[]" => "a non-empty array of numbers",
         "float[2]" => "an array of two numbers",
+        "integer[2]" => "an array of two integers",
         "float{}" => "a table of numbers, { name = value, ... }",
         "string[]" => "an array of strings",
         _ => "a value of an unknown schema type",

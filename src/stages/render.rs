@@ -21,7 +21,7 @@ use crate::io::{atomic_write, atomic_write_str, sha256_file};
 use crate::stages::ingest::{Format, IngestOptions, apply_settings, detect, read_input};
 use crate::tracks::Tracks;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -40,7 +40,7 @@ pub const GROUND_TRUTH_COLUMNS: [&str; 9] = [
 ];
 
 /// Frame image format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ImageFormat {
     #[default]

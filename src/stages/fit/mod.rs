@@ -4,6 +4,7 @@
 //! every estimator and the chosen one is reported with bootstrap intervals.
 
 pub use crate::stages::fit::sampling::ETA_S_AT_REST;
+pub mod params;
 pub mod sampling;
 
 use crate::error::{Error, Result};
