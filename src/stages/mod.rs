@@ -51,6 +51,7 @@ pub mod quickstart;
 pub mod render;
 pub mod report;
 pub mod resume;
+pub mod run_dir;
 pub mod shear;
 pub mod shear_lines;
 pub mod simulate;

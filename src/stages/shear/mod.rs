@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::io::table::write_table;
 use crate::io::{atomic_write_str, sidecar_path};
 use crate::stages::resume;
+use crate::stages::run_dir::RunDir;
 pub use crate::stages::shear::ramp::STATE;
 use crate::stages::shear::ramp::{finish_ramp, ramp_plan, start_from};
 pub use crate::stages::shear::stats::MeanErr;
@@ -22,7 +23,7 @@ use crate::stages::shear::stats::summarize;
 use crate::stages::shear::steady::Steady;
 pub use crate::stages::shear::steady::{FIELD_RADIUS, FIELD_SNAPSHOTS};
 use crate::stages::shear::tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
-use crate::stages::simulate::tables::{drop_parts_from, merge_parts};
+use crate::stages::simulate::tables::merge_parts;
 use crate::tracks::{Provenance, TracksMeta};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -203,7 +204,7 @@ pub fn options_for_resume(
     opt: &ShearOptions,
     given: &std::collections::BTreeSet<String>,
 ) -> Result<(ShearOptions, Vec<(String, serde_json::Value)>)> {
-    let ckpt = dir.join("checkpoint.bin");
+    let ckpt = dir.join(crate::stages::run_dir::CHECKPOINT);
     let r = read_checkpoint(&ckpt)?;
     let then = resume::recorded(&ckpt, &r.physics)?;
     let (mut o, taken) = resume::adopt(opt, &then, given)?;
@@ -247,8 +248,7 @@ pub fn ramp_problem(opt: &ShearOptions, p: &ShearParams) -> Option<(&'static str
 pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let t0 = std::time::Instant::now();
     let p = params_of(opt).map_err(|e| Error::param("shear", e))?;
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let (ckpt, parts_dir) = (out.join("checkpoint.bin"), out.join(".parts"));
+    let dir = RunDir::create(out)?;
     let origin = match &opt.from_state {
         Some(_) if opt.ramp.is_none() => {
             return Err(Error::param(
@@ -277,8 +277,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     let (mut frame, mut parts) = (0i64, 0u64);
     let mut steady = Steady::default();
     let mut sim = if opt.resume {
-        let r = read_checkpoint(&ckpt)?;
-        let then = resume::recorded(&ckpt, &r.physics)?;
+        let r = read_checkpoint(&dir.checkpoint)?;
+        let then = resume::recorded(&dir.checkpoint, &r.physics)?;
         let diffs = resume::differences(&then, &physics, &default_physics());
         let note = if diffs.iter().any(|d| d.key == "from_step") {
             " (from_step: the ramp continued another run's state; give its --ramp and --from DIR again)"
@@ -291,25 +291,10 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         for (f, xy) in r.boxes {
             tracks.meta.boxes.push(frame_box(f, sim.l, xy));
         }
-        drop_parts_from(&parts_dir, parts)?;
+        dir.resume(parts)?;
         sim
     } else {
-        if out.join(crate::stages::manifest::MANIFEST).exists() {
-            return Err(Error::param(
-                "output",
-                format!("{} already holds a finished run", out.display()),
-            ));
-        }
-        if ckpt.exists() {
-            return Err(Error::param(
-                "output",
-                format!(
-                    "{} holds an unfinished run; pass --resume to continue it, or choose another directory",
-                    out.display()
-                ),
-            ));
-        }
-        let _ = std::fs::remove_dir_all(&parts_dir);
+        dir.start()?;
         origin.unwrap_or_else(|| ShearSim::new(p.clone()))
     };
     let ramp = ramp_plan(opt, &p)?;
@@ -389,7 +374,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             && sim.step < total
             && (clock.due_by_steps(sim.step) || (sim.step.is_multiple_of(64) && clock.due_now()))
         {
-            flush_tracks(&mut tracks, &parts_dir, parts)?;
+            flush_tracks(&mut tracks, &dir.parts, parts)?;
             parts += 1;
             let mut e = Enc::default();
             e.bytes(physics_json.as_bytes());
@@ -408,16 +393,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
                     .collect::<Vec<_>>(),
             );
             e.f64s(&tracks.meta.boxes.iter().map(|b| b.xy).collect::<Vec<_>>());
-            let bytes = sim.save(&e.0);
-            crate::stages::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
-            clock.saved();
-            if let Some(e) = Error::interrupted(format!(
-                "checkpoint saved at step {} of {total} in {}",
-                sim.step,
-                ckpt.display()
-            )) {
-                return Err(e);
-            }
+            dir.save(&sim.save(&e.0), sim.step, total, opt.halt_after, &mut clock)?;
         }
         fresh = true;
         if sim.step >= total {
@@ -462,16 +438,16 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         ..TracksMeta::default()
     };
     let tracks_path = out.join("tracks.parquet");
-    flush_tracks(&mut tracks, &parts_dir, parts)?;
+    flush_tracks(&mut tracks, &dir.parts, parts)?;
     parts += 1;
-    merge_parts(&parts_dir, "tracks", parts, &tracks_path)?;
+    merge_parts(&dir.parts, "tracks", parts, &tracks_path)?;
     atomic_write_str(
         &sidecar_path(&tracks_path),
         &serde_json::to_string_pretty(&tracks.meta).expect("json"),
     )?;
     if let Some(r) = &ramp {
         return finish_ramp(
-            out,
+            &dir,
             opt,
             &p,
             r,
@@ -528,9 +504,8 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
             "initial state: random positions at phi with the affine flow v_x = gamma_dot y",
         ],
     });
-    let _ = std::fs::remove_file(&ckpt);
-    let _ = std::fs::remove_dir_all(&parts_dir);
     crate::stages::manifest::write(out, "simulate shear", opt, body)?;
+    dir.finished();
     Ok(rep)
 }
 

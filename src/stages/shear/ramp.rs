@@ -5,6 +5,7 @@ use crate::dem::shear::{ShearParams, ShearSim};
 use crate::error::{Error, Result};
 use crate::io::atomic_write_str;
 use crate::io::table::write_table;
+use crate::stages::run_dir::RunDir;
 use crate::stages::shear::{SERIES, ShearOptions, ShearReport};
 use polars::prelude::*;
 use std::collections::BTreeMap;
@@ -122,7 +123,7 @@ pub(crate) fn start_from(state: &Path, p: &ShearParams) -> Result<ShearSim> {
 /// and summary.json describing the ramp, then the manifest.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn finish_ramp(
-    out: &Path,
+    dir: &RunDir,
     opt: &ShearOptions,
     p: &ShearParams,
     r: &Ramp,
@@ -134,6 +135,7 @@ pub(crate) fn finish_ramp(
     t0: std::time::Instant,
     (step0, strain0): (u64, f64),
 ) -> Result<ShearReport> {
+    let out = dir.out.as_path();
     let col = |name: &str| {
         &cols[SERIES
             .iter()
@@ -186,8 +188,7 @@ pub(crate) fn finish_ramp(
         "elapsed_s": elapsed,
     });
     crate::stages::manifest::write(out, "simulate shear --ramp", opt, body)?;
-    let _ = std::fs::remove_file(out.join("checkpoint.bin"));
-    let _ = std::fs::remove_dir_all(out.join(".parts"));
+    dir.finished();
     Ok(ShearReport {
         out: out.to_path_buf(),
         steps: sim.step - step0,

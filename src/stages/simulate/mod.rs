@@ -13,7 +13,8 @@ use crate::dem::pillar::{Interval, PillarSim};
 use crate::error::{Error, Result};
 use crate::interrupt::CheckpointClock;
 use crate::io::{atomic_write_str, sidecar_path};
-use crate::stages::simulate::tables::{Buffers, FrameStats, TABLES, drop_parts_from, merge_parts};
+use crate::stages::run_dir::RunDir;
+use crate::stages::simulate::tables::{Buffers, FrameStats, TABLES, merge_parts};
 use crate::tracks::TracksMeta;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -113,6 +114,66 @@ mod tests {
         let d = resume::differences(&physics(&now), &physics(&other), &defaults);
         assert_eq!(d[0].to_string(), "seed: then 1, now 9");
     }
+
+    fn with(set: &[(&str, f64)]) -> SimulateOptions {
+        SimulateOptions {
+            preset: "paper".into(),
+            set: set.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+            ..SimulateOptions::default()
+        }
+    }
+
+    /// Eqs. 5–6 by hand. E = 1 MPa, ν = 0.5: 1/E* = 2 (1 − 0.25)/E, E* = 666,666.67 Pa;
+    /// l = 1 cm: k_n = (π/4) E* l = 5235.9878 N/m. And E* = 4e6/π Pa at l = 1 cm gives
+    /// the paper's k_n = 1e4 N/m exactly.
+    #[test]
+    fn k_n_follows_from_the_material_as_eqs_5_and_6_give_it() {
+        let p = with(&[
+            ("youngs_modulus", 1e6),
+            ("poisson_ratio", 0.5),
+            ("grain_height", 0.01),
+        ])
+        .params()
+        .unwrap();
+        assert!((p.k_n - 5_235.987_755_982_988).abs() < 1e-9, "{}", p.k_n);
+        assert_eq!(p.preset, "paper+custom");
+        let p = with(&[
+            ("e_star", 4e6 / std::f64::consts::PI),
+            ("grain_height", 0.01),
+        ])
+        .params()
+        .unwrap();
+        assert!((p.k_n - 1e4).abs() < 1e-9, "{}", p.k_n);
+        // The bar, rigid, doubles E* and so k_n (Sec. II.B.2).
+        let normal_k = |law: crate::dem::law::ContactLaw| match law.normal() {
+            crate::dem::law::Normal::Linear { k_n } => k_n,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(normal_k(p.bar_law().unwrap()), 2.0 * p.k_n);
+        assert_eq!(normal_k(p.grain_law().unwrap()), p.k_n);
+    }
+
+    #[test]
+    fn k_n_and_the_material_together_or_half_a_material_are_refused_by_name() {
+        let err = |set: &[(&str, f64)]| with(set).params().unwrap_err().to_string();
+        let e = err(&[("k_n", 1e4), ("e_star", 1e6), ("grain_height", 0.01)]);
+        assert!(
+            e.contains("k_n is set and so is the material") && e.contains("e_star, grain_height"),
+            "{e}"
+        );
+        let e = err(&[("youngs_modulus", 1e6), ("grain_height", 0.01)]);
+        assert!(e.contains("needs youngs_modulus and poisson_ratio"), "{e}");
+        let e = err(&[("e_star", 1e6)]);
+        assert!(e.contains("needs grain_height"), "{e}");
+        let e = err(&[
+            ("youngs_modulus", 1e6),
+            ("poisson_ratio", 0.7),
+            ("grain_height", 0.01),
+        ]);
+        assert!(e.contains("poisson_ratio = 0.7"), "{e}");
+        let e = err(&[("e_star", -1.0), ("grain_height", 0.01)]);
+        assert!(e.contains("must be > 0"), "{e}");
+    }
 }
 
 impl SimulateOptions {
@@ -138,7 +199,8 @@ impl SimulateOptions {
         })?;
         let mut v = serde_json::to_value(&base).expect("params serialise");
         v["normal_law"] = serde_json::json!(self.normal_law);
-        for (k, x) in &self.set {
+        let set = with_k_n_from_material(&self.set)?;
+        for (k, x) in &set {
             if k == "preset" || k == "normal_law" || v.get(k).is_none() {
                 let known: Vec<&String> = v
                     .as_object()
@@ -153,7 +215,7 @@ impl SimulateOptions {
             }
             v[k] = serde_json::json!(x);
         }
-        if !self.set.is_empty() {
+        if !set.is_empty() {
             v["preset"] = serde_json::json!(format!("{}+custom", self.preset));
         }
         let p: PillarParams =
@@ -161,6 +223,71 @@ impl SimulateOptions {
         p.validate().map_err(|e| Error::param("set", e))?;
         Ok(p)
     }
+}
+
+/// The material names `set` also takes instead of `k_n` (SI units): the grains'
+/// Young's modulus E (Pa) and Poisson ratio ν, or their contact modulus E* (Pa)
+/// directly, and the cylinders' height l (m).
+pub const MATERIAL_KEYS: [&str; 4] = ["youngs_modulus", "poisson_ratio", "e_star", "grain_height"];
+
+/// `set` with the material keys replaced by the `k_n` they give (li-granular-pillars
+/// Eqs. 5–6): two grains of one material have 1/E* = 2(1 − ν²)/E, and two cylinders of
+/// height l in contact k_n = (π/4) E* l. (The bar, rigid, doubles E* and so k_n: Sec.
+/// II.B.2, which `PillarParams::bar_law` applies to whatever k_n is.)
+pub fn with_k_n_from_material(set: &BTreeMap<String, f64>) -> Result<BTreeMap<String, f64>> {
+    let get = |k: &str| set.get(k).copied();
+    let given: Vec<&str> = MATERIAL_KEYS
+        .into_iter()
+        .filter(|k| set.contains_key(*k))
+        .collect();
+    if given.is_empty() {
+        return Ok(set.clone());
+    }
+    let bad = |msg: String| Err(Error::param("set", msg));
+    if set.contains_key("k_n") {
+        return bad(format!(
+            "k_n is set and so is the material it would follow from ({}; Eqs. 5–6): give one of them",
+            given.join(", ")
+        ));
+    }
+    let e_star = match (get("e_star"), get("youngs_modulus"), get("poisson_ratio")) {
+        (Some(es), None, None) => es,
+        (None, Some(e), Some(nu)) => {
+            if !(nu > -1.0 && nu < 0.5 + 1e-12) {
+                return bad(format!("poisson_ratio = {nu}: expected −1 < ν ≤ 0.5"));
+            }
+            e / (2.0 * (1.0 - nu * nu))
+        }
+        (Some(_), _, _) => {
+            return bad(
+                "e_star is E* itself: give it alone, or youngs_modulus and poisson_ratio instead"
+                    .into(),
+            );
+        }
+        _ => {
+            return bad(format!(
+                "{} set: k_n from the material needs youngs_modulus and poisson_ratio (or e_star) and grain_height",
+                given.join(", ")
+            ));
+        }
+    };
+    let Some(l) = get("grain_height") else {
+        return bad(
+            "k_n from the material needs grain_height, the cylinders' height l (m), Eq. 5".into(),
+        );
+    };
+    if !(e_star > 0.0 && e_star.is_finite() && l > 0.0 && l.is_finite()) {
+        return bad(format!(
+            "E* = {e_star} Pa and l = {l} m must be > 0 and finite"
+        ));
+    }
+    let mut out: BTreeMap<String, f64> = set
+        .iter()
+        .filter(|(k, _)| !MATERIAL_KEYS.contains(&k.as_str()))
+        .map(|(k, v)| (k.clone(), *v))
+        .collect();
+    out.insert("k_n".into(), std::f64::consts::FRAC_PI_4 * e_star * l);
+    Ok(out)
 }
 
 /// What a finished run reports; also written as `DIR/manifest.json`.
@@ -250,7 +377,7 @@ pub fn options_for_resume(
     opt: &SimulateOptions,
     given: &std::collections::BTreeSet<String>,
 ) -> Result<(SimulateOptions, Vec<(String, serde_json::Value)>)> {
-    let ckpt = dir.join(CHECKPOINT);
+    let ckpt = dir.join(crate::stages::run_dir::CHECKPOINT);
     let (_, prog) = read_checkpoint(&ckpt)?;
     let then = resume::recorded(&ckpt, &prog.physics)?;
     let (mut o, taken) = resume::adopt(opt, &then, given)?;
@@ -260,8 +387,6 @@ pub fn options_for_resume(
     Ok((o, taken))
 }
 
-const CHECKPOINT: &str = "checkpoint.bin";
-const PARTS: &str = ".parts";
 pub use crate::stages::manifest::MANIFEST;
 
 /// Run a pillar simulation into `out`.
@@ -277,38 +402,18 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
     if opt.forces_every == 0 {
         return Err(Error::param("forces_every", "must be ≥ 1"));
     }
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let ckpt = out.join(CHECKPOINT);
-    let parts_dir = out.join(PARTS);
+    let dir = RunDir::create(out)?;
     let physics = serde_json::to_string(&opt.physics()).expect("json");
     let (mut sim, mut prog) = if opt.resume {
-        let (sim, prog) = read_checkpoint(&ckpt)?;
-        let then = resume::recorded(&ckpt, &prog.physics)?;
+        let (sim, prog) = read_checkpoint(&dir.checkpoint)?;
+        let then = resume::recorded(&dir.checkpoint, &prog.physics)?;
         let defaults = resume::physics(SimulateOptions::default().physics());
         let now = resume::physics(opt.physics());
         resume::refuse_differences(&resume::differences(&then, &now, &defaults), "")?;
-        drop_parts_from(&parts_dir, prog.parts)?;
+        dir.resume(prog.parts)?;
         (sim, prog)
     } else {
-        if out.join(MANIFEST).exists() {
-            return Err(Error::param(
-                "output",
-                format!(
-                    "{} already holds a finished run; choose another directory",
-                    out.display()
-                ),
-            ));
-        }
-        if ckpt.exists() {
-            return Err(Error::param(
-                "output",
-                format!(
-                    "{} holds an unfinished run; pass --resume to continue it, or choose another directory",
-                    out.display()
-                ),
-            ));
-        }
-        let _ = std::fs::remove_dir_all(&parts_dir);
+        dir.start()?;
         let (sim, setup) = crate::stages::simulate::setup::initial_pillar(opt, params.clone())?;
         let prog = Progress {
             frames: 0,
@@ -377,22 +482,13 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
     let mut chunk: u64 = 64;
     let checkpoint =
         |sim: &PillarSim, buf: &mut Buffers, prog: &mut Progress, clock: &mut CheckpointClock| {
-            buf.flush(&parts_dir, prog.parts)?;
+            buf.flush(&dir.parts, prog.parts)?;
             prog.parts += 1;
             let saved = prog.elapsed_before;
             prog.elapsed_before += t0.elapsed().as_secs_f64();
             let bytes = sim.save(&prog.encode());
             prog.elapsed_before = saved;
-            crate::stages::write_checkpoint(&ckpt, &bytes, sim.step, opt.halt_after)?;
-            clock.saved();
-            match Error::interrupted(format!(
-                "checkpoint saved at step {} of {total} in {}",
-                sim.step,
-                ckpt.display()
-            )) {
-                Some(e) => Err(e),
-                None => Ok(()),
-            }
+            dir.save(&bytes, sim.step, total, opt.halt_after, clock)
         };
     while sim.step < total {
         // Run to the next output frame (or the end) in chunks, so the threads of
@@ -426,13 +522,13 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         }
     }
     bar.finish_and_clear();
-    buf.flush(&parts_dir, prog.parts)?;
+    buf.flush(&dir.parts, prog.parts)?;
     prog.parts += 1;
     let mut tables = BTreeMap::new();
     let mut rows = BTreeMap::new();
     for name in TABLES {
         let path = out.join(format!("{name}.parquet"));
-        rows.insert(name, merge_parts(&parts_dir, name, prog.parts, &path)?);
+        rows.insert(name, merge_parts(&dir.parts, name, prog.parts, &path)?);
         tables.insert(name.to_string(), path);
     }
     let setup: serde_json::Value = serde_json::from_str(&prog.setup).expect("own json");
@@ -479,8 +575,7 @@ pub fn run(out: &Path, opt: &SimulateOptions) -> Result<SimulateReport> {
         "decisions": crate::stages::simulate::setup::DECISIONS,
     });
     crate::stages::manifest::write(out, "simulate pillar", opt, body)?;
-    let _ = std::fs::remove_file(&ckpt);
-    let _ = std::fs::remove_dir_all(&parts_dir);
+    dir.finished();
     Ok(report)
 }
 
