@@ -151,7 +151,10 @@ def _convert(t: Table, to: str):
     if to == "polars":
         return t
     if to == "pandas":
-        df = t.to_pandas()
+        # Column by column through numpy: polars' own to_pandas needs pyarrow.
+        import pandas as pd
+
+        df = pd.DataFrame({c: t[c].to_numpy() for c in t.columns})
         df.attrs["meta"] = t.meta
         df.attrs["units"] = t.units
         return df
