@@ -39,16 +39,22 @@ SITE=$("$DEPS/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["pur
 
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/pillar-pipe-python.XXXXXX")
 trap 'rm -rf "$WORK"' EXIT
-# A fresh environment: the wheel goes in here; the dependencies are the cache's.
-python3 -m venv "$WORK/venv" || cannot "python3 -m venv failed"
-FRESH_SITE=$("$WORK/venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+# A fresh environment: the wheel goes in here; the dependencies are the cache's. Made
+# anew each run but at one path: maturin hands the interpreter's path to pyo3's build
+# script, and a new path each run rebuilt pyo3 and the extension (25 s warm).
+VENV="$CACHE/venv-check"
+rm -rf "$VENV"
+# Without its own pip (ensurepip takes seconds): the cache's pip installs into it.
+python3 -m venv --without-pip "$VENV" || cannot "python3 -m venv failed"
+FRESH_SITE=$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
 echo "$SITE" >"$FRESH_SITE/pillar-pipe-deps.pth"
 
 # What the README says a user types, without build isolation (maturin is the cache's,
 # not downloaded per run) and without the index (every dependency must already be met).
-PATH="$DEPS/bin:$PATH" "$WORK/venv/bin/pip" install -q --no-build-isolation --no-index ./python
+PATH="$DEPS/bin:$PATH" "$DEPS/bin/pip" --python "$VENV/bin/python" install -q \
+  --no-build-isolation --no-index ./python
 
 # From outside the source tree, so `import pillar_pipe` is the installed package.
 cd "$WORK"
-"$WORK/venv/bin/python" -c 'import pillar_pipe; print("pillar_pipe", pillar_pipe.__version__, "from", pillar_pipe.__file__)'
-PILLAR_PIPE_ROOT="$ROOT" "$WORK/venv/bin/python" -m pytest -q -p no:cacheprovider "$ROOT/python/tests"
+"$VENV/bin/python" -c 'import pillar_pipe; print("pillar_pipe", pillar_pipe.__version__, "from", pillar_pipe.__file__)'
+PILLAR_PIPE_ROOT="$ROOT" "$VENV/bin/python" -m pytest -q -p no:cacheprovider --durations=6 "$ROOT/python/tests"

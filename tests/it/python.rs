@@ -27,7 +27,10 @@ fn python_package_installs_and_passes_its_tests() {
     match out.status.code() {
         Some(0) => {
             assert!(text.contains(" passed"), "no test ran:\n{text}");
-            assert!(!text.contains(" skipped"), "a Python test was skipped:\n{text}");
+            assert!(
+                !text.contains(" skipped"),
+                "a Python test was skipped:\n{text}"
+            );
         }
         Some(77) => common::cannot_check(text.trim()),
         _ => panic!("scripts/python-check.sh failed:\n{text}"),
