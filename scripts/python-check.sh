@@ -25,6 +25,10 @@ cannot() {
 
 command -v python3 >/dev/null || cannot "no python3 on PATH"
 mkdir -p "$CACHE"
+# One check at a time per cache: sessions sharing a machine share ~/.cache, and the
+# dependency venv and the check's venv below live there.
+exec 9>"$CACHE/lock"
+flock 9
 key=$(printf '%s %s' "$REQUIREMENTS" "$(python3 -c 'import sys; print(sys.version)')" | sha256sum | cut -c1-16)
 DEPS="$CACHE/deps-$key"
 if [ ! -f "$DEPS/.complete" ]; then
