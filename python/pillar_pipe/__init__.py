@@ -28,6 +28,7 @@ from __future__ import annotations
 import atexit
 import itertools
 import json
+import numbers
 import os
 import re
 import shutil
@@ -127,6 +128,7 @@ class Table(pl.DataFrame):
     @classmethod
     def _read(cls, path: Path, table: Optional[str]) -> "Table":
         df = pl.read_parquet(path)
+        # The frame's own data, no copy, in this subclass (polars' constructor for it).
         t = cls._from_pydf(df._df)
         side = Path(str(path) + ".meta.json")
         t.meta = json.loads(side.read_text()) if side.exists() else {}
@@ -301,7 +303,7 @@ def kinematics(
     OVITO's definitions. Returns the ``kinematics`` :class:`Table`; a lag beyond the movie
     raises ``ValueError``."""
     src, name = _input_path(tracks, "tracks")
-    lags = [int(lag)] if isinstance(lag, (int,)) else [int(x) for x in lag]
+    lags = [int(lag)] if isinstance(lag, numbers.Integral) else [int(x) for x in lag]
     out = _scratch("kinematics", ".parquet")
     _call(
         "kinematics",
