@@ -106,6 +106,8 @@ def _units(table: Optional[str], meta: Dict[str, Any]) -> Dict[str, str]:
             u = re.sub(r"\blength\b", length, u)
         if time and u in ("1/time", "length/time", f"{length}/time"):
             u = u.replace("time", time)
+        elif time and u.startswith("time ("):  # "time (s, or frames if …)"
+            u = time
         out[c["name"]] = u
     return out
 

@@ -129,8 +129,12 @@ def test_gofr_equals_cli(cli_tracks, py_tracks, tmp_path):
 def test_pandas_on_request(py_tracks):
     k = pp.kinematics(py_tracks, lag=1, to="pandas")
     assert isinstance(k, pd.DataFrame)
-    assert k.attrs["units"]["eta_s"] == "1"
-    assert k.attrs["meta"]["lags"] == [1] or "lags" not in k.attrs["meta"]
+    assert k.attrs["units"]["eta_s"] == "1" and k.attrs["units"]["d2min"] == "cm^2"
+    assert k.attrs["units"]["dt"] == "s"
+    assert k.attrs["meta"]["lags"] == [1]
+    ref = pp.kinematics(py_tracks, lag=1)
+    assert list(k.columns) == ref.columns
+    assert k["d2min"].to_numpy().tobytes() == ref["d2min"].to_numpy().tobytes()
 
 
 def test_missing_x_is_a_value_error_naming_it():
