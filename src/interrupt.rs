@@ -59,6 +59,20 @@ pub fn requested() -> Option<i32> {
     }
 }
 
+/// Ask the long loops to stop as a signal `sig` would, without a signal: for a program
+/// embedding the library that catches Ctrl-C itself (the Python package polls Python's
+/// own SIGINT handling while a stage runs on another thread, then calls this). The
+/// stage then stops at its next safe point with `Error::Interrupted`.
+pub fn request(sig: i32) {
+    SIGNAL.store(sig, Ordering::SeqCst);
+}
+
+/// Forget a stop request: an embedding program that survives an interrupted call (a
+/// notebook after Ctrl-C) calls this so that its next call is not stopped at once.
+pub fn clear() {
+    SIGNAL.store(0, Ordering::SeqCst);
+}
+
 /// `SIGINT`, `SIGTERM`, or `signal N`.
 pub fn name(sig: i32) -> String {
     match sig {

@@ -19,6 +19,7 @@ mod physics;
 mod pipeline;
 mod pipeline_cache;
 mod pipeline_failures;
+mod python;
 mod ramp_pipeline;
 mod report;
 mod shear;

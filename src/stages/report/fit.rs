@@ -93,6 +93,42 @@ fn sensitivity_table(label: &str, f: &FitReport) -> Block {
     Block::Table { header, rows }
 }
 
+/// The crossover figure (Li et al. Fig. 8: D²min/R² against η^s, both dimensionless,
+/// on log axes, with Eq. 19 over the fitted range) of labelled fits, saved as
+/// `stem.png` and `stem.svg`: what the report shows, for callers that want the figure
+/// alone (the Python package's `crossover_figure`).
+pub fn crossover_figure(fits: &[(String, FitReport)], stem: &Path) -> Result<SavedFigure> {
+    let mut series = Vec::new();
+    for (label, f) in fits {
+        let binned = f
+            .estimators
+            .get(f.method.name())
+            .and_then(|v| v.get("curve"))
+            .and_then(|c| serde_json::from_value::<Vec<crate::fit::BinPoint>>(c.clone()).ok())
+            .unwrap_or_default()
+            .iter()
+            .map(|b| (b.eta_s, b.d2min_over_r2))
+            .collect();
+        series.push(CrossoverSeries {
+            label: label.clone(),
+            points: scatter_points(f)?,
+            binned,
+            theta: f.theta,
+            eta_c: f.eta_c,
+            theta_constrained: f.theta_constrained,
+            eta_c_constrained: f.eta_c_constrained,
+            range: f.range.as_ref().map(|r| (r.lo, r.hi)),
+            excluded: f.range.as_ref().map_or(Vec::new(), |r| {
+                r.excluded
+                    .iter()
+                    .map(|b| (b.eta_s, b.d2min_over_r2))
+                    .collect()
+            }),
+        });
+    }
+    save(&CrossoverFigure { series }, stem)
+}
+
 /// The crossover section, or None when no data set has a fit. Saves its figure under
 /// `figdir` and appends it to `figures`.
 pub fn crossover_section(
@@ -110,35 +146,7 @@ pub fn crossover_section(
         return Ok(None);
     }
     {
-        let mut series = Vec::new();
-        for (label, f) in &fits {
-            let binned = f
-                .estimators
-                .get(f.method.name())
-                .and_then(|v| v.get("curve"))
-                .and_then(|c| serde_json::from_value::<Vec<crate::fit::BinPoint>>(c.clone()).ok())
-                .unwrap_or_default()
-                .iter()
-                .map(|b| (b.eta_s, b.d2min_over_r2))
-                .collect();
-            series.push(CrossoverSeries {
-                label: label.clone(),
-                points: scatter_points(f)?,
-                binned,
-                theta: f.theta,
-                eta_c: f.eta_c,
-                theta_constrained: f.theta_constrained,
-                eta_c_constrained: f.eta_c_constrained,
-                range: f.range.as_ref().map(|r| (r.lo, r.hi)),
-                excluded: f.range.as_ref().map_or(Vec::new(), |r| {
-                    r.excluded
-                        .iter()
-                        .map(|b| (b.eta_s, b.d2min_over_r2))
-                        .collect()
-                }),
-            });
-        }
-        let fig = save(&CrossoverFigure { series }, &figdir.join("crossover"))?;
+        let fig = crossover_figure(&fits, &figdir.join("crossover"))?;
         let mut blocks = vec![
             Block::Figure {
                 id: "fig-crossover".into(),

@@ -6,6 +6,7 @@
 
 mod data;
 mod fit;
+pub use fit::crossover_figure;
 pub mod frames;
 pub mod render;
 mod sections;
