@@ -355,9 +355,13 @@ def fit(
     bar_speed: Optional[float] = None,
     starts: Optional[Sequence[float]] = None,
     lags: Optional[Sequence[float]] = None,
-    rc_over_d: float = 1.25,
-    bootstrap: int = 1000,
-    seed: int = 1,
+    rc_over_d: Optional[float] = None,
+    method: Optional[str] = None,
+    bins_per_decade: Optional[float] = None,
+    min_bin_count: Optional[int] = None,
+    bootstrap: Optional[int] = None,
+    seed: Optional[int] = None,
+    eta_range: Optional[str] = None,
     position_noise: Optional[float] = None,
     to: str = "polars",
 ) -> Fit:
@@ -365,24 +369,36 @@ def fit(
     ``tracks`` it runs the Sec. IV protocol (start times ``starts`` and lags ``lags`` in
     units of R/v_c; ``bar_speed`` v_c in length unit/s), from a ``kinematics`` table it
     fits the rows as given. ``diameter`` D in the length unit (default from the data);
-    ``bootstrap`` replicates with ``seed`` for the 95 % intervals; ``position_noise``
-    σ per coordinate (length unit) sets the tracking-noise floor. Returns a :class:`Fit`;
-    ``to`` applies to its scatter table."""
+    ``rc_over_d`` R_c/D (1.25); ``method`` ``binned-median`` (default), ``binned-mean``,
+    ``points`` or ``weighted-mean``; ``bins_per_decade`` (5) and ``min_bin_count`` (10)
+    of the η^s bins; ``bootstrap`` replicates (1000) with ``seed`` (1) for the 95 %
+    intervals; ``eta_range`` ``coverage`` (default), ``all`` or ``"LO,HI"``;
+    ``position_noise`` σ per coordinate (length unit) sets the tracking-noise floor.
+    An option left at None takes the library's default, the command's and a pipeline's
+    (one definition: ``FitParams``). Returns a :class:`Fit`; ``to`` applies to its
+    scatter table."""
     src, name = _input_path(tracks_or_kinematics, "input")
     out = _scratch("fit", ".json")
-    rep = _call(
-        "fit",
-        input=str(src),
-        output=str(out),
+    given = dict(
         diameter=diameter,
         bar_speed=bar_speed,
         starts=list(starts) if starts is not None else None,
         lags=list(lags) if lags is not None else None,
         rc_over_d=rc_over_d,
+        method=method,
+        bins_per_decade=bins_per_decade,
+        min_bin_count=min_bin_count,
         bootstrap=bootstrap,
         seed=seed,
+        eta_range=eta_range,
         position_noise=position_noise,
+    )
+    rep = _call(
+        "fit",
+        input=str(src),
+        output=str(out),
         rename={str(src): name} if name else {},
+        **{k: v for k, v in given.items() if v is not None},
     )
     f = Fit(rep)
     f.path = out

@@ -214,38 +214,26 @@ fn kinematics(py: Python<'_>, a: KinematicsArgs) -> PyResult<String> {
     run_stage(py, move || run(&a.input, &a.output, &opt))
 }
 
-/// `pillar-pipe fit INPUT -o OUTPUT` (fit.json, the scatter table beside it).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FitArgs {
-    input: PathBuf,
-    output: PathBuf,
-    diameter: Option<f64>,
-    bar_speed: Option<f64>,
-    starts: Option<Vec<f64>>,
-    lags: Option<Vec<f64>>,
-    rc_over_d: Option<f64>,
-    bootstrap: Option<usize>,
-    seed: Option<u64>,
-    position_noise: Option<f64>,
-}
-
-fn fit(py: Python<'_>, a: FitArgs) -> PyResult<String> {
-    use pillar_pipe::stages::fit::{FitOptions, run};
-    let d = FitOptions::default();
-    let opt = FitOptions {
-        diameter: a.diameter,
-        bar_speed: a.bar_speed,
-        starts: a.starts,
-        lags: a.lags,
-        rc_over_d: a.rc_over_d.unwrap_or(d.rc_over_d),
-        bootstrap: a.bootstrap.unwrap_or(d.bootstrap),
-        seed: a.seed.unwrap_or(d.seed),
-        position_noise: a.position_noise,
-        quiet: true,
-        ..d
+/// `pillar-pipe fit INPUT -o OUTPUT` (fit.json, the scatter table beside it): `input`
+/// and `output`, and every other key is one of `FitParams`' — the struct the command
+/// line flattens and a pipeline's fit stage reads, so names and defaults are theirs.
+fn fit(py: Python<'_>, json: &str) -> PyResult<String> {
+    use pillar_pipe::stages::fit::params::FitParams;
+    let bad = |e: String| PyValueError::new_err(format!("fit: invalid option: {e}"));
+    let mut v: serde_json::Value = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
+    let obj = v
+        .as_object_mut()
+        .ok_or_else(|| bad("expected keyword arguments".into()))?;
+    let mut path = |key: &str| -> PyResult<PathBuf> {
+        match obj.remove(key) {
+            Some(serde_json::Value::String(s)) => Ok(PathBuf::from(s)),
+            _ => Err(bad(format!("missing {key}"))),
+        }
     };
-    run_stage(py, move || run(&a.input, &a.output, &opt))
+    let (input, output) = (path("input")?, path("output")?);
+    let params: FitParams = serde_json::from_value(v).map_err(|e| bad(e.to_string()))?;
+    let opt = params.options("fit", true).map_err(to_py)?;
+    run_stage(py, move || pillar_pipe::stages::fit::run(&input, &output, &opt))
 }
 
 /// `pillar-pipe gofr INPUT -o OUTPUT` (the CLI's defaults: r_max 4 D, 80 bins).
@@ -347,7 +335,7 @@ fn dispatch(py: Python<'_>, stage: &str, json: &str) -> PyResult<String> {
         "ingest" => ingest(py, args(stage, json)?),
         "ingest_settings" => ingest_settings(&args::<PathBuf>(stage, json)?),
         "kinematics" => kinematics(py, args(stage, json)?),
-        "fit" => fit(py, args(stage, json)?),
+        "fit" => fit(py, json),
         "gofr" => gofr(py, args(stage, json)?),
         "simulate_pillar" => {
             let a: SimArgs<pillar_pipe::stages::simulate::SimulateOptions> = args(stage, json)?;

@@ -118,6 +118,15 @@ def test_fit_equals_cli(cli_tracks, py_tracks, tmp_path):
     fk = pp.fit(pp.kinematics(py_tracks, lag=1), bootstrap=100)
     ref = json.loads((tmp_path / "fk.json").read_text())
     assert (fk["theta"], fk["eta_c"]) == (ref["theta"], ref["eta_c"])
+    # Every fit option, by the command's names: the same struct serves both.
+    cli("fit", kout, "-o", tmp_path / "fm.json", "--bootstrap", 50, "--method", "points",
+        "--eta-range", "all", "--bins-per-decade", 4, "--min-bin-count", 5, "--seed", 3)
+    fm = pp.fit(pp.kinematics(py_tracks, lag=1), bootstrap=50, method="points",
+                eta_range="all", bins_per_decade=4, min_bin_count=5, seed=3)
+    ref = json.loads((tmp_path / "fm.json").read_text())
+    assert (fm["theta"], fm["eta_c"], fm["method"]) == (ref["theta"], ref["eta_c"], ref["method"])
+    with pytest.raises(ValueError, match="fit.eta_range"):
+        pp.fit(py_tracks, eta_range="nonsense")
 
 
 def test_gofr_equals_cli(cli_tracks, py_tracks, tmp_path):
