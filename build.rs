@@ -1,6 +1,7 @@
 //! Build-time hashes of the source, for cache keys that survive a rebuild. Embeds
 //! `SOURCES`, the SHA-256 of every file under `src/` and `data_schema/`, of
-//! `Cargo.lock` (the dependencies' exact versions) and of every file the code
+//! `Cargo.lock` (the exact versions of this crate's dependencies, not another workspace
+//! member's) and of every file the code
 //! `include_bytes!`s, and `KIND_FILES`, for each stage kind the files its key covers:
 //! those reachable in the import graph (`src/pipeline/import_graph.rs`) from the
 //! kind's entry modules (`src/pipeline/kind_entries.rs`), and `Cargo.lock`. A stage's
@@ -77,7 +78,13 @@ fn main() {
     let mut text = String::from("/// (path, SHA-256) of every source file, sorted by path.\n");
     text.push_str("pub const SOURCES: &[(&str, &str)] = &[\n");
     for rel in &hashed {
-        let bytes = std::fs::read(root.join(rel)).unwrap_or_default();
+        let mut bytes = std::fs::read(root.join(rel)).unwrap_or_default();
+        if rel == "Cargo.lock" {
+            // Only what this crate's build uses (not the Python package's pyo3).
+            let lock = String::from_utf8_lossy(&bytes).into_owned();
+            let name = std::env::var("CARGO_PKG_NAME").expect("cargo sets it");
+            bytes = import_graph::lock_closure(&lock, &name).into_bytes();
+        }
         let _ = writeln!(text, "    ({rel:?}, {:?}),", sha256_hex(&bytes));
     }
     text.push_str("];\n\n");

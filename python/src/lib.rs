@@ -233,7 +233,9 @@ fn fit(py: Python<'_>, json: &str) -> PyResult<String> {
     let (input, output) = (path("input")?, path("output")?);
     let params: FitParams = serde_json::from_value(v).map_err(|e| bad(e.to_string()))?;
     let opt = params.options("fit", true).map_err(to_py)?;
-    run_stage(py, move || pillar_pipe::stages::fit::run(&input, &output, &opt))
+    run_stage(py, move || {
+        pillar_pipe::stages::fit::run(&input, &output, &opt)
+    })
 }
 
 /// `pillar-pipe gofr INPUT -o OUTPUT` (the CLI's defaults: r_max 4 D, 80 bins).

@@ -606,8 +606,124 @@ pub fn reachable(g: &BTreeMap<String, BTreeSet<String>>, entries: &[&str]) -> BT
     seen
 }
 
+/// The part of `Cargo.lock` that `root`'s build uses: its `[[package]]` entries in the
+/// dependency closure of `root`, in the file's order. A stage's key covers this rather
+/// than the whole lock, so a dependency of another workspace member (the Python
+/// package's pyo3) does not recompute every cached stage. Entries are matched by name,
+/// or by name and version where the lock lists several versions (`"syn 1.0.109"`).
+pub fn lock_closure(lock: &str, root: &str) -> String {
+    let blocks: Vec<&str> = lock.split("[[package]]").skip(1).collect();
+    let field = |b: &str, key: &str| -> Option<String> {
+        b.lines()
+            .find_map(|l| l.strip_prefix(key)?.trim().strip_prefix('='))
+            .map(|v| v.trim().trim_matches('"').to_string())
+    };
+    let deps = |b: &str| -> Vec<(String, Option<String>)> {
+        let Some(start) = b.find("dependencies = [") else {
+            return Vec::new();
+        };
+        let list = &b[start + "dependencies = [".len()..];
+        let list = &list[..list.find(']').unwrap_or(list.len())];
+        list.split(',')
+            .map(|d| d.trim().trim_matches('"'))
+            .filter(|d| !d.is_empty())
+            .map(|d| {
+                let mut t = d.split_whitespace();
+                let name = t.next().unwrap_or_default().to_string();
+                (name, t.next().map(str::to_string))
+            })
+            .collect()
+    };
+    let keyed: Vec<(String, String)> = blocks
+        .iter()
+        .map(|b| {
+            (
+                field(b, "name ").unwrap_or_default(),
+                field(b, "version ").unwrap_or_default(),
+            )
+        })
+        .collect();
+    let find = |name: &str, version: Option<&str>| {
+        keyed
+            .iter()
+            .position(|(n, v)| n == name && version.is_none_or(|want| want == v))
+    };
+    let mut keep = vec![false; blocks.len()];
+    let mut todo: Vec<usize> = find(root, None).into_iter().collect();
+    while let Some(i) = todo.pop() {
+        if std::mem::replace(&mut keep[i], true) {
+            continue;
+        }
+        for (name, version) in deps(blocks[i]) {
+            if let Some(j) = find(&name, version.as_deref()) {
+                todo.push(j);
+            }
+        }
+    }
+    blocks
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(b, _)| format!("[[package]]{b}"))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn the_lock_closure_keeps_the_roots_dependencies_only() {
+        let lock = r#"version = 4
+
+[[package]]
+name = "a"
+version = "1.0.0"
+dependencies = [
+ "b 2.0.0",
+]
+
+[[package]]
+name = "b"
+version = "1.0.0"
+
+[[package]]
+name = "b"
+version = "2.0.0"
+
+[[package]]
+name = "py"
+version = "0.1.0"
+dependencies = [
+ "a",
+ "pyo3",
+]
+
+[[package]]
+name = "pyo3"
+version = "0.27.0"
+
+[[package]]
+name = "root"
+version = "0.1.0"
+dependencies = [
+ "a",
+]
+"#;
+        let c = lock_closure(lock, "root");
+        let names: Vec<&str> = c
+            .lines()
+            .filter_map(|l| l.strip_prefix("name = "))
+            .collect();
+        assert_eq!(names, ["\"a\"", "\"b\"", "\"root\""]);
+        assert!(
+            c.contains("version = \"2.0.0\"")
+                && !c.contains("version = \"1.0.0\"\n\n[[package]]\nname = \"b\"")
+        );
+        assert!(!c.contains("pyo3"));
+        // A new version of another member's dependency leaves it as it was.
+        assert_eq!(lock_closure(&lock.replace("0.27.0", "0.28.0"), "root"), c);
+    }
+
     use super::*;
 
     fn deps(files: &[(&str, &str)], of: &str) -> Vec<String> {
