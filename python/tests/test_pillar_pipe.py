@@ -205,25 +205,19 @@ def sheared_xyz(tmp_path_factory):
     return xyz, tracks, k
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="export writes `species:I:1`; ASE reads a `species` property as element "
-    "symbols and fails on integers (ase/io/extxyz.py: s.capitalize()). Fix the export "
-    "(e.g. name the column so ASE keeps it as an array) and this passes.",
-)
 def test_extxyz_opens_in_ase_as_written(sheared_xyz):
+    # Regression: export wrote `species:I:1`, which ASE reads as element symbols and
+    # fails on (ase/io/extxyz.py: s.capitalize()); it writes `type` (OVITO's Particle
+    # Type too) with 1 small, 2 large.
     ase_io = pytest.importorskip("ase.io")
-    ase_io.read(sheared_xyz[0], index=":")
+    frames = ase_io.read(sheared_xyz[0], index=":")
+    assert set(np.unique(frames[-1].arrays["type"])) == {1, 2}
 
 
 def test_extxyz_positions_d2min_and_tilted_cell_in_ase(sheared_xyz, tmp_path):
     ase_io = pytest.importorskip("ase.io")
     xyz, tracks, k = sheared_xyz
-    # Around the export's `species` problem (the test above): the same file with that
-    # property renamed, every number untouched.
-    fixed = tmp_path / "renamed.xyz"
-    fixed.write_text(xyz.read_text().replace(":species:I:1:", ":kind:I:1:"))
-    frames = ase_io.read(fixed, index=":")
+    frames = ase_io.read(xyz, index=":")
     boxes = {b["frame"]: b for b in tracks.meta["boxes"]}
     all_frames = sorted(tracks["frame"].unique().to_list())
     assert len(frames) == len(all_frames)

@@ -96,7 +96,9 @@ pub fn write_extxyz(w: &mut impl Write, s: &Snapshot) -> std::io::Result<()> {
     let _ = write!(head, "pbc=\"{} {} F\" ", tf(px), tf(py));
     head.push_str("Properties=id:I:1");
     if s.species.is_some() {
-        head.push_str(":species:I:1");
+        // `type`, not `species`: OVITO maps either to Particle Type, but ASE reads a
+        // `species` column as element symbols and fails on numbers.
+        head.push_str(":type:I:1");
     }
     head.push_str(":pos:R:3:radius:R:1");
     if s.velocity.is_some() {
@@ -115,8 +117,8 @@ pub fn write_extxyz(w: &mut impl Write, s: &Snapshot) -> std::io::Result<()> {
         line.clear();
         let _ = write!(line, "{}", s.id[i]);
         if let Some(sp) = s.species {
-            // ASE's species is an element symbol; numbers are what OVITO colours by.
-            let _ = write!(line, " {}", sp[i]);
+            // 1 small, 2 large: OVITO's type ids, as in the LAMMPS dump.
+            let _ = write!(line, " {}", if sp[i] == 1 { 2 } else { 1 });
         }
         let _ = write!(line, " {} {} 0 {}", s.x[i], s.y[i], s.radius[i]);
         if let Some((vx, vy)) = s.velocity {
@@ -226,12 +228,12 @@ mod tests {
         );
         assert!(lines[1].contains("pbc=\"T T F\""));
         assert!(
-            lines[1]
-                .contains("Properties=id:I:1:species:I:1:pos:R:3:radius:R:1:velo:R:3:d2min:R:1")
+            lines[1].contains("Properties=id:I:1:type:I:1:pos:R:3:radius:R:1:velo:R:3:d2min:R:1")
         );
         assert!(lines[1].contains("Time=0.5") && lines[1].contains("frame=3"));
         let f: Vec<&str> = lines[3].split(' ').collect();
         assert_eq!(f[0], "9");
+        assert_eq!(f[1], "2", "a large grain is type 2, as in the dump");
         assert_eq!(f[2].parse::<f64>().unwrap(), 2.5);
         assert!(f[6].parse::<f64>().unwrap().is_nan());
         assert_eq!(f[9].parse::<f64>().unwrap(), 1.0 / 3.0);

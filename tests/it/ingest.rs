@@ -858,8 +858,8 @@ fn export_writes_files_ovito_opens_that_read_back_exactly() {
             .next()
             .unwrap();
         let names: Vec<&str> = props.split(':').step_by(3).collect();
-        assert_eq!(&names[..5], ["id", "species", "pos", "radius", "velo"]);
-        // Columns: id, species, x y z, radius, vx vy vz, then one each.
+        assert_eq!(&names[..5], ["id", "type", "pos", "radius", "velo"]);
+        // Columns: id, type, x y z, radius, vx vy vz, then one each.
         let col = 9 + names[5..].iter().position(|n| *n == "d2min").unwrap();
         for _ in 0..n {
             let f: Vec<&str> = lines.next().unwrap().split(' ').collect();
