@@ -9,6 +9,7 @@
 //! killed one) is shown as far as it goes, naming what is missing.
 
 pub mod angles;
+pub mod appendix_a;
 pub mod classify;
 pub mod coexistence;
 mod elastic;
@@ -600,6 +601,7 @@ pub fn sweep_section(
         }
     }
     qc::add_figures(&mut f, &data.rows)?;
+    appendix_a::add_figures(&mut f, &data.rows, &c)?;
     coexistence::add_sweep(&mut f, &data.rows);
     stress_space::add_figures(&mut f, &data.rows, &c)?;
     Ok(Section {
