@@ -13,6 +13,7 @@ pub mod appendix_a;
 pub mod classify;
 pub mod coexistence;
 mod elastic;
+pub mod jamming;
 pub mod qc;
 pub mod ramp;
 pub mod run_figures;
@@ -600,10 +601,12 @@ pub fn sweep_section(
             )?;
         }
     }
-    qc::add_figures(&mut f, &data.rows)?;
+    let phi_j = jamming::estimate(&data.rows);
+    f.blocks.push(Block::Paragraph(jamming::paragraph(&phi_j)));
+    qc::add_figures(&mut f, &data.rows, &phi_j)?;
     appendix_a::add_figures(&mut f, &data.rows, &c)?;
     coexistence::add_sweep(&mut f, &data.rows);
-    stress_space::add_figures(&mut f, &data.rows, &c)?;
+    stress_space::add_figures(&mut f, &data.rows, &c, &phi_j)?;
     Ok(Section {
         id: format!("sweep-{}", slug(label)),
         title: format!("Sweep {label}: flow curves and phase diagram"),
