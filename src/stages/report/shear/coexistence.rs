@@ -13,8 +13,15 @@
 //!   R_v = ⟨δv_x²⟩/⟨v_y²⟩ (Eq. 37) above [`R_V_BANDED`] are shear banded (R_v ≈ 1 in
 //!   homogeneous flow); φ_B is bracketed between the last unbanded φ below the banded
 //!   stretch and its first banded φ, φ_N between its last banded φ and the first
-//!   unbanded φ above. The paper regards R_v as the most reliable of its three measures;
-//!   the P^el kink and the switch of μ between branches are not located here.
+//!   unbanded φ above. The paper regards R_v as the most reliable of its three measures.
+//! - **The P^el kinks and the μ switch (Figs. 22, 23)**, the paper's other two measures: along
+//!   φ at each (Q, γ̇), the interval slopes g_k = Δ ln P^el/Δφ (for μ, |Δμ|/Δφ); the
+//!   steepest interval, if at least [`STEEP_FACTOR`] times the median g of the curve,
+//!   is the jump, and the stretch around it of intervals at least half as steep is the
+//!   coexistence region: φ_B is the φ where the stretch begins (the lower kink), φ_N
+//!   where it ends (the upper kink). A stretch reaching the grid's end leaves that side
+//!   open. The three measures are compared in a table; they disagree when their
+//!   estimates (a bracket's middle, a kink's φ) differ by more than the local grid step.
 
 use super::{Figures, Row, key};
 use crate::stages::report::render::html::Block;
@@ -22,6 +29,148 @@ use std::collections::BTreeMap;
 
 /// R_v above which a run counts as shear banded (homogeneous flow gives R_v ≈ 1).
 pub const R_V_BANDED: f64 = 3.0;
+
+/// The steepest interval must be this many times the curve's median steepness to be a
+/// jump (a smooth exponential P^el(φ) has all intervals alike).
+pub const STEEP_FACTOR: f64 = 3.0;
+
+/// The steep stretch of y(φ) (points sorted by φ, at least four): (φ_B, φ_N), either
+/// `None` where the stretch reaches the grid's end; `None` overall without a jump.
+/// `signed`: the jump must rise (P^el); otherwise its size counts either way (μ).
+pub fn steep_stretch(pts: &[(f64, f64)], signed: bool) -> Option<(Option<f64>, Option<f64>)> {
+    if pts.len() < 4 {
+        return None;
+    }
+    let g: Vec<f64> = pts
+        .windows(2)
+        .map(|w| {
+            let s = (w[1].1 - w[0].1) / (w[1].0 - w[0].0);
+            if signed { s } else { s.abs() }
+        })
+        .collect();
+    if g.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    let mut sorted = g.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let (k, &top) = g.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    if !(top > 0.0 && top >= STEEP_FACTOR * median.max(0.0)) {
+        return None;
+    }
+    let (mut a, mut b) = (k, k);
+    while a > 0 && g[a - 1] >= 0.5 * top {
+        a -= 1;
+    }
+    while b + 1 < g.len() && g[b + 1] >= 0.5 * top {
+        b += 1;
+    }
+    // Interval a runs from point a to a + 1; the stretch from point a to point b + 1.
+    Some((
+        (a > 0).then(|| pts[a].0),
+        (b + 2 < pts.len()).then(|| pts[b + 1].0),
+    ))
+}
+
+/// φ_B and φ_N at one (Q, γ̇) by each of the paper's three measures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measures {
+    pub q: f64,
+    pub rate: f64,
+    /// From R_v (brackets).
+    pub r_v: Option<Boundaries>,
+    /// From the kinks of P^el and the switch of μ: (φ_B, φ_N).
+    pub p_el: Option<(Option<f64>, Option<f64>)>,
+    pub mu: Option<(Option<f64>, Option<f64>)>,
+    /// The largest grid step of φ on this curve.
+    pub step: f64,
+}
+
+/// The three measures at every (Q, γ̇) where at least one finds a region.
+pub fn measures(rows: &[Row]) -> Vec<Measures> {
+    let rv = boundaries(rows);
+    let mut by: BTreeMap<(i64, i64), (f64, f64, Vec<&Row>)> = BTreeMap::new();
+    for r in rows {
+        by.entry((key(r.q), key(r.rate)))
+            .or_insert_with(|| (r.q, r.rate, Vec::new()))
+            .2
+            .push(r);
+    }
+    let mut out = Vec::new();
+    for (q, rate, mut rs) in by.into_values() {
+        rs.sort_by(|a, b| a.phi.total_cmp(&b.phi));
+        let curve = |f: &dyn Fn(&Row) -> Option<f64>| -> Vec<(f64, f64)> {
+            rs.iter().filter_map(|r| f(r).map(|y| (r.phi, y))).collect()
+        };
+        let p_el = steep_stretch(
+            &curve(&|r| r.get("p_el").filter(|p| p.0 > 0.0).map(|p| p.0.ln())),
+            true,
+        );
+        let mu = steep_stretch(&curve(&|r| r.get("mu").map(|m| m.0)), false);
+        let r_v = rv
+            .iter()
+            .find(|b| key(b.q) == key(q) && key(b.rate) == key(rate))
+            .cloned();
+        if p_el.is_none() && mu.is_none() && r_v.is_none() {
+            continue;
+        }
+        let step = rs
+            .windows(2)
+            .map(|w| w[1].phi - w[0].phi)
+            .fold(0.0, f64::max);
+        out.push(Measures {
+            q,
+            rate,
+            r_v,
+            p_el,
+            mu,
+            step,
+        });
+    }
+    out
+}
+
+impl Measures {
+    /// Where two measures of the same boundary differ by more than the grid step, in
+    /// words (empty when they agree or cannot be compared).
+    pub fn disagreements(&self) -> Vec<String> {
+        let mid = |b: Option<(f64, f64)>| b.map(|(a, c)| 0.5 * (a + c));
+        let est: [(&str, Option<f64>, Option<f64>); 3] = [
+            (
+                "R_v",
+                self.r_v.as_ref().and_then(|b| mid(b.phi_b)),
+                self.r_v.as_ref().and_then(|b| mid(b.phi_n)),
+            ),
+            (
+                "P^el kink",
+                self.p_el.and_then(|x| x.0),
+                self.p_el.and_then(|x| x.1),
+            ),
+            (
+                "μ switch",
+                self.mu.and_then(|x| x.0),
+                self.mu.and_then(|x| x.1),
+            ),
+        ];
+        let mut out = Vec::new();
+        for (side, pick) in [("φ_B", 0usize), ("φ_N", 1)] {
+            for i in 0..3 {
+                for j in i + 1..3 {
+                    let v = |k: usize| if pick == 0 { est[k].1 } else { est[k].2 };
+                    if let (Some(a), Some(b)) = (v(i), v(j))
+                        && (a - b).abs() > self.step + 1e-12
+                    {
+                        out.push(format!(
+                            "{side}: {} {a:.4} against {} {b:.4}",
+                            est[i].0, est[j].0
+                        ));
+                    }
+                }
+            }
+        }
+        out
+    }
+}
 
 /// One run's band values.
 #[derive(Debug, Clone, PartialEq)]
@@ -132,8 +281,67 @@ pub(super) fn add_run(f: &mut Figures, phi: &[f64], gdot: &[f64]) {
     }));
 }
 
-/// The banded stretches of a sweep along φ, as a table with the rule.
+/// φ_B and φ_N by the three measures side by side, with where they disagree.
+fn add_measures(f: &mut Figures, rows: &[Row]) {
+    let m = measures(rows);
+    if m.is_empty() {
+        return;
+    }
+    let side = |x: Option<(Option<f64>, Option<f64>)>, k: usize| match x {
+        None => "no jump".to_string(),
+        Some(p) => [p.0, p.1][k].map_or("grid end".into(), |v| v.to_string()),
+    };
+    let rv = |x: &Option<Boundaries>, k: usize| match x {
+        None => "not banded".to_string(),
+        Some(b) => {
+            [b.phi_b, b.phi_n][k].map_or("beyond the grid".into(), |(a, c)| format!("{a} – {c}"))
+        }
+    };
+    f.blocks.push(Block::Paragraph(format!(
+        "φ_B and φ_N by the paper's three measures (vagberg-sheared-disks Figs. 22–25): R_v as above; the kinks of P^el (Fig. 22) and the switch of μ between its branches (Fig. 23), each the steep stretch along φ around the steepest interval of ln P^el (rising) or of μ (either way) — at least {STEEP_FACTOR}× the curve's median steepness, extended over neighbouring intervals at least half as steep — φ_B where it begins, φ_N where it ends. They disagree when two estimates (a bracket's middle, a kink's φ) differ by more than the curve's largest φ step."
+    )));
+    f.blocks.push(Block::Table {
+        header: [
+            "Q",
+            "γ̇ τ_e",
+            "φ_B: R_v",
+            "P^el kink",
+            "μ switch",
+            "φ_N: R_v",
+            "P^el kink",
+            "μ switch",
+            "beyond the grid step",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: m
+            .iter()
+            .map(|x| {
+                let d = x.disagreements();
+                vec![
+                    x.q.to_string(),
+                    format!("{:.1e}", x.rate),
+                    rv(&x.r_v, 0),
+                    side(x.p_el, 0),
+                    side(x.mu, 0),
+                    rv(&x.r_v, 1),
+                    side(x.p_el, 1),
+                    side(x.mu, 1),
+                    if d.is_empty() {
+                        "agree (or not comparable)".into()
+                    } else {
+                        d.join("; ")
+                    },
+                ]
+            })
+            .collect(),
+    });
+}
+
+/// The banded stretches of a sweep along φ, as a table with the rule, and the three
+/// measures of φ_B and φ_N side by side.
 pub(super) fn add_sweep(f: &mut Figures, rows: &[Row]) {
+    add_measures(f, rows);
     let b = boundaries(rows);
     if b.is_empty() {
         if rows.iter().any(|r| r.get("r_v").is_some()) {
@@ -147,7 +355,7 @@ pub(super) fn add_sweep(f: &mut Figures, rows: &[Row]) {
         x.map_or("beyond the grid".to_string(), |(a, b)| format!("{a} – {b}"))
     };
     f.blocks.push(Block::Paragraph(format!(
-        "Shear-band coexistence (vagberg-sheared-disks Figs. 24–25, 35): runs with R_v > {R_V_BANDED} are shear banded; along φ at each (Q, γ̇), φ_B lies between the last unbanded φ below the banded stretch and its first banded φ, φ_N between its last banded φ and the first unbanded φ above (the paper's R_v measure; the P^el kink and the μ branches are not located here, and the paper finds the boundaries move with the system size, Fig. 36)."
+        "Shear-band coexistence (vagberg-sheared-disks Figs. 24–25, 35): runs with R_v > {R_V_BANDED} are shear banded; along φ at each (Q, γ̇), φ_B lies between the last unbanded φ below the banded stretch and its first banded φ, φ_N between its last banded φ and the first unbanded φ above (the paper's R_v measure, which it regards as the most reliable; the paper finds the boundaries move with the system size, Fig. 36)."
     )));
     f.blocks.push(Block::Table {
         header: ["Q", "γ̇ τ_e", "φ_B between", "φ_N between", "banded φ"]
@@ -202,6 +410,91 @@ mod tests {
         // Flat or broken profiles have no bands.
         assert_eq!(bands(&[0.8; 20], &gdot), None);
         assert_eq!(bands(&[], &[]), None);
+    }
+
+    #[test]
+    fn the_steep_stretch_gives_the_two_kinks() {
+        // ln P^el rising by 1 per 0.01 of φ outside, by 20 per 0.01 between 0.79 and 0.81.
+        let phis = [0.76, 0.77, 0.78, 0.79, 0.80, 0.81, 0.82, 0.83];
+        let mut y = 0.0;
+        let mut pts = vec![(phis[0], y)];
+        for w in phis.windows(2) {
+            y += if w[0] >= 0.79 - 1e-9 && w[1] <= 0.81 + 1e-9 {
+                20.0
+            } else {
+                1.0
+            };
+            pts.push((w[1], y));
+        }
+        assert_eq!(steep_stretch(&pts, true), Some((Some(0.79), Some(0.81))));
+        // Falling is no P^el jump, but is a μ switch.
+        let down: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, -p.1)).collect();
+        assert_eq!(steep_stretch(&down, true), None);
+        assert_eq!(steep_stretch(&down, false), Some((Some(0.79), Some(0.81))));
+        // A smooth exponential has no jump; a jump at the grid's end leaves φ_N open.
+        let smooth: Vec<(f64, f64)> = phis.iter().map(|&p| (p, 100.0 * p)).collect();
+        assert_eq!(steep_stretch(&smooth, true), None);
+        let mut end = pts[..5].to_vec();
+        end[4].1 = end[3].1 + 20.0;
+        assert_eq!(steep_stretch(&end, true), Some((Some(0.79), None)));
+    }
+
+    #[test]
+    fn the_three_measures_are_compared_within_the_grid_step() {
+        // R_v banded at 0.79 and 0.80 (φ_B in 0.78–0.79, φ_N in 0.80–0.81); P^el jumps
+        // between 0.79 and 0.81; μ switches between 0.77 and 0.78, off by more than a step.
+        let phis: [f64; 8] = [0.76, 0.77, 0.78, 0.79, 0.80, 0.81, 0.82, 0.83];
+        let rows: Vec<Row> = phis
+            .iter()
+            .map(|&phi| {
+                let rv = if (0.785..0.805).contains(&phi) {
+                    10.0
+                } else {
+                    1.0
+                };
+                let p = if phi < 0.79 + 1e-9 {
+                    1e-6 * (phi * 100.0).exp()
+                } else if phi < 0.81 - 1e-9 {
+                    1e-6 * (79.0f64).exp() * (2000.0 * (phi - 0.79)).exp()
+                } else {
+                    1e-6 * (79.0f64 + 40.0).exp() * (100.0 * (phi - 0.81)).exp()
+                };
+                let mu = if phi < 0.775 { 0.2 } else { 0.4 + 0.01 * phi };
+                Row {
+                    phi,
+                    q: 1.0,
+                    rate: 1e-5,
+                    v: [
+                        ("r_v".to_string(), (rv, 0.1)),
+                        ("p_el".to_string(), (p, 0.0)),
+                        ("mu".to_string(), (mu, 0.0)),
+                    ]
+                    .into(),
+                }
+            })
+            .collect();
+        let m = measures(&rows);
+        assert_eq!(m.len(), 1);
+        let m = &m[0];
+        assert_eq!(m.p_el, Some((Some(0.79), Some(0.81))));
+        assert_eq!(m.mu, Some((Some(0.77), Some(0.78))));
+        assert!((m.step - 0.01).abs() < 1e-12);
+        let d = m.disagreements();
+        // R_v's 0.785 and the kink's 0.79 agree; μ's 0.77 is off from both, on each side.
+        assert!(
+            !d.iter().any(|s| s.contains("R_v 0.7850 against P^el")),
+            "{d:?}"
+        );
+        assert!(
+            d.iter()
+                .any(|s| s.starts_with("φ_B: R_v 0.7850 against μ switch 0.7700")),
+            "{d:?}"
+        );
+        assert!(
+            d.iter()
+                .any(|s| s.starts_with("φ_N: P^el kink 0.8100 against μ switch 0.7800")),
+            "{d:?}"
+        );
     }
 
     #[test]
