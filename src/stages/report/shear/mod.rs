@@ -12,6 +12,7 @@ pub mod angles;
 pub mod appendix_a;
 pub mod classify;
 pub mod coexistence;
+pub mod contour;
 mod elastic;
 pub mod jamming;
 pub mod qc;
@@ -606,6 +607,7 @@ pub fn sweep_section(
     qc::add_figures(&mut f, &data.rows, &phi_j)?;
     appendix_a::add_figures(&mut f, &data.rows, &c)?;
     coexistence::add_sweep(&mut f, &data.rows);
+    contour::add_figures(&mut f, &data.rows)?;
     stress_space::add_figures(&mut f, &data.rows, &c, &phi_j)?;
     Ok(Section {
         id: format!("sweep-{}", slug(label)),
