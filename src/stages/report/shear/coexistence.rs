@@ -23,9 +23,13 @@
 //!   open. The three measures are compared in a table; they disagree when their
 //!   estimates (a bracket's middle, a kink's φ) differ by more than the local grid step.
 
-use super::{Figures, Row, key};
-use crate::stages::report::render::html::Block;
+use super::{Figures, Row, SweepData, key, slug};
+use crate::error::Result;
+use crate::stages::report::render::SavedFigure;
+use crate::stages::report::render::curves::{XyFigure, XySeries};
+use crate::stages::report::render::html::{Block, Section};
 use std::collections::BTreeMap;
+use std::path::Path;
 
 /// R_v above which a run counts as shear banded (homogeneous flow gives R_v ≈ 1).
 pub const R_V_BANDED: f64 = 3.0;
@@ -380,6 +384,161 @@ pub(super) fn add_sweep(f: &mut Figures, rows: &[Row]) {
     });
 }
 
+/// One size's R_v brackets at one (Q, γ̇), for the two-size comparison.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SizeRow {
+    pub model: String,
+    pub n: u64,
+    pub q: f64,
+    pub rate: f64,
+    pub b: Boundaries,
+}
+
+/// Sweeps of one model at two or more N: each size's R_v brackets at every (Q, γ̇) the
+/// sizes share (Fig. 36). Sweeps without N, or alone at their model, are left out.
+pub fn by_size(sweeps: &[(String, &SweepData)]) -> Vec<SizeRow> {
+    let mut out = Vec::new();
+    let mut models: Vec<&str> = sweeps.iter().map(|s| s.1.model.as_str()).collect();
+    models.sort();
+    models.dedup();
+    for model in models {
+        let of: Vec<(u64, &SweepData)> = sweeps
+            .iter()
+            .filter(|s| s.1.model == model)
+            .filter_map(|s| s.1.n.map(|n| (n, s.1)))
+            .collect();
+        let mut ns: Vec<u64> = of.iter().map(|x| x.0).collect();
+        ns.sort();
+        ns.dedup();
+        if ns.len() < 2 {
+            continue;
+        }
+        for (n, d) in &of {
+            for b in boundaries(&d.rows) {
+                let shared = of.iter().filter(|(m, _)| m != n).any(|(_, e)| {
+                    e.rows
+                        .iter()
+                        .any(|r| key(r.q) == key(b.q) && key(r.rate) == key(b.rate))
+                });
+                if shared {
+                    out.push(SizeRow {
+                        model: model.to_string(),
+                        n: *n,
+                        q: b.q,
+                        rate: b.rate,
+                        b,
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// R_v against φ at two or more system sizes of one model on one figure (Fig. 36), with
+/// each size's R_v brackets; `None` when no model has two sizes.
+pub fn size_section(
+    sweeps: &[(String, &SweepData)],
+    figdir: &Path,
+    figures: &mut Vec<SavedFigure>,
+) -> Result<Option<Section>> {
+    let mut models: Vec<&str> = sweeps.iter().map(|s| s.1.model.as_str()).collect();
+    models.sort();
+    models.dedup();
+    let mut f = Figures {
+        figdir,
+        prefix: "sweep_sizes".into(),
+        figures,
+        blocks: Vec::new(),
+    };
+    for model in models {
+        let of: Vec<&(String, &SweepData)> = sweeps
+            .iter()
+            .filter(|s| s.1.model == model && s.1.n.is_some())
+            .collect();
+        let mut ns: Vec<u64> = of.iter().filter_map(|s| s.1.n).collect();
+        ns.sort();
+        ns.dedup();
+        if ns.len() < 2 {
+            continue;
+        }
+        // One series per (N, Q, γ̇); open symbols (markers only) for the smaller sizes.
+        let mut series = Vec::new();
+        let mut colour: BTreeMap<(i64, i64), usize> = BTreeMap::new();
+        for (label, d) in &of {
+            let n = d.n.unwrap_or(0);
+            let mut by: BTreeMap<(i64, i64), (f64, f64, Vec<(f64, f64, f64)>)> = BTreeMap::new();
+            for r in &d.rows {
+                if let Some((rv, e)) = r.get("r_v") {
+                    by.entry((key(r.q), key(r.rate)))
+                        .or_insert_with(|| (r.q, r.rate, Vec::new()))
+                        .2
+                        .push((r.phi, rv, e));
+                }
+            }
+            for (k, (q, rate, mut pts)) in by {
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let next = colour.len();
+                series.push(XySeries {
+                    label: format!("N = {n} ({label}), Q = {q}, rate {rate:.0e}"),
+                    points: pts,
+                    markers_only: n < ns[ns.len() - 1],
+                    colour: *colour.entry(k).or_insert(next),
+                });
+            }
+        }
+        f.add(
+            &XyFigure {
+                title: format!("R_v against φ at {} system sizes, model {} (Fig. 36)", ns.len(), model.to_uppercase()),
+                x_desc: "φ".into(),
+                y_desc: "R_v = ⟨δv_x²⟩/⟨v_y²⟩".into(),
+                x_log: false,
+                y_log: true,
+                series,
+            },
+            &format!("r_v_sizes_{}", slug(model)),
+            format!("The shear-banding parameter R_v (Eq. 37) against φ for N = {} (largest: lines; smaller: markers only), one colour per (Q, γ̇) (vagberg-sheared-disks Fig. 36: the coexistence region narrows as the system shrinks).", ns.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", ")),
+        )?;
+    }
+    let rows = by_size(sweeps);
+    if f.blocks.is_empty() {
+        return Ok(None);
+    }
+    let bracket = |x: Option<(f64, f64)>| {
+        x.map_or("beyond the grid".to_string(), |(a, b)| format!("{a} – {b}"))
+    };
+    f.blocks.push(Block::Paragraph(if rows.is_empty() {
+        format!("No size has a run with R_v > {R_V_BANDED} at a (Q, γ̇) another size shares, so the coexistence boundaries cannot be compared across sizes.")
+    } else {
+        format!("φ_B and φ_N bracketed by R_v > {R_V_BANDED} (the rule of the sweeps' sections) at each size; the paper finds the region narrower at the smaller size.")
+    }));
+    if !rows.is_empty() {
+        f.blocks.push(Block::Table {
+            header: ["model", "N", "Q", "γ̇ τ_e", "φ_B between", "φ_N between"]
+                .map(String::from)
+                .to_vec(),
+            rows: rows
+                .iter()
+                .map(|r| {
+                    vec![
+                        r.model.to_uppercase(),
+                        r.n.to_string(),
+                        r.q.to_string(),
+                        format!("{:.1e}", r.rate),
+                        bracket(r.b.phi_b),
+                        bracket(r.b.phi_n),
+                    ]
+                })
+                .collect(),
+        });
+    }
+    Ok(Some(Section {
+        id: "sweep-sizes".into(),
+        title: "Sheared disks at two system sizes".into(),
+        blocks: f.blocks,
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -495,6 +654,85 @@ mod tests {
                 .any(|s| s.starts_with("φ_N: P^el kink 0.8100 against μ switch 0.7800")),
             "{d:?}"
         );
+    }
+
+    #[test]
+    fn sizes_of_one_model_are_compared_where_they_share_a_rate() {
+        let row = |phi: f64, rate: f64, rv: f64| Row {
+            phi,
+            q: 1.0,
+            rate,
+            v: [("r_v".to_string(), (rv, 0.1))].into(),
+        };
+        let sweep = |model: &str, n: u64, rows: Vec<Row>| SweepData {
+            rows,
+            grid: Vec::new(),
+            missing: Vec::new(),
+            model: model.into(),
+            n: Some(n),
+            strain: None,
+            angles: Vec::new(),
+        };
+        // The large system bands over 0.79–0.81, the small one only at 0.80.
+        let phis = [0.78, 0.79, 0.80, 0.81, 0.82];
+        let big = sweep(
+            "cdrot",
+            1024,
+            phis.iter()
+                .map(|&p| {
+                    row(
+                        p,
+                        1e-5,
+                        if (0.785..0.815).contains(&p) {
+                            10.0
+                        } else {
+                            1.0
+                        },
+                    )
+                })
+                .collect(),
+        );
+        let small = sweep(
+            "cdrot",
+            256,
+            phis.iter()
+                .map(|&p| {
+                    row(
+                        p,
+                        1e-5,
+                        if (0.795..0.805).contains(&p) {
+                            10.0
+                        } else {
+                            1.0
+                        },
+                    )
+                })
+                .collect(),
+        );
+        let other = sweep(
+            "cd",
+            256,
+            phis.iter().map(|&p| row(p, 1e-5, 10.0)).collect(),
+        );
+        let sweeps = vec![
+            ("big".to_string(), &big),
+            ("small".to_string(), &small),
+            ("cd".to_string(), &other),
+        ];
+        let rows = by_size(&sweeps);
+        assert_eq!(rows.len(), 2, "{rows:?}");
+        let b = rows.iter().find(|r| r.n == 1024).unwrap();
+        let s = rows.iter().find(|r| r.n == 256).unwrap();
+        assert_eq!(
+            (b.b.phi_b, b.b.phi_n),
+            (Some((0.78, 0.79)), Some((0.81, 0.82)))
+        );
+        assert_eq!(
+            (s.b.phi_b, s.b.phi_n),
+            (Some((0.79, 0.80)), Some((0.80, 0.81)))
+        );
+        // One size alone: nothing to compare.
+        assert!(by_size(&sweeps[..1]).is_empty());
     }
 
     #[test]
