@@ -11,14 +11,17 @@
 //! - **B_p^el at two rates (Fig. 33).** B_p^el = P^el/(γ̇ τ_e)² (Eq. 20) is independent of
 //!   the rate in Bagnoldian flow and ∝ 1/(γ̇ τ_e) in Newtonian flow. At each Q,
 //!   D_B(φ) = B_p^el(γ̇_1) − B_p^el(γ̇_2) vanishes below φ_c(Q) and rises from zero above.
-//! - **The onset** (the paper: "the intersection of the dashed lines"): a broken line
-//!   D(u) = c_0 + s·max(0, u − u*) fitted by weighted least squares (weights 1/err²),
-//!   u = −ln Q for D_Z (rising as Q falls) and u = φ for D_B; u* is scanned on 2000 steps
-//!   over the range that leaves at least one point on the flat side and two on the rising
-//!   side, c_0 and s solved for each, the least sum of squares kept. A rise counts only
-//!   if some point on the rising side lies more than 2 errors above c_0; otherwise D is
-//!   zero within the errors over the grid and no line is located. 95 % interval: 400
-//!   refits with every D redrawn from a normal of its error.
+//! - **The onset** (the paper: "the intersection of the dashed lines"): with u = −ln Q
+//!   for D_Z (rising as Q falls) and u = φ for D_B, the rise begins at the first two
+//!   consecutive points more than [`RISE_SIGMAS`] errors above zero; at least two points
+//!   must come before them (else D is already non-zero where the grid starts and the
+//!   onset lies beyond it), and none is located without such a pair. Over those points
+//!   and the two, a broken line D(u) = c_0 + s·max(0, u − u*) is fitted by weighted
+//!   least squares (weights 1/err²): u* scanned on 2000 steps from the second point to
+//!   the second-to-last, c_0 and s (> 0) solved for each, the least sum of squares kept.
+//!   Only the points up to the first two rising ones enter, so a D that grows steeply
+//!   further on (B_p^el near and past jamming) does not drag the line. 95 % interval:
+//!   400 refits with every D redrawn from a normal of its error.
 
 use super::classify::Class;
 use super::{Classification, Figures, Row, key};
@@ -126,8 +129,8 @@ fn broken_line(pts: &[(f64, f64, f64)]) -> Option<(f64, f64, f64, f64)> {
         let e = if e.is_finite() && e > 0.0 { e } else { scale };
         if e > 0.0 { 1.0 / (e * e) } else { 1.0 }
     };
-    // u* from the first point to just below the second-to-last: one flat, two rising.
-    let (lo, hi) = (pts[0].0, pts[n - 2].0);
+    // u* from the second point to the second-to-last: two flat, two rising.
+    let (lo, hi) = (pts[1].0, pts[n - 2].0);
     let mut best: Option<(f64, f64, f64, f64)> = None;
     for k in 0..SCAN {
         let us = lo + (hi - lo) * k as f64 / SCAN as f64;
@@ -160,9 +163,9 @@ fn broken_line(pts: &[(f64, f64, f64)]) -> Option<(f64, f64, f64, f64)> {
     best
 }
 
-/// Where D, flat at low u, starts to rise: the broken line of the module's rule, or
-/// `None` with fewer than four points, no rising fit, or no point more than
-/// [`RISE_SIGMAS`] errors above the flat level.
+/// Where D, zero at low u, starts to rise: the broken line of the module's rule, or
+/// `None` without two consecutive points significantly above zero after at least two
+/// others, or without a rising fit.
 pub fn onset(pts: &[(f64, f64, f64)]) -> Option<Onset> {
     let mut pts: Vec<(f64, f64, f64)> = pts
         .iter()
@@ -170,13 +173,13 @@ pub fn onset(pts: &[(f64, f64, f64)]) -> Option<Onset> {
         .filter(|p| p.0.is_finite() && p.1.is_finite())
         .collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (u, c0, s, _) = broken_line(&pts)?;
-    let risen = pts
-        .iter()
-        .any(|&(x, d, e)| x > u && d - c0 > RISE_SIGMAS * e.max(0.0));
-    if !risen {
+    let up = |p: &(f64, f64, f64)| p.1 > RISE_SIGMAS * p.2.max(0.0);
+    let first = pts.windows(2).position(|w| up(&w[0]) && up(&w[1]))?;
+    if first < 2 {
         return None;
     }
+    pts.truncate(first + 2);
+    let (u, c0, s, _) = broken_line(&pts)?;
     let mut rng = Rng::new(0xa9_9e4d);
     let mut us = Vec::new();
     for _ in 0..400 {
@@ -259,6 +262,7 @@ pub fn locate_q(rows: &[Row], c: &Classification) -> Vec<Located> {
                 .collect();
             let o = onset(&pts)?;
             let q_star = (-o.u).exp();
+            let q_of = |u: f64| cv.points.iter().find(|p| -p.0.ln() == u).map(|p| p.0);
             let below: Vec<Class> = cv
                 .points
                 .iter()
@@ -278,17 +282,11 @@ pub fn locate_q(rows: &[Row], c: &Classification) -> Vec<Located> {
                 held: cv.held,
                 value: q_star,
                 ci: ((-o.u_ci.1).exp(), (-o.u_ci.0).exp()),
-                // The grid's own Q either side (exp(−ln Q) need not give Q back exactly).
+                // The grid's own Q either side, found by their u (exp(−ln Q) need not
+                // give Q back exactly).
                 bracket: (
-                    cv.points
-                        .iter()
-                        .rev()
-                        .find(|p| p.0 < q_star)
-                        .map_or(q_star, |p| p.0),
-                    cv.points
-                        .iter()
-                        .find(|p| p.0 >= q_star)
-                        .map_or(q_star, |p| p.0),
+                    q_of(o.bracket.1).unwrap_or(q_star),
+                    q_of(o.bracket.0).unwrap_or(q_star),
                 ),
                 line,
             })
@@ -342,7 +340,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> 
             .collect()
     };
     let rule = format!(
-        "The onset is where a broken line D = c_0 + s·max(0, u − u*) (u = −ln Q for Fig. 32, u = φ for Fig. 33), fitted by least squares weighted by the errors, leaves its flat part — the paper's intersection of two dashed lines; a rise counts only where a point lies more than {RISE_SIGMAS} errors above c_0; 95 % intervals from 400 refits with each D redrawn within its error."
+        "The onset, the paper's intersection of two dashed lines: the rise begins at the first two consecutive points more than {RISE_SIGMAS} errors above zero (with at least two points before them; u = −ln Q for Fig. 32, u = φ for Fig. 33), and a broken line D = c_0 + s·max(0, u − u*) fitted by least squares weighted by the errors to the points up to those two puts the onset at u*; 95 % intervals from 400 refits with each D redrawn within its error."
     );
     if !zc.is_empty() {
         f.add(
@@ -452,7 +450,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> 
     }
     if !none.is_empty() {
         f.blocks.push(Block::Paragraph(format!(
-            "Appendix A: no onset at {} (fewer than four points, or the difference is zero within {RISE_SIGMAS} errors over the grid).",
+            "Appendix A: no onset at {} (no two consecutive points more than {RISE_SIGMAS} errors above zero after two that are not: the difference vanishes over the grid, or is non-zero already where the grid starts).",
             none.join(", ")
         )));
     }
@@ -495,6 +493,17 @@ mod tests {
         assert_eq!(onset(&flat), None);
         // Too few points.
         assert_eq!(onset(&pts[..3]), None);
+        // Non-zero already at the second point: the onset lies beyond the grid.
+        let early: Vec<(f64, f64, f64)> = (0..6)
+            .map(|k| (k as f64, 4.0 * (k as f64 - 0.5).max(0.0), 0.01))
+            .collect();
+        assert_eq!(onset(&early), None);
+        // A D that grows steeply far past the onset does not move it: only the points up
+        // to the first two rising ones enter.
+        let mut steep = pts.clone();
+        steep[5].1 = 1e6;
+        let o2 = onset(&steep).unwrap();
+        assert!((o2.u - 1.3).abs() < 0.003, "{o2:?}");
     }
 
     /// A planted CDrot sweep at rates 1e-6 and 1e-5. At φ = 0.82, Z = 1e4 γ̇ (∝ γ̇,

@@ -21,7 +21,9 @@
 //!   coexistence region: φ_B is the φ where the stretch begins (the lower kink), φ_N
 //!   where it ends (the upper kink). A stretch reaching the grid's end leaves that side
 //!   open. The three measures are compared in a table; they disagree when their
-//!   estimates (a bracket's middle, a kink's φ) differ by more than the local grid step.
+//!   estimates (a bracket's middle, a kink's φ) lie more than one grid step apart,
+//!   counted in steps of the curve's own φ grid (so a coarse step elsewhere on the
+//!   curve does not excuse a disagreement here).
 
 use super::{Figures, Row, SweepData, key, slug};
 use crate::error::Result;
@@ -86,8 +88,8 @@ pub struct Measures {
     /// From the kinks of P^el and the switch of μ: (φ_B, φ_N).
     pub p_el: Option<(Option<f64>, Option<f64>)>,
     pub mu: Option<(Option<f64>, Option<f64>)>,
-    /// The largest grid step of φ on this curve.
-    pub step: f64,
+    /// The curve's φ grid, ascending.
+    pub grid: Vec<f64>,
 }
 
 /// The three measures at every (Q, γ̇) where at least one finds a region.
@@ -118,24 +120,30 @@ pub fn measures(rows: &[Row]) -> Vec<Measures> {
         if p_el.is_none() && mu.is_none() && r_v.is_none() {
             continue;
         }
-        let step = rs
-            .windows(2)
-            .map(|w| w[1].phi - w[0].phi)
-            .fold(0.0, f64::max);
+        let grid: Vec<f64> = rs.iter().map(|r| r.phi).collect();
         out.push(Measures {
             q,
             rate,
             r_v,
             p_el,
             mu,
-            step,
+            grid,
         });
     }
     out
 }
 
 impl Measures {
-    /// Where two measures of the same boundary differ by more than the grid step, in
+    /// φ as a fractional index of the grid (k at grid[k], linear between).
+    fn index(&self, phi: f64) -> f64 {
+        let g = &self.grid;
+        match g.windows(2).position(|w| phi <= w[1]) {
+            Some(k) => k as f64 + ((phi - g[k]) / (g[k + 1] - g[k])).max(0.0),
+            None => (g.len().max(1) - 1) as f64,
+        }
+    }
+
+    /// Where two measures of the same boundary lie more than one grid step apart, in
     /// words (empty when they agree or cannot be compared).
     pub fn disagreements(&self) -> Vec<String> {
         let mid = |b: Option<(f64, f64)>| b.map(|(a, c)| 0.5 * (a + c));
@@ -162,7 +170,7 @@ impl Measures {
                 for j in i + 1..3 {
                     let v = |k: usize| if pick == 0 { est[k].1 } else { est[k].2 };
                     if let (Some(a), Some(b)) = (v(i), v(j))
-                        && (a - b).abs() > self.step + 1e-12
+                        && (self.index(a) - self.index(b)).abs() > 1.0 + 1e-9
                     {
                         out.push(format!(
                             "{side}: {} {a:.4} against {} {b:.4}",
@@ -302,7 +310,7 @@ fn add_measures(f: &mut Figures, rows: &[Row]) {
         }
     };
     f.blocks.push(Block::Paragraph(format!(
-        "φ_B and φ_N by the paper's three measures (vagberg-sheared-disks Figs. 22–25): R_v as above; the kinks of P^el (Fig. 22) and the switch of μ between its branches (Fig. 23), each the steep stretch along φ around the steepest interval of ln P^el (rising) or of μ (either way) — at least {STEEP_FACTOR}× the curve's median steepness, extended over neighbouring intervals at least half as steep — φ_B where it begins, φ_N where it ends. They disagree when two estimates (a bracket's middle, a kink's φ) differ by more than the curve's largest φ step."
+        "φ_B and φ_N by the paper's three measures (vagberg-sheared-disks Figs. 22–25): R_v as above; the kinks of P^el (Fig. 22) and the switch of μ between its branches (Fig. 23), each the steep stretch along φ around the steepest interval of ln P^el (rising) or of μ (either way) — at least {STEEP_FACTOR}× the curve's median steepness, extended over neighbouring intervals at least half as steep — φ_B where it begins, φ_N where it ends. They disagree when two estimates (a bracket's middle, a kink's φ) lie more than one step of the curve's φ grid apart."
     )));
     f.blocks.push(Block::Table {
         header: [
@@ -637,7 +645,9 @@ mod tests {
         let m = &m[0];
         assert_eq!(m.p_el, Some((Some(0.79), Some(0.81))));
         assert_eq!(m.mu, Some((Some(0.77), Some(0.78))));
-        assert!((m.step - 0.01).abs() < 1e-12);
+        assert_eq!(m.grid, phis);
+        // Fractional grid index: 0.785 is half way between 0.78 (2) and 0.79 (3).
+        assert!((m.index(0.785) - 2.5).abs() < 1e-9 && m.index(0.76) == 0.0);
         let d = m.disagreements();
         // R_v's 0.785 and the kink's 0.79 agree; μ's 0.77 is off from both, on each side.
         assert!(
