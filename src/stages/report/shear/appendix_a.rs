@@ -60,7 +60,9 @@ fn differences(rows: &[Row], g: &dyn Fn(&Row) -> Option<(f64, f64)>, along_q: bo
     let Some((r1, r2)) = two_lowest_rates(rows) else {
         return Vec::new();
     };
-    let at = |rate: f64| -> BTreeMap<(i64, i64), (f64, f64, (f64, f64))> {
+    // (φ, Q) → (φ, Q, g of the run at `rate`).
+    type AtRate = BTreeMap<(i64, i64), (f64, f64, (f64, f64))>;
+    let at = |rate: f64| -> AtRate {
         rows.iter()
             .filter(|r| r.rate == rate)
             .filter_map(|r| g(r).map(|v| ((key(r.phi), key(r.q)), (r.phi, r.q, v))))

@@ -475,7 +475,9 @@ pub fn size_section(
         let mut colour: BTreeMap<(i64, i64), usize> = BTreeMap::new();
         for (label, d) in &of {
             let n = d.n.unwrap_or(0);
-            let mut by: BTreeMap<(i64, i64), (f64, f64, Vec<(f64, f64, f64)>)> = BTreeMap::new();
+            // (Q, γ̇) → (Q, γ̇, [(φ, R_v, error)]).
+            type Curves = BTreeMap<(i64, i64), (f64, f64, Vec<(f64, f64, f64)>)>;
+            let mut by: Curves = BTreeMap::new();
             for r in &d.rows {
                 if let Some((rv, e)) = r.get("r_v") {
                     by.entry((key(r.q), key(r.rate)))

@@ -38,9 +38,12 @@ pub struct ContourPoint {
     pub r_v: Option<f64>,
 }
 
-/// Each φ's runs at `q`, sorted by rate: (rate, P, μ, R_v).
-fn by_phi(rows: &[Row], q: f64) -> Vec<(f64, Vec<(f64, f64, f64, Option<f64>)>)> {
-    let mut by: BTreeMap<i64, (f64, Vec<(f64, f64, f64, Option<f64>)>)> = BTreeMap::new();
+/// One run on a φ's curve: (γ̇ τ_e, P, μ, R_v).
+type Run = (f64, f64, f64, Option<f64>);
+
+/// Each φ's runs at `q`, sorted by rate.
+fn by_phi(rows: &[Row], q: f64) -> Vec<(f64, Vec<Run>)> {
+    let mut by: BTreeMap<i64, (f64, Vec<Run>)> = BTreeMap::new();
     for r in rows.iter().filter(|r| key(r.q) == key(q)) {
         if let (Some(p), Some(mu)) = (r.get("p"), r.get("mu"))
             && p.0 > 0.0
@@ -467,10 +470,10 @@ mod tests {
     #[test]
     fn the_contour_is_exact_for_a_power_law() {
         let mut rows = Vec::new();
-        for &phi in &[0.78, 0.79, 0.80] {
-            for &rate in &[1e-5, 1e-4, 1e-3] {
-                let p = rate * rate * (100.0 * phi as f64).exp();
-                rows.push(row(phi, rate, p, 1.0 + (rate as f64).ln() / 100.0, 1.0));
+        for &phi in &[0.78f64, 0.79, 0.80] {
+            for &rate in &[1e-5f64, 1e-4, 1e-3] {
+                let p = rate * rate * (100.0 * phi).exp();
+                rows.push(row(phi, rate, p, 1.0 + rate.ln() / 100.0, 1.0));
             }
         }
         let p0 = 1e-8 * (79.0f64).exp();

@@ -91,8 +91,9 @@ pub fn estimate(rows: &[Row]) -> PhiJ {
         return PhiJ::paper("the grid has one rate, so P^el cannot be followed as γ̇ → 0");
     }
     let (r1, r2) = (rates[0], rates[1]);
-    // Q → [(φ, flowing?)].
-    let mut by_q: BTreeMap<i64, (f64, Vec<(f64, Option<bool>)>)> = BTreeMap::new();
+    // Q → (Q, [(φ, flowing?)]).
+    type ByQ = BTreeMap<i64, (f64, Vec<(f64, Option<bool>)>)>;
+    let mut by_q: ByQ = BTreeMap::new();
     let at = |rate: f64, phi: f64, q: f64| {
         rows.iter()
             .find(|r| r.rate == rate && key(r.phi) == key(phi) && key(r.q) == key(q))
