@@ -216,6 +216,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
         }
     };
     type Pick = fn(&super::coexistence::Measures) -> Option<f64>;
+    // One colour per measure and side, so the three measures can be told apart.
     let picks: [(&str, Pick, usize); 6] = [
         (
             "φ_B, R_v (Fig. 24)",
@@ -237,10 +238,10 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
             },
             1,
         ),
-        ("φ_B, P^el kink (Fig. 22)", |m| m.p_el.and_then(|x| x.0), 0),
-        ("φ_N, P^el kink (Fig. 22)", |m| m.p_el.and_then(|x| x.1), 1),
-        ("φ_B, μ switch (Fig. 23)", |m| m.mu.and_then(|x| x.0), 0),
-        ("φ_N, μ switch (Fig. 23)", |m| m.mu.and_then(|x| x.1), 1),
+        ("φ_B, P^el kink (Fig. 22)", |m| m.p_el.and_then(|x| x.0), 2),
+        ("φ_N, P^el kink (Fig. 22)", |m| m.p_el.and_then(|x| x.1), 3),
+        ("φ_B, μ switch (Fig. 23)", |m| m.mu.and_then(|x| x.0), 4),
+        ("φ_N, μ switch (Fig. 23)", |m| m.mu.and_then(|x| x.1), 5),
     ];
     for (label, pick, colour) in picks {
         push(
@@ -255,7 +256,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
     push(
         &format!("P = {p0:.3e}"),
         c.iter().map(|p| (p.phi, p.rate, 0.0)).collect(),
-        2,
+        6,
         false,
     );
     f.add(
