@@ -80,6 +80,10 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         include_str!("../data_schema/sweep_angles.schema.json"),
     ),
     (
+        "sweep_contacts",
+        include_str!("../data_schema/sweep_contacts.schema.json"),
+    ),
+    (
         "shear_profile",
         include_str!("../data_schema/shear_profile.schema.json"),
     ),

@@ -283,12 +283,14 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let p: SweepParams = typed(&s.name, &s.params)?;
             let grid = p.grid();
             let mut summaries = Vec::new();
+            let mut dirs = Vec::new();
             for &point in &grid {
                 let name = super::graph::point_name(&s.name, point);
                 let done = ctx
                     .done
                     .get(&name)
                     .ok_or_else(|| Error::Other(format!("{name} has not run")))?;
+                dirs.push((point, done.dir.clone()));
                 let f = done.dir.join("summary.json");
                 let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
                 summaries.push(
@@ -299,11 +301,13 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
             let points: Vec<_> = grid.iter().copied().zip(summaries).collect();
             let base = p.point(grid[0]);
             let r = stages::sweep::write_outputs(out, &grid, &points, &base)?;
+            stages::sweep::write_contacts(out, &dirs)?;
             Ok(Produced {
                 outputs: outputs(&[
                     ("sweep", stages::sweep::TABLE),
                     ("grid", stages::sweep::GRID),
                     ("angles", stages::sweep::ANGLES),
+                    ("contacts", stages::sweep::CONTACTS),
                 ]),
                 metrics: json!({"points": r.runs, "model": p.model, "n": p.n}),
                 summary: json!({"points": r.runs}),

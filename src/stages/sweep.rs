@@ -122,6 +122,11 @@ pub fn run_sweep(out: &Path, opt: &SweepOptions) -> Result<SweepReport> {
         points.push((*point, v));
     }
     let mut rep = write_outputs(out, &grid, &points, &opt.base)?;
+    let dirs: Vec<_> = points
+        .iter()
+        .map(|((phi, q, rate), _)| ((*phi, *q, *rate), run_dir(out, *phi, *q, *rate)))
+        .collect();
+    write_contacts(out, &dirs)?;
     rep.reused = reused;
     Ok(rep)
 }
@@ -131,6 +136,8 @@ pub const TABLE: &str = "sweep.parquet";
 /// The collision-angle histograms of a sweep's runs (ϑ of vagberg-sheared-disks Eq. 27),
 /// one row per run and bin.
 pub const ANGLES: &str = "sweep_angles.parquet";
+/// The rms relative velocities at contact of a sweep's runs, one row per run.
+pub const CONTACTS: &str = "sweep_contacts.parquet";
 /// The grid the sweep was asked for and what its runs share, so that a reader can tell
 /// which points are missing.
 pub const GRID: &str = "sweep.json";
@@ -205,6 +212,84 @@ pub fn write_outputs(
     })
 }
 
+/// rms of `v` and its standard error by the delta method, treating the values as
+/// independent: se(⟨v²⟩) = sd(v²)/√n, se(rms) = se(⟨v²⟩)/(2 rms).
+fn rms(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m2 = v.iter().map(|x| x * x).sum::<f64>() / n;
+    let var = v.iter().map(|x| (x * x - m2).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    let r = m2.sqrt();
+    (
+        r,
+        if r > 0.0 {
+            (var / n).sqrt() / (2.0 * r)
+        } else {
+            0.0
+        },
+    )
+}
+
+/// `sweep_contacts.parquet` (vagberg-sheared-disks Sec. III.1, the text beside Fig. 6):
+/// for every run with a `contact_velocities.parquet`, the root mean square of the normal
+/// and tangential components of the centre-of-mass velocity difference v_ij of the
+/// contacts sampled in its steady window (`v_n`, `v_t`, and `v_c_t` with the rotation
+/// included), in units of d_s γ̇. A per-run reduction of a table the run already writes:
+/// the simulation and its tables are untouched. The errors treat the sampled contacts
+/// as independent, which contacts drawn at one time are not: a lower bound.
+pub fn write_contacts(out: &Path, points: &[((f64, f64, f64), PathBuf)]) -> Result<()> {
+    let names = [
+        "phi",
+        "q",
+        "rate",
+        "contacts",
+        "v_n_rms",
+        "v_n_rms_err",
+        "v_t_rms",
+        "v_t_rms_err",
+        "v_c_t_rms",
+        "v_c_t_rms_err",
+    ];
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    for ((phi, q, rate), dir) in points {
+        let f = dir.join("contact_velocities.parquet");
+        if !f.exists() {
+            continue;
+        }
+        let t = crate::io::table::read_table(&f, &[])?;
+        let (vn, vt, vct) = (t.f64("v_n")?, t.f64("v_t")?, t.f64("v_c_t")?);
+        if vn.len() < 2 {
+            continue;
+        }
+        let (a, b, c) = (rms(&vn), rms(&vt), rms(&vct));
+        let row = [
+            *phi,
+            *q,
+            *rate,
+            vn.len() as f64,
+            a.0,
+            a.1,
+            b.0,
+            b.1,
+            c.0,
+            c.1,
+        ];
+        for (col, x) in cols.iter_mut().zip(row) {
+            col.push(x);
+        }
+    }
+    let rows = cols[0].len();
+    let mut df = DataFrame::new(
+        rows,
+        names
+            .iter()
+            .zip(&cols)
+            .map(|(n, c)| Column::new((*n).into(), c))
+            .collect(),
+    )
+    .map_err(|e| Error::polars("building the sweep's contact table", e))?;
+    write_table(&mut df, &out.join(CONTACTS))
+}
+
 /// `sweep_angles.parquet`: for every finished run whose summary carries them, its
 /// collision-angle counts at making and breaking by 3.6° bin, and P(ϑ) per degree of both
 /// together (Figs. 8, 18 draw it at three Q per φ). Runs without the histograms (none
@@ -267,4 +352,18 @@ fn write_angles(out: &Path, points: &[((f64, f64, f64), serde_json::Value)]) -> 
     )
     .map_err(|e| Error::polars("building the sweep's angle table", e))?;
     write_table(&mut df, &out.join(ANGLES))
+}
+
+#[cfg(test)]
+mod contact_tests {
+    use super::*;
+
+    #[test]
+    fn rms_and_its_error_by_hand() {
+        // v = ±1, ±3: ⟨v²⟩ = 5, rms √5; v² = 1, 9, 1, 9 has sample variance 64/3.
+        let (r, e) = rms(&[1.0, -1.0, 3.0, -3.0]);
+        assert!((r - 5f64.sqrt()).abs() < 1e-12);
+        let want = (64.0f64 / 3.0 / 4.0).sqrt() / (2.0 * 5f64.sqrt());
+        assert!((e - want).abs() < 1e-12, "{e} {want}");
+    }
 }

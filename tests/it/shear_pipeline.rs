@@ -527,3 +527,159 @@ fn a_pillar_simulation_runs_alone() {
         "the shear stage started beside the pillar:\n{out}"
     );
 }
+
+/// A planted CDrot-like sweep with every figure of the Appendix A criteria, φ_J, the
+/// constant-P construction and the contact rms: Z/γ̇ differs between the two rates
+/// below Q = 3 (Fig. 32), B_p^el above φ = 0.80 (Fig. 33); P^el vanishes with γ̇ up to
+/// φ = 0.82 and not at 0.86, so φ_J = 0.84 [0.82, 0.86]; P = e^{10(φ − 0.78)} γ̇^1.5 at
+/// Q = 1 is crossed by a contour at every φ, banded (R_v = 10) at φ = 0.80.
+#[test]
+fn report_of_a_sweep_draws_appendix_a_phi_j_constant_p_and_contact_rms() {
+    use pillar_pipe::stages::report::DatasetInputs;
+    use pillar_pipe::stages::shear::ShearOptions;
+    use polars::prelude::*;
+    let d = tmpdir("shear-report-appendix");
+    let sweep = d.join("sweep");
+    std::fs::create_dir_all(&sweep).unwrap();
+    let q = |m: f64| serde_json::json!({"mean": m, "err": 1e-4 * m.abs()});
+    let mut grid = Vec::new();
+    let mut points = Vec::new();
+    for phi in [0.78, 0.79, 0.80, 0.81, 0.82, 0.86] {
+        for qf in [0.3f64, 1.0, 3.0, 10.0] {
+            for rate in [1e-4f64, 1e-3] {
+                grid.push((phi, qf, rate));
+                let p = (10.0 * (phi - 0.78f64)).exp() * rate.powf(1.5);
+                let mut s = summary(rate, 1.5);
+                s["p"] = q(p);
+                s["mu"] = q(if phi == 0.80 { 0.35 } else { 0.3 + phi - 0.78 });
+                s["sigma"] = q(p * s["mu"]["mean"].as_f64().unwrap());
+                s["r_v"] = q(if phi == 0.80 { 10.0 } else { 1.0 });
+                s["z"] = q(1e3 * rate + 0.1 * (3.0 / qf).ln().max(0.0));
+                s["b_p_el"] = q(2.0 + 1e-3 * (phi - 0.80f64).max(0.0) / rate);
+                s["p_el"] = q(if phi < 0.84 { 1e2 * rate } else { 1e-3 });
+                points.push(((phi, qf, rate), s));
+            }
+        }
+    }
+    pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &ShearOptions::default())
+        .unwrap();
+    // Two runs' sampled contacts: v_n = ±1, ±3 (rms √5) and v_t = 2 throughout.
+    let mut dirs = Vec::new();
+    for (k, &point) in grid.iter().take(2).enumerate() {
+        let dir = d.join(format!("run{k}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let col = |n: &str, v: [f64; 4]| Column::new(n.into(), &v);
+        let mut df = DataFrame::new(
+            4,
+            vec![
+                col("v_t", [2.0; 4]),
+                col("v_r", [0.0; 4]),
+                col("v_c_t", [2.0; 4]),
+                col("v_n", [1.0, -1.0, 3.0, -3.0]),
+            ],
+        )
+        .unwrap();
+        pillar_pipe::io::table::write_table(&mut df, &dir.join("contact_velocities.parquet"))
+            .unwrap();
+        dirs.push((point, dir));
+    }
+    pillar_pipe::stages::sweep::write_contacts(&sweep, &dirs).unwrap();
+    let t = pillar_pipe::io::table::read_table(&sweep.join("sweep_contacts.parquet"), &[]).unwrap();
+    assert_eq!(
+        t.columns(),
+        pillar_pipe::schema::load("sweep_contacts").names()
+    );
+    let vn = t.f64("v_n_rms").unwrap();
+    assert_eq!(vn.len(), 2);
+    assert!((vn[0] - 5f64.sqrt()).abs() < 1e-12 && t.f64("v_t_rms").unwrap()[1] == 2.0);
+    let out = d.join("report");
+    let html = report_of(
+        &out,
+        DatasetInputs {
+            label: "cdrot".into(),
+            sweep: Some(sweep.clone()),
+            ..Default::default()
+        },
+    );
+    for fig in [
+        "appendix_a_z",
+        "appendix_a_b",
+        "appendix_a_lines",
+        "coexistence_plane",
+        "mu_contour_phi",
+        "mu_contour_rate",
+        "phi_star",
+        "contact_rms_q",
+    ] {
+        assert_figure(&out, &format!("sweep_cdrot_{fig}"));
+    }
+    for text in [
+        "(Fig. 32)",
+        "(Fig. 33)",
+        "(Fig. 17)",
+        "(Fig. 25)",
+        "(Fig. 34a)",
+        "(Fig. 34b)",
+        "(Fig. 35)",
+        "φ_J = 0.8400 [0.8200, 0.8600] from P^el",
+        "Q = 0.3: 0.82 – 0.86",
+        "Sec. III.1, after Fig. 9",
+    ] {
+        assert!(html.contains(text), "{text}");
+    }
+}
+
+/// Two sweeps of one model at N = 256 and 1024: R_v of both on one figure (Fig. 36)
+/// and each size's brackets, the smaller banded over a narrower stretch.
+#[test]
+fn report_of_two_sizes_overlays_r_v() {
+    use pillar_pipe::stages::report::DatasetInputs;
+    use pillar_pipe::stages::shear::ShearOptions;
+    let d = tmpdir("shear-report-sizes");
+    let mut datasets = Vec::new();
+    for (n, lo, hi) in [(1024usize, 0.785, 0.815), (256, 0.795, 0.805)] {
+        let sweep = d.join(format!("sweep{n}"));
+        std::fs::create_dir_all(&sweep).unwrap();
+        let mut grid = Vec::new();
+        let mut points = Vec::new();
+        for phi in [0.78, 0.79, 0.80, 0.81, 0.82] {
+            grid.push((phi, 1.0, 1e-4));
+            let mut s = summary(1e-4, 1.5);
+            let rv: f64 = if (lo..hi).contains(&phi) { 10.0 } else { 1.0 };
+            s["r_v"] = serde_json::json!({"mean": rv, "err": 0.1});
+            points.push(((phi, 1.0, 1e-4), s));
+        }
+        let base = ShearOptions {
+            n,
+            ..Default::default()
+        };
+        pillar_pipe::stages::sweep::write_outputs(&sweep, &grid, &points, &base).unwrap();
+        datasets.push(DatasetInputs {
+            label: format!("n{n}"),
+            sweep: Some(sweep),
+            ..Default::default()
+        });
+    }
+    let out = d.join("report");
+    let r = pillar_pipe::stages::report::run(
+        &out,
+        &pillar_pipe::stages::report::ReportOptions {
+            title: "sizes".into(),
+            datasets,
+            map_stages: 1,
+            provenance: serde_json::json!({}),
+        },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(&r.html).unwrap();
+    assert_figure(&out, "sweep_sizes_r_v_sizes_cdrot");
+    assert!(html.contains("(Fig. 36)"), "title");
+    assert!(
+        html.contains("<td>1024</td>") || html.contains(">1024<"),
+        "table"
+    );
+    assert!(
+        html.contains("0.78 – 0.79") && html.contains("0.79 – 0.8"),
+        "brackets"
+    );
+}

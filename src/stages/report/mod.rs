@@ -210,7 +210,9 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
         sections.push(s);
     }
 
-    // Sheared disks: one run, and a sweep.
+    // Sheared disks: one run, and a sweep; sweeps of one model at several sizes side by
+    // side after them (Fig. 36).
+    let mut sweeps = Vec::new();
     for d in &opt.datasets {
         if let Some(dir) = &d.shear {
             sections.push(shear::shear_section(&d.label, dir, &figdir, &mut figures)?);
@@ -224,6 +226,7 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
                 &figdir,
                 &mut figures,
             )?);
+            sweeps.push((d.label.clone(), data));
         }
         if !d.ramps.is_empty() {
             let data = d
@@ -238,6 +241,12 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
                 &mut figures,
             )?);
         }
+    }
+
+    let by_label: Vec<(String, &shear::SweepData)> =
+        sweeps.iter().map(|(l, d)| (l.clone(), d)).collect();
+    if let Some(s) = shear::coexistence::size_section(&by_label, &figdir, &mut figures)? {
+        sections.push(s);
     }
 
     // Provenance.

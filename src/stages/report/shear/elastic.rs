@@ -140,6 +140,45 @@ pub(super) fn add_figures(
     Ok(())
 }
 
+/// The rms normal and tangential relative velocities at contact, v_ij,N and v_ij,T,
+/// against Q (vagberg-sheared-disks Sec. III.1, the text after Fig. 9; it has no figure
+/// of them): equal above Q_c and falling with Q, then v_ij,N dropping sharply below Q_c
+/// while v_ij,T levels off.
+pub(super) fn add_contact_velocities(f: &mut Figures, rows: &[Row]) -> Result<()> {
+    if !rows.iter().any(|r| r.get("v_n_rms").is_some()) {
+        return Ok(());
+    }
+    let mut qs: Vec<i64> = rows.iter().map(|r| key(r.q)).collect();
+    qs.sort();
+    qs.dedup();
+    if qs.len() < 2 {
+        return Ok(());
+    }
+    let mut series = super::series_along(rows, super::Along::Q, "v_n_rms", "v_ij,N, ", false, None);
+    // Both group by (φ, γ̇) in the same order, so each tangential series takes its normal
+    // partner's colour.
+    series.extend(super::series_along(
+        rows,
+        super::Along::Q,
+        "v_t_rms",
+        "v_ij,T, ",
+        true,
+        None,
+    ));
+    f.add(
+        &XyFigure {
+            title: "rms relative velocities at contact v_ij,N and v_ij,T against Q (Sec. III.1, after Fig. 9)".into(),
+            x_desc: "Q".into(),
+            y_desc: "rms of V_ij,N, V_ij,T  [d_s dγ/dt]".into(),
+            x_log: true,
+            y_log: true,
+            series,
+        },
+        "contact_rms_q",
+        "v_ij,N (lines) and v_ij,T (markers), the root mean square of the normal and tangential components of the centre-of-mass velocity difference over each run's sampled contacts (contact_velocities, Eq. 34), in units of d_s γ̇, against Q for each (φ, γ̇) (vagberg-sheared-disks Sec. III.1, the text after Fig. 9, which has no figure of them): about equal above Q_c and falling as Q falls, then v_ij,N drops sharply below Q_c while v_ij,T levels off. Errors treat the sampled contacts as independent (a lower bound).".into(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,9 +9,12 @@
 //! killed one) is shown as far as it goes, naming what is missing.
 
 pub mod angles;
+pub mod appendix_a;
 pub mod classify;
 pub mod coexistence;
+pub mod contour;
 mod elastic;
+pub mod jamming;
 pub mod qc;
 pub mod ramp;
 pub mod run_figures;
@@ -99,6 +102,7 @@ pub fn read_sweep(dir: &Path) -> Result<SweepData> {
             });
         }
     }
+    merge_contacts(dir, &mut rows)?;
     let missing = grid
         .iter()
         .filter(|g| !rows.iter().any(|r| (r.phi, r.q, r.rate) == **g))
@@ -114,6 +118,33 @@ pub fn read_sweep(dir: &Path) -> Result<SweepData> {
         strain: o["strain"].as_f64(),
         angles: angles::read_sweep_angles(dir)?,
     })
+}
+
+/// Add each run's rms contact velocities (`sweep_contacts.parquet`, absent in sweeps
+/// written before it) to its row as `v_n_rms`, `v_t_rms`, `v_c_t_rms` with errors.
+fn merge_contacts(dir: &Path, rows: &mut [Row]) -> Result<()> {
+    let f = dir.join(crate::stages::sweep::CONTACTS);
+    if !f.exists() {
+        return Ok(());
+    }
+    let t = match read_table(&f, &[]) {
+        Ok(t) => t,
+        Err(Error::Input { msg, .. }) if msg.starts_with("no data rows") => return Ok(()),
+        Err(e) => return Err(e),
+    };
+    let (phi, q, rate) = (t.f64("phi")?, t.f64("q")?, t.f64("rate")?);
+    for k in ["v_n_rms", "v_t_rms", "v_c_t_rms"] {
+        let (m, e) = (t.f64(k)?, t.f64(&format!("{k}_err"))?);
+        for i in 0..phi.len() {
+            if let Some(r) = rows
+                .iter_mut()
+                .find(|r| (r.phi, r.q, r.rate) == (phi[i], q[i], rate[i]))
+            {
+                r.v.insert(k.to_string(), (m[i], e[i]));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One classified slope with the (φ, Q) it belongs to.
@@ -479,6 +510,7 @@ pub fn sweep_section(
     }
     elastic::add_figures(&mut f, &data.rows, &colour_of)?;
     angles::add_sweep_figures(&mut f, &data.rows, &data.angles)?;
+    elastic::add_contact_velocities(&mut f, &data.rows)?;
     // Classification.
     let c = classify(&data.rows);
     write_classification(out_dir, label, &c)?;
@@ -599,9 +631,13 @@ pub fn sweep_section(
             )?;
         }
     }
-    qc::add_figures(&mut f, &data.rows)?;
+    let phi_j = jamming::estimate(&data.rows);
+    f.blocks.push(Block::Paragraph(jamming::paragraph(&phi_j)));
+    qc::add_figures(&mut f, &data.rows, &phi_j)?;
+    appendix_a::add_figures(&mut f, &data.rows, &c)?;
     coexistence::add_sweep(&mut f, &data.rows);
-    stress_space::add_figures(&mut f, &data.rows, &c)?;
+    contour::add_figures(&mut f, &data.rows)?;
+    stress_space::add_figures(&mut f, &data.rows, &c, &phi_j)?;
     Ok(Section {
         id: format!("sweep-{}", slug(label)),
         title: format!("Sweep {label}: flow curves and phase diagram"),

@@ -4,9 +4,10 @@
 //! two consecutive Q of the grid where P^el Q falls the most (by at least a factor of
 //! 1.5, P^el itself falling); Q_c lies in that bracket, estimated by its geometric mean.
 //! Over φ, Q_c = Q_0 + c (φ_J − φ)^(−x) (Fig. 3; the paper finds x ≈ 1.1, Q_0 ≈ 1.2) is
-//! fitted with φ_J = 0.8433 held at the paper's value: for each x on a grid, Q_0 and c
-//! by linear least squares on the relative residuals, the x of least squares kept; 95 %
-//! intervals from 400 refits with each Q_c drawn log-uniformly inside its bracket.
+//! fitted with φ_J from the sweep where it brackets it (`jamming`), else held at the
+//! paper's 0.8433: for each x on a grid, Q_0 and c by linear least squares on the
+//! relative residuals, the x of least squares kept; 95 % intervals from 400 refits with
+//! each Q_c drawn log-uniformly inside its bracket and φ_J uniformly inside its interval.
 
 use super::{Figures, Row, key};
 use crate::error::Result;
@@ -20,8 +21,7 @@ use std::collections::BTreeMap;
 /// factor-3 steps of Q, the larger a factor 1.7).
 pub const MIN_DROP: f64 = 1.5;
 
-/// φ_J held in the fit (the paper's value for this mixture).
-pub const PHI_J: f64 = 0.8433;
+use super::jamming::PhiJ;
 
 /// Q_c located at one (φ, γ̇).
 #[derive(Debug, Clone, PartialEq)]
@@ -94,15 +94,15 @@ pub struct QcFit {
     pub points: usize,
 }
 
-/// (Q_0, c, x, sum of squared relative residuals) for the points (φ, Q_c).
-fn fit_once(pts: &[(f64, f64)]) -> Option<(f64, f64, f64, f64)> {
+/// (Q_0, c, x, sum of squared relative residuals) for the points (φ, Q_c) at φ_J.
+fn fit_once(pts: &[(f64, f64)], phi_j: f64) -> Option<(f64, f64, f64, f64)> {
     let mut best: Option<(f64, f64, f64, f64)> = None;
     for k in 0..=540 {
         let x = 0.3 + 0.005 * k as f64;
         // Weighted least squares of Q_c = Q_0 + c u with weights 1/Q_c².
         let (mut sw, mut su, mut sq, mut suu, mut suq) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for &(phi, q) in pts {
-            let u = (PHI_J - phi).powf(-x);
+            let u = (phi_j - phi).powf(-x);
             let w = 1.0 / (q * q);
             sw += w;
             su += w * u;
@@ -118,7 +118,7 @@ fn fit_once(pts: &[(f64, f64)]) -> Option<(f64, f64, f64, f64)> {
         let q0 = (sq - c * su) / sw;
         let ss: f64 = pts
             .iter()
-            .map(|&(phi, q)| ((q - q0 - c * (PHI_J - phi).powf(-x)) / q).powi(2))
+            .map(|&(phi, q)| ((q - q0 - c * (phi_j - phi).powf(-x)) / q).powi(2))
             .sum();
         if best.is_none_or(|b| ss < b.3) {
             best = Some((q0, c, x, ss));
@@ -128,9 +128,9 @@ fn fit_once(pts: &[(f64, f64)]) -> Option<(f64, f64, f64, f64)> {
 }
 
 /// Fit the points at one rate (the caller picks it); `None` with fewer than four
-/// distinct φ below φ_J (three parameters).
-pub fn fit(points: &[QcPoint]) -> Option<QcFit> {
-    let pts: Vec<&QcPoint> = points.iter().filter(|p| p.phi < PHI_J).collect();
+/// distinct φ below φ_J's interval (three parameters).
+pub fn fit(points: &[QcPoint], phi_j: &PhiJ) -> Option<QcFit> {
+    let pts: Vec<&QcPoint> = points.iter().filter(|p| p.phi < phi_j.lo).collect();
     let mut phis: Vec<i64> = pts.iter().map(|p| key(p.phi)).collect();
     phis.sort();
     phis.dedup();
@@ -138,7 +138,7 @@ pub fn fit(points: &[QcPoint]) -> Option<QcFit> {
         return None;
     }
     let central: Vec<(f64, f64)> = pts.iter().map(|p| (p.phi, p.estimate())).collect();
-    let (q0, c, x, _) = fit_once(&central)?;
+    let (q0, c, x, _) = fit_once(&central, phi_j.value)?;
     let mut rng = Rng::new(0x9c_f17);
     let (mut q0s, mut cs, mut xs) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..400 {
@@ -146,7 +146,13 @@ pub fn fit(points: &[QcPoint]) -> Option<QcFit> {
             .iter()
             .map(|p| (p.phi, p.lo * (p.hi / p.lo).powf(rng.uniform())))
             .collect();
-        if let Some((a, b, e, _)) = fit_once(&draw) {
+        // A held φ_J draws nothing, so the refits are those of a fixed φ_J.
+        let pj = if phi_j.hi > phi_j.lo {
+            phi_j.lo + (phi_j.hi - phi_j.lo) * rng.uniform()
+        } else {
+            phi_j.value
+        };
+        if let Some((a, b, e, _)) = fit_once(&draw, pj) {
             q0s.push(a);
             cs.push(b);
             xs.push(e);
@@ -172,7 +178,7 @@ pub fn fit(points: &[QcPoint]) -> Option<QcFit> {
 }
 
 /// The Q_c figure (Fig. 3) and its table, when some (φ, γ̇) has a drop.
-pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
+pub(super) fn add_figures(f: &mut Figures, rows: &[Row], phi_j: &PhiJ) -> Result<()> {
     let pts = locate(rows);
     if pts.is_empty() {
         return Ok(());
@@ -182,7 +188,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
     rates.dedup();
     let lowest = rates[0];
     let at_lowest: Vec<QcPoint> = pts.iter().filter(|p| p.rate == lowest).cloned().collect();
-    let law = fit(&at_lowest);
+    let law = fit(&at_lowest, phi_j);
     let mut series: Vec<XySeries> = rates
         .iter()
         .enumerate()
@@ -206,7 +212,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
             points: (0..=40)
                 .map(|i| {
                     let phi = lo + (hi - lo) * i as f64 / 40.0;
-                    (phi, l.q0 + l.c * (PHI_J - phi).powf(-l.x), 0.0)
+                    (phi, l.q0 + l.c * (phi_j.value - phi).powf(-l.x), 0.0)
                 })
                 .collect(),
             markers_only: false,
@@ -224,7 +230,8 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
         },
         "q_c",
         format!(
-            "Q_c at each (φ, γ̇): between the two consecutive Q of the grid where P^el·Q falls the most (by at least {MIN_DROP}×, P^el itself falling), marked at their geometric mean with the bracket as bars (vagberg-sheared-disks Figs. 1, 3). The line: Q_c = Q_0 + c (φ_J − φ)^−x fitted at the lowest rate with φ_J = {PHI_J} held at the paper's value."
+            "Q_c at each (φ, γ̇): between the two consecutive Q of the grid where P^el·Q falls the most (by at least {MIN_DROP}×, P^el itself falling), marked at their geometric mean with the bracket as bars (vagberg-sheared-disks Figs. 1, 3). The line: Q_c = Q_0 + c (φ_J − φ)^−x fitted at the lowest rate with {}.",
+            phi_j.describe()
         ),
     )?;
     f.blocks.push(Block::Table {
@@ -245,7 +252,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
     });
     f.blocks.push(Block::Paragraph(match &law {
         Some(l) => format!(
-            "Fit at γ̇ τ_e = {lowest:.1e} over {} φ: Q_0 = {:.2} [{:.2}, {:.2}], c = {:.3} [{:.3}, {:.3}], x = {:.2} [{:.2}, {:.2}] (95 % intervals from the brackets); the paper finds x ≈ 1.1, Q_0 ≈ 1.2 for CD.",
+            "Fit at γ̇ τ_e = {lowest:.1e} over {} φ: Q_0 = {:.2} [{:.2}, {:.2}], c = {:.3} [{:.3}, {:.3}], x = {:.2} [{:.2}, {:.2}] (95 % intervals from the brackets and φ_J's interval); the paper finds x ≈ 1.1, Q_0 ≈ 1.2 for CD.",
             l.points, l.q0, l.q0_ci.0, l.q0_ci.1, l.c, l.c_ci.0, l.c_ci.1, l.x, l.x_ci.0, l.x_ci.1
         ),
         None => format!(
@@ -303,7 +310,8 @@ mod tests {
     #[test]
     fn the_power_law_is_recovered_from_exact_points() {
         // Q_c = 1.2 + 0.9 (φ_J − φ)^(−1.1), given exactly (brackets of zero width).
-        let law = |phi: f64| 1.2 + 0.9 * (PHI_J - phi).powf(-1.1);
+        let pj = PhiJ::paper("test");
+        let law = |phi: f64| 1.2 + 0.9 * (pj.value - phi).powf(-1.1);
         let pts: Vec<QcPoint> = [0.70, 0.74, 0.78, 0.80, 0.82]
             .map(|phi| QcPoint {
                 phi,
@@ -313,7 +321,7 @@ mod tests {
                 drop: 30.0,
             })
             .to_vec();
-        let f = fit(&pts).unwrap();
+        let f = fit(&pts, &pj).unwrap();
         assert!((f.x - 1.1).abs() < 0.006, "{f:?}");
         assert!(
             (f.q0 - 1.2).abs() < 0.05 && (f.c - 0.9).abs() < 0.02,
@@ -321,6 +329,27 @@ mod tests {
         );
         assert!(f.x_ci.0 <= f.x && f.x <= f.x_ci.1);
         // Three φ cannot fix three parameters.
-        assert!(fit(&pts[..3]).is_none());
+        assert!(fit(&pts[..3], &pj).is_none());
+        // A φ_J measured with an interval: the fit takes its middle, and its interval
+        // widens the exponent's.
+        let measured = PhiJ {
+            value: 0.85,
+            lo: 0.845,
+            hi: 0.855,
+            held_because: None,
+            per_q: Vec::new(),
+        };
+        let law = |phi: f64| 1.2 + 0.9 * (0.85 - phi).powf(-1.1);
+        let pts: Vec<QcPoint> = pts
+            .iter()
+            .map(|p| QcPoint {
+                lo: law(p.phi),
+                hi: law(p.phi),
+                ..p.clone()
+            })
+            .collect();
+        let g = fit(&pts, &measured).unwrap();
+        assert!((g.x - 1.1).abs() < 0.006, "{g:?}");
+        assert!(g.x_ci.1 - g.x_ci.0 > 0.02, "{g:?}");
     }
 }

@@ -5,27 +5,26 @@
 //! Σ = σ τ_e²/m (Eq. 18) are the summaries' `p` and `sigma`.
 
 use super::classify::Class;
+use super::jamming::PhiJ;
 use super::{Classification, Figures, Row, key, series_along, versus_q};
 use crate::error::Result;
 use crate::stages::report::render::curves::{XyFigure, XySeries};
 use crate::stages::report::render::html::Block;
 use std::collections::BTreeMap;
 
-/// φ_J of the paper's mixture (vagberg-sheared-disks Sec. II, φ_J ≈ 0.8433), where
-/// μ_J is read.
-pub const PHI_J: f64 = 0.8433;
-/// Runs within this of φ_J count for μ_J.
+/// Runs within this of φ_J (`jamming::estimate`: from the grid, else the paper's 0.8433)
+/// count for μ_J.
 pub const PHI_J_WINDOW: f64 = 0.01;
 
 /// μ_J, the macroscopic friction at jamming, and its standard error: the mean of
 /// μ = Σ/P over the runs at the grid's lowest strain rate with |φ − φ_J| ≤ 0.01 (μ
 /// approaches μ_J there as γ̇ → 0), the error from their spread, or from the runs' own
 /// errors when there is one run. `None` when no run is that close to φ_J.
-pub fn mu_j(rows: &[Row]) -> Option<(f64, f64, usize)> {
+pub fn mu_j(rows: &[Row], phi_j: f64) -> Option<(f64, f64, usize)> {
     let lowest = rows.iter().map(|r| r.rate).min_by(f64::total_cmp)?;
     let mus: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| r.rate == lowest && (r.phi - PHI_J).abs() <= PHI_J_WINDOW)
+        .filter(|r| r.rate == lowest && (r.phi - phi_j).abs() <= PHI_J_WINDOW)
         .filter_map(|r| r.get("mu"))
         .collect();
     let n = mus.len();
@@ -88,7 +87,12 @@ fn by_class(
     .collect()
 }
 
-pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> Result<()> {
+pub(super) fn add_figures(
+    f: &mut Figures,
+    rows: &[Row],
+    c: &Classification,
+    phi_j: &PhiJ,
+) -> Result<()> {
     let qs = {
         let mut v: Vec<i64> = rows.iter().map(|r| key(r.q)).collect();
         v.sort();
@@ -162,7 +166,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> 
     if stress.is_empty() {
         return Ok(());
     }
-    let line = mu_j(rows);
+    let line = mu_j(rows, phi_j.value);
     if let Some((mu, _, _)) = line {
         let ps: Vec<f64> = stress
             .iter()
@@ -191,10 +195,12 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> 
     )?;
     f.blocks.push(Block::Paragraph(match line {
         Some((mu, err, n)) => format!(
-            "μ_J = {mu:.4} ± {err:.4}: the mean of μ = Σ/P over the {n} run(s) at the grid's lowest strain rate with |φ − φ_J| ≤ {PHI_J_WINDOW} (φ_J = {PHI_J}, the paper's value), the error from their spread (from the run's own error when there is one). A rule, not a fit to γ̇ → 0: at a finite rate μ lies above μ_J."
+            "μ_J = {mu:.4} ± {err:.4}: the mean of μ = Σ/P over the {n} run(s) at the grid's lowest strain rate with |φ − φ_J| ≤ {PHI_J_WINDOW} ({}), the error from their spread (from the run's own error when there is one). A rule, not a fit to γ̇ → 0: at a finite rate μ lies above μ_J.",
+            phi_j.describe()
         ),
         None => format!(
-            "μ_J not estimated: no run lies within {PHI_J_WINDOW} of φ_J = {PHI_J} at the grid's lowest strain rate, so the yield line Σ = μ_J P is not drawn."
+            "μ_J not estimated: no run lies within {PHI_J_WINDOW} of φ_J at the grid's lowest strain rate, so the yield line Σ = μ_J P is not drawn ({}).",
+            phi_j.describe()
         ),
     }));
     Ok(())
@@ -221,13 +227,13 @@ mod tests {
             row(0.80, 1e-5, 0.5),
             row(0.84, 1e-4, 0.3),
         ];
-        let (mu, err, n) = mu_j(&rows).unwrap();
+        let (mu, err, n) = mu_j(&rows, 0.8433).unwrap();
         assert_eq!(n, 2);
         assert!((mu - 0.11).abs() < 1e-12);
         // Sample standard deviation 0.01414 over √2.
         assert!((err - 0.01).abs() < 1e-12, "{err}");
-        assert_eq!(mu_j(&rows[2..3]), None);
-        let (_, err, n) = mu_j(&rows[..1]).unwrap();
+        assert_eq!(mu_j(&rows[2..3], 0.8433), None);
+        let (_, err, n) = mu_j(&rows[..1], 0.8433).unwrap();
         assert_eq!((n, err), (1, 0.01));
     }
 }
