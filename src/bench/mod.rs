@@ -5,6 +5,7 @@
 pub mod dem;
 pub mod fit;
 pub mod gofr;
+pub mod pack;
 pub mod track;
 pub mod whole;
 

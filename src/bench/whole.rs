@@ -22,6 +22,9 @@ const OVITO_SCRIPT: &str = include_str!("../../bench/ovito_whole.py");
 pub struct WholeRun {
     pub seconds: f64,
     pub peak_rss_bytes: u64,
+    /// User + system CPU time of the process (s): on a shared machine the figure that
+    /// other processes disturb least.
+    pub cpu_seconds: f64,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -116,7 +119,7 @@ fn drain(p: Option<impl std::io::Read>) -> String {
 }
 
 /// Run `cmd`, return its wall time and peak resident memory (`wait4`).
-fn timed(cmd: &mut Command) -> Result<WholeRun> {
+pub(crate) fn timed(cmd: &mut Command) -> Result<WholeRun> {
     let what = format!("{cmd:?}");
     let t = Instant::now();
     let child = cmd
@@ -155,6 +158,10 @@ fn timed(cmd: &mut Command) -> Result<WholeRun> {
     Ok(WholeRun {
         seconds,
         peak_rss_bytes: rusage.ru_maxrss as u64 * 1024,
+        cpu_seconds: [rusage.ru_utime, rusage.ru_stime]
+            .iter()
+            .map(|t| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64)
+            .sum(),
     })
 }
 

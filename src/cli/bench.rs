@@ -154,6 +154,23 @@ pub enum BenchCmd {
         #[arg(long, default_value_t = 0.01)]
         bin: f64,
     },
+    /// The whole `pillar-pipe pack` command (Sec. II.A) against the same binary's
+    /// `--serial` (the packer as it was, bit for bit), alternating by seed; medians of
+    /// wall and CPU time, mean φ.
+    Pack {
+        #[arg(long, default_value_t = 4000)]
+        n: usize,
+        #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
+        seeds: Vec<u64>,
+        /// Threads of the pack runs (default: RAYON_NUM_THREADS, else every core).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Where to put the packings (default: a fresh temp dir, removed after).
+        #[arg(long)]
+        dir: Option<std::path::PathBuf>,
+        #[arg(long)]
+        json: bool,
+    },
     /// Pillar DEM particle-steps per second (N = 1000 k²), loaded to a small strain.
     Dem {
         /// Tiling factors k: N = 1000 k² grains.
@@ -458,6 +475,50 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                 (Err(e), _) => println!("      no same-run reference: {e}"),
                 (Ok(_), None) => println!("      no same-run reference: freud gave no timings"),
             }
+        }
+        BenchCmd::Pack {
+            n,
+            seeds,
+            threads,
+            dir,
+            json,
+        } => {
+            let tmp = std::env::temp_dir().join(format!("pillar-pipe-pack-{}", std::process::id()));
+            let at = dir.clone().unwrap_or_else(|| tmp.clone());
+            let exe = std::env::current_exe()?;
+            let b = pillar_pipe::bench::pack::bench_pack(&exe, n, &seeds, threads, &at);
+            if dir.is_none() {
+                let _ = std::fs::remove_dir_all(&tmp);
+            }
+            let b = b?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&b)?);
+                return Ok(());
+            }
+            println!(
+                "pack  n = {}, seeds {:?}, {} threads, whole `pillar-pipe pack` processes, alternating",
+                b.n, seeds, b.threads
+            );
+            for r in &b.runs {
+                println!(
+                    "  seed {:>3} {:8} {:>8.2} s wall {:>8.2} s CPU  φ = {:.5}  {:>3} growths {:>8} CG iterations",
+                    r.seed,
+                    r.variant,
+                    r.run.seconds,
+                    r.run.cpu_seconds,
+                    r.phi,
+                    r.growth_steps,
+                    r.cg_iterations
+                );
+            }
+            let (w, c, phi) = b.summary("default");
+            let (wr, cr, phir) = b.summary("serial");
+            println!(
+                "  medians: default {w:.2} s wall, {c:.2} s CPU; reference (--serial) {wr:.2} s wall, {cr:.2} s CPU: {:.2}x wall, {:.2}x CPU",
+                wr / w,
+                cr / c
+            );
+            println!("  mean φ: default {phi:.5}, reference {phir:.5} (issue 35: within 1e-3)");
         }
         BenchCmd::KinematicsWhole {
             n,

@@ -1,7 +1,7 @@
 //! `pack`: a jammed bidisperse packing by li-granular-pillars Sec. II.A, written as a
 //! one-frame canonical tracks table (cm) that `simulate pillar --packing` reads.
 
-use crate::dem::pillar::pack::{PackOptions, Packing, pack};
+use crate::dem::pillar::pack::{Growth, PackOptions, Packing, pack};
 use crate::dem::pillar::params::PillarParams;
 use crate::error::Result;
 use crate::tracks::{FrameBox, Provenance, Tracks, TracksMeta};
@@ -31,15 +31,24 @@ impl std::fmt::Display for PackReport {
         )?;
         writeln!(
             f,
-            "protocol    {} box growths, {} CG iterations, {:.1} s",
-            p.growth_steps, p.cg_iterations, self.elapsed_s
+            "protocol    {} box growths, {} CG iterations, {} force evaluations, {} list builds, {:.1} s",
+            p.growth_steps, p.cg_iterations, p.force_evaluations, p.list_builds, self.elapsed_s
         )?;
         write!(f, "wrote       {}", self.out)
     }
 }
 
 /// Generate and write the packing (lengths scaled to the paper's D = 0.635 cm).
-pub fn run(out: &Path, n: usize, seed: u64, quiet: bool) -> Result<PackReport> {
+/// `schedule`: the box's growth between minimisations; `serial`: one force sum in the
+/// order drawn, the packer before 2026-11-27 bit for bit (the reference of `bench pack`).
+pub fn run(
+    out: &Path,
+    n: usize,
+    seed: u64,
+    schedule: Growth,
+    serial: bool,
+    quiet: bool,
+) -> Result<PackReport> {
     if n < 2 {
         return Err(crate::Error::param(
             "n",
@@ -48,17 +57,19 @@ pub fn run(out: &Path, n: usize, seed: u64, quiet: bool) -> Result<PackReport> {
     }
     let t0 = std::time::Instant::now();
     let bar = crate::stages::progress(0, "packing", quiet);
-    let pk = pack(
-        &PackOptions {
-            n,
-            seed,
-            ..Default::default()
-        },
-        |step, p| {
-            bar.set_message(format!("growth {step}, p = {p:.2e}"));
-            bar.tick();
-        },
-    );
+    let mut opt = PackOptions {
+        n,
+        seed,
+        schedule,
+        ..Default::default()
+    };
+    if serial {
+        opt.block = usize::MAX;
+    }
+    let pk = pack(&opt, |step, p| {
+        bar.set_message(format!("growth {step}, p = {p:.2e}"));
+        bar.tick();
+    });
     bar.finish_and_clear();
     let d_cm = PillarParams::paper().d_large * 100.0;
     let r = |s: i32| {
@@ -77,7 +88,7 @@ pub fn run(out: &Path, n: usize, seed: u64, quiet: bool) -> Result<PackReport> {
             source: "pillar-pipe pack".into(),
             source_format: "generated".into(),
             source_sha256: String::new(),
-            parameters: serde_json::json!({"n": n, "seed": seed, "protocol": PackOptions { n, seed, ..Default::default() }}),
+            parameters: serde_json::json!({"n": n, "seed": seed, "protocol": opt}),
         },
         summary: serde_json::to_value(&pk).expect("json"),
         ..TracksMeta::default()
