@@ -408,6 +408,23 @@ fn pack_then_simulate_from_the_packing_file() {
     );
 }
 
+/// `bench pack` runs the whole command and its `--serial` reference; below 2049
+/// grains the two are the same packer, so the same packing and iteration count.
+#[test]
+fn bench_pack_times_the_command_against_the_serial_packer() {
+    let (ok, text) = run(&["bench", "pack", "--n", "80", "--seeds", "3", "--json"]);
+    assert!(ok, "{text}");
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("json");
+    let runs = v["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 2);
+    assert_eq!(runs[0]["variant"], "default");
+    assert_eq!(runs[1]["variant"], "serial");
+    assert_eq!(runs[0]["phi"], runs[1]["phi"]);
+    assert_eq!(runs[0]["cg_iterations"], runs[1]["cg_iterations"]);
+    assert!(runs[0]["cg_iterations"].as_u64().unwrap() > 0);
+    assert!(runs[0]["run"]["cpu_seconds"].as_f64().unwrap() > 0.0);
+}
+
 #[test]
 fn the_thread_count_changes_nothing() {
     let dir = tmpdir("threads");

@@ -128,14 +128,23 @@ pub struct Lj {
     pub r: Vec<f64>,
     pub b: Boundary,
     list: PairList,
-    /// Grains per block of the force sum and of the dot products (see [`Lj::eval`]);
-    /// `usize::MAX` sums everything in one block, in list order, on one thread.
+    /// Grains per block of the force sum (see [`Lj::eval`]); `usize::MAX` sums
+    /// everything in one block, in list order, on one thread.
     pub block: usize,
     /// Force evaluations so far.
     pub evals: usize,
-    /// Per block: the forces on grains of later blocks, in pair order, and the block's
-    /// energy and virial (reused between evaluations).
-    spill: Vec<(Vec<(u32, f64, f64)>, f64, f64)>,
+    /// Per block, reused between evaluations.
+    blocks: Vec<BlockSum>,
+}
+
+/// What one block of grains contributes to [`Lj::eval`] beyond its own grains' forces.
+#[derive(Default)]
+struct BlockSum {
+    /// Forces (j, F_x, F_y) its pairs put on grains of later blocks, in pair order.
+    spill: Vec<(u32, f64, f64)>,
+    /// Energy (ε) and virial Σ r F (ε) of its pairs.
+    energy: f64,
+    virial: f64,
 }
 
 /// One block's share of [`Lj::eval`]: pairs (i, j > i) with i in `lo..lo + fx.len()`;
@@ -201,7 +210,7 @@ impl Lj {
             list: PairList::new(skin),
             block: usize::MAX,
             evals: 0,
-            spill: Vec::new(),
+            blocks: Vec::new(),
         }
     }
 
@@ -221,40 +230,35 @@ impl Lj {
         let n = x.len();
         let block = self.block.min(n.max(1));
         let nb = n.div_ceil(block);
-        self.spill.resize_with(nb, Default::default);
+        self.blocks.resize_with(nb, Default::default);
         let (r, list, img) = (&self.r[..], &self.list, self.b.image());
-        let run = |(c, ((fx, fy), sp)): (
-            usize,
-            (
-                (&mut [f64], &mut [f64]),
-                &mut (Vec<(u32, f64, f64)>, f64, f64),
-            ),
-        )| {
-            let (e, v) = eval_block(c * block, x, y, r, list, img, fx, fy, &mut sp.0);
-            (sp.1, sp.2) = (e, v);
+        type Job<'a> = (usize, ((&'a mut [f64], &'a mut [f64]), &'a mut BlockSum));
+        let run = |(c, ((fx, fy), sum)): Job<'_>| {
+            let (e, v) = eval_block(c * block, x, y, r, list, img, fx, fy, &mut sum.spill);
+            (sum.energy, sum.virial) = (e, v);
         };
         if nb == 1 || rayon::current_num_threads() == 1 {
             // The same blocks in order on this thread (no hand-over to the pool).
             fx.chunks_mut(block)
                 .zip(fy.chunks_mut(block))
-                .zip(self.spill.iter_mut())
+                .zip(self.blocks.iter_mut())
                 .enumerate()
                 .for_each(run);
         } else {
             fx.par_chunks_mut(block)
                 .zip(fy.par_chunks_mut(block))
-                .zip(self.spill.par_iter_mut())
+                .zip(self.blocks.par_iter_mut())
                 .enumerate()
                 .for_each(run);
         }
         let (mut e, mut virial) = (0.0, 0.0);
-        for (sp, eb, vb) in &self.spill {
-            for &(j, gx, gy) in sp {
+        for b in &self.blocks {
+            for &(j, gx, gy) in &b.spill {
                 fx[j as usize] -= gx;
                 fy[j as usize] -= gy;
             }
-            e += eb;
-            virial += vb;
+            e += b.energy;
+            virial += b.virial;
         }
         (e, virial)
     }
@@ -373,11 +377,14 @@ pub fn pack(opt: &PackOptions, mut progress: impl FnMut(usize, f64)) -> Packing 
     let (mut iters, mut evals, mut builds) = (0, 0, 0);
     let mut steps = 0;
     let mut prev: Option<(f64, f64)> = None;
-    let mut saved: Option<(Vec<f64>, Vec<f64>, Vec<f64>, Vec<usize>, f64, f64)> = None;
+    // The last jammed state: positions, radii and grain ids in storage order, Λ, p.
+    type State = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<usize>, f64, f64);
+    let mut saved: Option<State> = None;
     // The smallest box side found unjammed after an overshoot (secant schedule).
     let mut unjammed_at: Option<f64> = None;
     // The last two jammed states (Λ, p), for the secant schedule.
-    let (mut jammed_last, mut secant_from): (Option<(f64, f64)>, Option<(f64, f64)>) = (None, None);
+    let mut jammed_last: Option<(f64, f64)> = None;
+    let mut secant_from: Option<(f64, f64)> = None;
     let mut fine = false;
     let mut last_growth = 0.0;
     let (mut fx, mut fy) = (vec![0.0; n], vec![0.0; n]);
