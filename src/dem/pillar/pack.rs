@@ -201,6 +201,22 @@ fn eval_block(
     (e, virial)
 }
 
+/// (F·F, F·G) over both components, F = (fx, fy), G = (gx, gy), in one pass: each sum
+/// over x and over y in index order from −0 as `Iterator::sum`, then x + y, so the same
+/// bits as two separate dot products.
+fn dot2(fx: &[f64], gx: &[f64], fy: &[f64], gy: &[f64]) -> (f64, f64) {
+    let half = |f: &[f64], g: &[f64]| {
+        let (mut ff, mut fg) = (-0.0, -0.0);
+        for (a, b) in f.iter().zip(g) {
+            ff += a * a;
+            fg += a * b;
+        }
+        (ff, fg)
+    };
+    let ((ffx, fgx), (ffy, fgy)) = (half(fx, gx), half(fy, gy));
+    (ffx + ffy, fgx + fgy)
+}
+
 impl Lj {
     pub fn new(r: Vec<f64>, b: Boundary) -> Self {
         let skin = 0.3 * r.iter().cloned().fold(0.0, f64::max);
@@ -265,6 +281,16 @@ impl Lj {
 
     /// Conjugate-gradient (Polak–Ribière) minimisation in place; returns iterations.
     pub fn minimise(&mut self, x: &mut [f64], y: &mut [f64], e_tol: f64) -> usize {
+        let (mut xs, mut ys) = (x.to_vec(), y.to_vec());
+        let it = self.minimise_owned(&mut xs, &mut ys, e_tol);
+        x.copy_from_slice(&xs);
+        y.copy_from_slice(&ys);
+        it
+    }
+
+    /// [`Lj::minimise`] on owned positions, so that an accepted trial is swapped in
+    /// rather than copied.
+    fn minimise_owned(&mut self, x: &mut Vec<f64>, y: &mut Vec<f64>, e_tol: f64) -> usize {
         let n = x.len();
         let (mut fx, mut fy) = (vec![0.0; n], vec![0.0; n]);
         let (mut e, _) = self.eval(x, y, &mut fx, &mut fy);
@@ -278,6 +304,7 @@ impl Lj {
             a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>()
                 + c.iter().zip(d).map(|(p, q)| p * q).sum::<f64>()
         };
+        let mut ff_prev: Option<f64> = None;
         let max_iter = 50 * n + 1000;
         for it in 0..max_iter {
             if e / n as f64 <= 1e-22 {
@@ -329,8 +356,9 @@ impl Lj {
                 };
             }
             alpha = a;
-            x.copy_from_slice(&tx);
-            y.copy_from_slice(&ty);
+            // The accepted trial becomes x; the next trial overwrites all of t.
+            std::mem::swap(x, &mut tx);
+            std::mem::swap(y, &mut ty);
             let de = (e - e_new).abs();
             // The old forces go to (ox, oy), the new ones to (fx, fy); no copies.
             std::mem::swap(&mut ox, &mut fx);
@@ -342,8 +370,13 @@ impl Lj {
             if converged {
                 return it + 1;
             }
-            let num = dot(&fx, &fx, &fy, &fy) - dot(&fx, &ox, &fy, &oy);
-            let beta = (num / dot(&ox, &ox, &oy, &oy)).max(0.0);
+            // Polak–Ribière: β = F·(F − F_old) / F_old·F_old. F·F and F·F_old in one pass
+            // (each summed in the same order as alone); F_old·F_old is the previous
+            // iteration's F·F, the same numbers summed in the same order.
+            let (ff, fo) = dot2(&fx, &ox, &fy, &oy);
+            let oo = ff_prev.unwrap_or_else(|| dot(&ox, &ox, &oy, &oy));
+            ff_prev = Some(ff);
+            let beta = ((ff - fo) / oo).max(0.0);
             for i in 0..n {
                 dx[i] = fx[i] + beta * dx[i];
                 dy[i] = fy[i] + beta * dy[i];
