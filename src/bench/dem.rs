@@ -43,7 +43,7 @@ pub struct PillarBench {
 
 /// A jammed periodic packing of 1000 grains tiled k × k (N = 1000 k²; the packing is
 /// periodic, so the copies join without gaps or overlaps), in metres.
-pub fn tiled_packing(k: usize, seed: u64, d: f64) -> (Vec<f64>, Vec<f64>, Vec<i32>) {
+pub fn tiled_packing(k: usize, seed: u64, d: f64) -> Result<(Vec<f64>, Vec<f64>, Vec<i32>)> {
     let pk = pack(
         &PackOptions {
             n: 1000,
@@ -51,7 +51,8 @@ pub fn tiled_packing(k: usize, seed: u64, d: f64) -> (Vec<f64>, Vec<f64>, Vec<i3
             ..Default::default()
         },
         |_, _| {},
-    );
+    )
+    .map_err(Error::packing_stopped)?;
     let (mut x, mut y, mut s) = (Vec::new(), Vec::new(), Vec::new());
     for a in 0..k {
         for b in 0..k {
@@ -62,7 +63,7 @@ pub fn tiled_packing(k: usize, seed: u64, d: f64) -> (Vec<f64>, Vec<f64>, Vec<i3
             }
         }
     }
-    (x, y, s)
+    Ok((x, y, s))
 }
 
 /// Load a pillar of 1000 k² grains to strain `preload` (fast preset, bar 10× faster
@@ -77,7 +78,7 @@ pub fn bench_pillar(
 ) -> Result<PillarBench> {
     let p = PillarParams::preset(preset)
         .ok_or_else(|| Error::param("preset", format!("unknown preset '{preset}'")))?;
-    let (x, y, s) = tiled_packing(k, 1, p.d_large);
+    let (x, y, s) = tiled_packing(k, 1, p.d_large)?;
     let ids: Vec<i64> = (0..x.len() as i64).collect();
     let mut load = PillarParams::fast();
     load.bar_speed *= 10.0;

@@ -209,7 +209,8 @@ fn packed_pillar(n: usize, seed: u64, p: PillarParams) -> PillarSim {
             ..Default::default()
         },
         |_, _| {},
-    );
+    )
+    .expect("no signal in the tests");
     let d = p.d_large;
     let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
     let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
@@ -280,7 +281,8 @@ fn packing_is_at_jamming_without_overlaps() {
             ..Default::default()
         },
         |_, _| {},
-    );
+    )
+    .expect("no signal in the tests");
     assert!(pk.pressure < 1e-10, "p = {}", pk.pressure);
     assert!(pk.phi > 0.80 && pk.phi < 0.87, "phi = {}", pk.phi);
     assert!(pk.growth_steps > 3);

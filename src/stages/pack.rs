@@ -69,7 +69,8 @@ pub fn run(
     let pk = pack(&opt, |step, p| {
         bar.set_message(format!("growth {step}, p = {p:.2e}"));
         bar.tick();
-    });
+    })
+    .map_err(crate::error::Error::packing_stopped)?;
     bar.finish_and_clear();
     let d_cm = PillarParams::paper().d_large * 100.0;
     let r = |s: i32| {

@@ -310,6 +310,11 @@ impl Lj {
             if e / n as f64 <= 1e-22 {
                 return it;
             }
+            // A minimisation near jamming runs for minutes at N = 16,000: a SIGINT or
+            // SIGTERM stops it here, and `pack` then returns `Stopped`.
+            if it % 64 == 0 && crate::interrupt::requested().is_some() {
+                return it;
+            }
             let mut g0 = -dot(&fx, &dx, &fy, &dy);
             if g0 >= 0.0 {
                 // Not a descent direction: restart along the force.
@@ -391,8 +396,17 @@ pub fn pressure(virial: f64, area: f64) -> f64 {
     virial / (2.0 * area)
 }
 
+/// A packing stopped by SIGINT or SIGTERM before it jammed (nothing is kept: a
+/// packing takes minutes at most, and the same command starts it again).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stopped {
+    pub signal: i32,
+    /// Box growths done when it stopped.
+    pub growth_steps: usize,
+}
+
 /// Generate a packing by the protocol; `progress` gets (growth step, pressure).
-pub fn pack(opt: &PackOptions, mut progress: impl FnMut(usize, f64)) -> Packing {
+pub fn pack(opt: &PackOptions, mut progress: impl FnMut(usize, f64)) -> Result<Packing, Stopped> {
     let n = opt.n;
     let mut rng = Rng::new(opt.seed);
     let species: Vec<i32> = (0..n)
@@ -446,6 +460,12 @@ pub fn pack(opt: &PackOptions, mut progress: impl FnMut(usize, f64)) -> Packing 
             lj.block = opt.block;
         }
         let itm = lj.minimise(&mut x, &mut y, opt.e_tol);
+        if let Some(signal) = crate::interrupt::requested() {
+            return Err(Stopped {
+                signal,
+                growth_steps: steps,
+            });
+        }
         iters += itm;
         let (e, virial) = lj.eval(&x, &y, &mut fx, &mut fy);
         evals += lj.evals;
@@ -467,7 +487,7 @@ pub fn pack(opt: &PackOptions, mut progress: impl FnMut(usize, f64)) -> Packing 
                     xo[g] = wrap(x[k], lam);
                     yo[g] = wrap(y[k], 2.0 * lam);
                 }
-                return Packing {
+                return Ok(Packing {
                     x: xo,
                     y: yo,
                     species,
@@ -482,7 +502,7 @@ pub fn pack(opt: &PackOptions, mut progress: impl FnMut(usize, f64)) -> Packing 
                     list_builds: builds,
                     last_growth,
                     jammed_pressure: saved.map_or(f64::NAN, |s| s.5),
-                };
+                });
             }
         } else {
             saved = Some((x.clone(), y.clone(), r.clone(), id.clone(), lam, p));
@@ -570,6 +590,7 @@ mod tests {
             },
             |_, _| {},
         )
+        .expect("no signal in the tests")
     }
 
     /// Closest pair of a periodic packing, as a fraction of its contact distance.
