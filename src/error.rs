@@ -91,16 +91,6 @@ impl Error {
             what: what.into(),
         })
     }
-    /// A packing stopped by a signal: the error `main` reports as an interruption.
-    pub fn packing_stopped(s: crate::dem::pillar::pack::Stopped) -> Self {
-        Error::Interrupted {
-            signal: s.signal,
-            what: format!(
-                "packing stopped after {} box growths, before it jammed; nothing was written (the same command starts it again)",
-                s.growth_steps
-            ),
-        }
-    }
     pub fn polars(context: impl Into<String>, cause: polars::error::PolarsError) -> Self {
         Error::Polars {
             context: context.into(),

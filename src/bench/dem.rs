@@ -52,7 +52,7 @@ pub fn tiled_packing(k: usize, seed: u64, d: f64) -> Result<(Vec<f64>, Vec<f64>,
         },
         |_, _| {},
     )
-    .map_err(Error::packing_stopped)?;
+    .map_err(crate::stages::pack::stopped)?;
     let (mut x, mut y, mut s) = (Vec::new(), Vec::new(), Vec::new());
     for a in 0..k {
         for b in 0..k {

@@ -70,7 +70,7 @@ pub fn run(
         bar.set_message(format!("growth {step}, p = {p:.2e}"));
         bar.tick();
     })
-    .map_err(crate::error::Error::packing_stopped)?;
+    .map_err(stopped)?;
     bar.finish_and_clear();
     let d_cm = PillarParams::paper().d_large * 100.0;
     let r = |s: i32| {
@@ -116,4 +116,17 @@ pub fn run(
         packing: pk,
         elapsed_s: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// A packing stopped by a signal, as the interruption `main` reports (exit 128 + signal).
+/// Here rather than in `error`, whose every user would otherwise reach the simulator's
+/// code (and each stage kind's cache key with it).
+pub fn stopped(s: crate::dem::pillar::pack::Stopped) -> crate::error::Error {
+    crate::error::Error::Interrupted {
+        signal: s.signal,
+        what: format!(
+            "packing stopped after {} box growths, before it jammed; nothing was written (the same command starts it again)",
+            s.growth_steps
+        ),
+    }
 }

@@ -48,7 +48,7 @@ pub fn initial_pillar(
                 },
                 |_, _| {},
             )
-            .map_err(Error::packing_stopped)?;
+            .map_err(crate::stages::pack::stopped)?;
             let setup = serde_json::json!({"packing": "generated (Sec. II.A)", "seed": opt.seed, "pack": pk});
             let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
             let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
