@@ -1,6 +1,7 @@
 //! `pillar-pipe` command line: the process's setup (allocator, signals) and its exit
 //! status; the commands are in `cli/`.
 
+mod alloc;
 mod cli;
 
 use clap::Parser;
