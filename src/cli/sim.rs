@@ -178,6 +178,7 @@ fn pillar_options(a: PillarArgs) -> Result<(PathBuf, SimulateOptions)> {
         n: a.n,
         seed: a.seed,
         packing: a.packing,
+        packing_stage: None,
         preset: a.preset,
         set: a.params.into_iter().collect::<BTreeMap<_, _>>(),
         normal_law: a.normal_law,

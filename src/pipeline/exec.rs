@@ -174,7 +174,10 @@ pub fn execute(s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         }
         Kind::Simulate => {
             let mut o: stages::simulate::SimulateOptions = typed(&s.name, &s.params)?;
-            o.packing = s.files.get("packing").cloned();
+            o.packing = match &o.packing_stage {
+                Some(_) => Some(ctx.input(s, "packing_stage", "tracks")?),
+                None => s.files.get("packing").cloned(),
+            };
             o.quiet = q;
             let r = simulate_resumable(out, ctx.dir, &mut o)?;
             let rel: BTreeMap<String, String> = r

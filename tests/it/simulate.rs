@@ -438,3 +438,79 @@ fn the_thread_count_changes_nothing() {
         serde_json::from_str(&std::fs::read_to_string(b.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m["threads_this_session"], 2);
 }
+
+/// Issue 36: a pipeline's simulation starts from the experiment's grains by naming its
+/// ingest stage (`packing_stage`), and gets the same run as the command line given that
+/// stage's tracks file as `--packing`; `packing` and `packing_stage` together are refused.
+#[test]
+fn a_simulate_stage_packs_from_an_ingest_stage_as_the_cli_does_from_its_file() {
+    use crate::common::{latest, refused, run_ok};
+    let d = tmpdir("packing-stage");
+    let runs = d.join("runs");
+    let file = d.join("p.toml");
+    let text = format!(
+        r#"[pipeline]
+root = '{root}'
+
+[experiment.ingest]
+input = "data/sample/tracks.csv"
+
+[simulation.simulate]
+preset = "fast"
+packing_stage = "experiment.ingest"
+strain = 0.005
+"#,
+        root = env!("CARGO_MANIFEST_DIR")
+    );
+    std::fs::write(&file, &text).unwrap();
+    run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    let m = latest(&runs);
+    let dir_of = |name: &str| {
+        let st = m["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name)
+            .unwrap_or_else(|| panic!("no stage {name}: {m}"));
+        runs.join(st["dir"].as_str().unwrap())
+    };
+    let packing = dir_of("experiment.ingest").join("tracks.parquet");
+    assert!(packing.is_file(), "{m}");
+    let cli_run = d.join("cli");
+    let (ok, text) = run(&[
+        "simulate",
+        "pillar",
+        "--preset",
+        "fast",
+        "--strain",
+        "0.005",
+        "--packing",
+        packing.to_str().unwrap(),
+        "--quiet",
+        "-o",
+        cli_run.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let stage = pillar_pipe::io::read_tracks(&dir_of("simulation.simulate").join("tracks.parquet"))
+        .unwrap()
+        .0;
+    let cli = pillar_pipe::io::read_tracks(&cli_run.join("tracks.parquet"))
+        .unwrap()
+        .0;
+    let exp = pillar_pipe::io::read_tracks(&packing).unwrap().0;
+    let first = exp.frame.iter().min().copied().unwrap();
+    let grains = exp.frame.iter().filter(|f| **f == first).count();
+    assert_eq!(
+        m["metrics"]["simulation.simulate"]["n"].as_u64(),
+        Some(grains as u64),
+        "the experiment's first frame, grain for grain: {m}"
+    );
+    assert_eq!(stage.x, cli.x, "the same run as --packing FILE");
+    assert_eq!(stage.y, cli.y);
+    // Both keys: refused before anything runs.
+    let both = text.replace(
+        "packing_stage = ",
+        "packing = \"data/sample/tracks.csv\"\npacking_stage = ",
+    );
+    refused(&file, &d.join("runs2"), &both, &["packing"]);
+}

@@ -30,6 +30,10 @@ pub struct SimulateOptions {
     /// A packing table (canonical tracks in cm, mm or m; first frame used) instead of
     /// generating one: `pillar-pipe pack` output or an experiment's ingested tracks.
     pub packing: Option<PathBuf>,
+    /// Pipelines: the stage whose tracks are the packing (an ingest stage of the
+    /// experiment's movie, a track stage), instead of a `packing` file. The runner
+    /// resolves it to that stage's cached tracks; the command line takes `--packing`.
+    pub packing_stage: Option<String>,
     /// `paper` or `fast` (li-granular-pillars Sec. II.C; `fast` for demos and CI).
     pub preset: String,
     /// Parameter overrides by name (SI units), e.g. `k_n = 5000.0`, `mu_g = 0.3`.
@@ -66,6 +70,7 @@ impl Default for SimulateOptions {
             n: 1000,
             seed: 1,
             packing: None,
+            packing_stage: None,
             preset: "fast".into(),
             set: BTreeMap::new(),
             normal_law: NormalLawName::Linear,
