@@ -25,11 +25,15 @@ pub struct Given<A> {
 
 impl<A: FromArgMatches + Args> FromArgMatches for Given<A> {
     fn from_arg_matches(m: &ArgMatches) -> clap::error::Result<Self> {
-        // The derive's group of all the struct's args is "typed" whenever one is.
-        let group = A::group_id();
+        // The derive's groups (the struct's own, and a flattened struct's) are "typed"
+        // whenever one of their args is; only args count.
+        let groups: Vec<clap::Id> = A::augment_args(clap::Command::new("args"))
+            .get_groups()
+            .map(|g| g.get_id().clone())
+            .collect();
         let given = m
             .ids()
-            .filter(|id| Some(*id) != group.as_ref())
+            .filter(|id| !groups.contains(id))
             .filter(|id| {
                 matches!(
                     m.value_source(id.as_str()),
@@ -100,6 +104,41 @@ fn resume_refusal(what: &str, e: pillar_pipe::error::Error) -> anyhow::Error {
     }
 }
 
+/// How a simulation runs rather than what it computes, the same for the pillar and the
+/// sheared disks: where it writes, its checkpoints, resuming.
+#[derive(Args)]
+pub struct RunControl {
+    /// Steps between checkpoints (0: none).
+    #[arg(long, default_value_t = 0)]
+    checkpoint_every: u64,
+    /// Seconds of wall time between checkpoints (0: none): a kill loses at most this
+    /// much work. SIGINT and SIGTERM always save a checkpoint before stopping.
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    checkpoint_interval: f64,
+    /// Continue the unfinished run in DIR from its last checkpoint.
+    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    resume: Option<PathBuf>,
+    /// Output directory.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    #[arg(long)]
+    quiet: bool,
+    /// Testing: fail right after the first checkpoint at or past this step.
+    #[arg(long, hide = true)]
+    halt_after: Option<u64>,
+}
+
+impl RunControl {
+    /// The run's directory and whether it is resumed: exactly one of -o and --resume.
+    fn dir(&self) -> Result<(PathBuf, bool)> {
+        match (&self.output, &self.resume) {
+            (Some(o), None) => Ok((o.clone(), false)),
+            (None, Some(r)) => Ok((r.clone(), true)),
+            _ => bail!("give the output directory: -o DIR (new run) or --resume DIR"),
+        }
+    }
+}
+
 #[derive(Args)]
 pub struct PillarArgs {
     /// Grains in a generated packing.
@@ -131,27 +170,11 @@ pub struct PillarArgs {
     /// Output frames between per-grain force snapshots.
     #[arg(long, default_value_t = 5)]
     forces_every: u64,
-    /// Steps between checkpoints (0: none).
-    #[arg(long, default_value_t = 0)]
-    checkpoint_every: u64,
-    /// Seconds of wall time between checkpoints (0: none): a kill loses at most this
-    /// much work. SIGINT and SIGTERM always save a checkpoint before stopping.
-    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
-    checkpoint_interval: f64,
-    /// Continue the unfinished run in DIR from its last checkpoint.
-    #[arg(long, value_name = "DIR", conflicts_with = "output")]
-    resume: Option<PathBuf>,
-    /// Output directory.
-    #[arg(short, long)]
-    output: Option<PathBuf>,
-    #[arg(long)]
-    quiet: bool,
+    #[command(flatten)]
+    run: RunControl,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
-    /// Testing: fail right after the first checkpoint at or past this step.
-    #[arg(long, hide = true)]
-    halt_after: Option<u64>,
     /// Threads (default: one per core, at most one per 256 grains; any count gives the
     /// same numbers).
     #[arg(long, default_value_t = 0)]
@@ -169,11 +192,7 @@ fn parse_kv(s: &str) -> std::result::Result<(String, f64), String> {
 /// The options a `simulate pillar` command line means (the same struct a pipeline's
 /// `simulate` stage deserialises; `tests` below checks the defaults agree).
 fn pillar_options(a: PillarArgs) -> Result<(PathBuf, SimulateOptions)> {
-    let (out, resume) = match (a.output, a.resume) {
-        (Some(o), None) => (o, false),
-        (None, Some(r)) => (r, true),
-        _ => bail!("give the output directory: -o DIR (new run) or --resume DIR"),
-    };
+    let (out, resume) = a.run.dir()?;
     let opt = SimulateOptions {
         n: a.n,
         seed: a.seed,
@@ -185,11 +204,11 @@ fn pillar_options(a: PillarArgs) -> Result<(PathBuf, SimulateOptions)> {
         strain: a.strain,
         output_every: a.output_every,
         forces_every: a.forces_every,
-        checkpoint_every: a.checkpoint_every,
-        checkpoint_interval: a.checkpoint_interval,
+        checkpoint_every: a.run.checkpoint_every,
+        checkpoint_interval: a.run.checkpoint_interval,
         resume,
-        quiet: a.quiet,
-        halt_after: a.halt_after,
+        quiet: a.run.quiet,
+        halt_after: a.run.halt_after,
         threads: a.threads,
     };
     Ok((out, opt))
@@ -246,24 +265,8 @@ pub struct ShearArgs {
     /// Δt; velocities rescaled to --rate), as the paper's cycles do; else random positions.
     #[arg(long, value_name = "DIR", requires = "ramp")]
     from: Option<PathBuf>,
-    /// Steps between checkpoints (0: none).
-    #[arg(long, default_value_t = 0)]
-    checkpoint_every: u64,
-    /// Seconds of wall time between checkpoints (0: none): a kill loses at most this
-    /// much work. SIGINT and SIGTERM always save a checkpoint before stopping.
-    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
-    checkpoint_interval: f64,
-    /// Continue the unfinished run in DIR from its last checkpoint.
-    #[arg(long, value_name = "DIR", conflicts_with = "output")]
-    resume: Option<PathBuf>,
-    /// Output directory.
-    #[arg(short, long)]
-    output: Option<PathBuf>,
-    /// Testing: fail right after the first checkpoint at or past this step.
-    #[arg(long, hide = true)]
-    halt_after: Option<u64>,
-    #[arg(long)]
-    quiet: bool,
+    #[command(flatten)]
+    run: RunControl,
 }
 
 #[derive(Args)]
@@ -381,11 +384,7 @@ fn shear(a: Given<ShearArgs>) -> Result<()> {
 /// `ShearOptions::default` in `tests` below).
 fn shear_options(a: ShearArgs) -> Result<(PathBuf, pillar_pipe::stages::shear::ShearOptions)> {
     use pillar_pipe::stages::shear::ShearOptions;
-    let (out, resume) = match (a.output, a.resume) {
-        (Some(o), None) => (o, false),
-        (None, Some(r)) => (r, true),
-        _ => bail!("give the output directory: -o DIR (new run) or --resume DIR"),
-    };
+    let (out, resume) = a.run.dir()?;
     let opt = ShearOptions {
         n: a.n,
         phi: a.phi,
@@ -403,11 +402,11 @@ fn shear_options(a: ShearArgs) -> Result<(PathBuf, pillar_pipe::stages::shear::S
         kappa: a.kappa,
         rate_end: a.rate_end,
         window: a.window,
-        checkpoint_every: a.checkpoint_every,
-        checkpoint_interval: a.checkpoint_interval,
+        checkpoint_every: a.run.checkpoint_every,
+        checkpoint_interval: a.run.checkpoint_interval,
         resume,
-        quiet: a.quiet,
-        halt_after: a.halt_after,
+        quiet: a.run.quiet,
+        halt_after: a.run.halt_after,
         from_state: a.from.map(|d| d.join(pillar_pipe::stages::shear::STATE)),
     };
     Ok((out, opt))

@@ -397,6 +397,22 @@ impl Table {
 }
 
 /// Write `df` to `path` (Parquet unless the extension is `.csv`), atomically.
+/// Write equal-length f64 columns under `names` (in that order) as one table; `what`
+/// names the table in an error ("the series").
+pub fn write_f64_columns(names: &[&str], cols: &[Vec<f64>], path: &Path, what: &str) -> Result<()> {
+    let rows = cols.first().map_or(0, Vec::len);
+    let mut df = DataFrame::new(
+        rows,
+        names
+            .iter()
+            .zip(cols)
+            .map(|(n, c)| Column::new((*n).into(), c))
+            .collect(),
+    )
+    .map_err(|e| Error::polars(format!("building {what}"), e))?;
+    write_table(&mut df, path)
+}
+
 pub fn write_table(df: &mut DataFrame, path: &Path) -> Result<()> {
     let file = path.display().to_string();
     atomic_write(path, |f| {

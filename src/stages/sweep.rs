@@ -4,7 +4,7 @@
 //! already finished are read back, not rerun, so an interrupted sweep resumes.
 
 use crate::error::{Error, Result};
-use crate::io::table::write_table;
+use crate::io::table::{write_f64_columns, write_table};
 use crate::stages::shear::{ShearOptions, run};
 use polars::prelude::*;
 use std::collections::BTreeMap;
@@ -277,17 +277,12 @@ pub fn write_contacts(out: &Path, points: &[((f64, f64, f64), PathBuf)]) -> Resu
             col.push(x);
         }
     }
-    let rows = cols[0].len();
-    let mut df = DataFrame::new(
-        rows,
-        names
-            .iter()
-            .zip(&cols)
-            .map(|(n, c)| Column::new((*n).into(), c))
-            .collect(),
+    write_f64_columns(
+        &names,
+        &cols,
+        &out.join(CONTACTS),
+        "the sweep's contact table",
     )
-    .map_err(|e| Error::polars("building the sweep's contact table", e))?;
-    write_table(&mut df, &out.join(CONTACTS))
 }
 
 /// `sweep_angles.parquet`: for every finished run whose summary carries them, its
@@ -341,17 +336,7 @@ fn write_angles(out: &Path, points: &[((f64, f64, f64), serde_json::Value)]) -> 
             }
         }
     }
-    let rows = cols[0].len();
-    let mut df = DataFrame::new(
-        rows,
-        names
-            .iter()
-            .zip(&cols)
-            .map(|(n, c)| Column::new((*n).into(), c))
-            .collect(),
-    )
-    .map_err(|e| Error::polars("building the sweep's angle table", e))?;
-    write_table(&mut df, &out.join(ANGLES))
+    write_f64_columns(&names, &cols, &out.join(ANGLES), "the sweep's angle table")
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ mod tracks;
 use crate::dem::base::codec::{Dec, Enc};
 use crate::dem::shear::{Dissipation, ShearParams, ShearSim};
 use crate::error::{Error, Result};
-use crate::io::table::write_table;
+use crate::io::table::write_f64_columns;
 use crate::io::{atomic_write_str, sidecar_path};
 use crate::stages::resume;
 use crate::stages::run_dir::RunDir;
@@ -25,7 +25,6 @@ pub use crate::stages::shear::steady::{FIELD_RADIUS, FIELD_SNAPSHOTS};
 use crate::stages::shear::tracks::{empty_tracks, flush_tracks, frame_box, push_frame};
 use crate::stages::simulate::tables::merge_parts;
 use crate::tracks::{Provenance, TracksMeta};
-use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -411,16 +410,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
     }
     bar.finish_and_clear();
     let series = out.join("series.parquet");
-    let mut df = DataFrame::new(
-        cols[0].len(),
-        SERIES
-            .iter()
-            .zip(&cols)
-            .map(|(n, c)| Column::new((*n).into(), c))
-            .collect(),
-    )
-    .map_err(|e| Error::polars("building the series", e))?;
-    write_table(&mut df, &series)?;
+    write_f64_columns(&SERIES, &cols, &series, "the series")?;
     tracks.meta = TracksMeta {
         length_unit: "d_s".into(),
         time_unit: "tau_e".into(),
