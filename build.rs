@@ -3,8 +3,8 @@
 //! `Cargo.lock` (the exact versions of this crate's dependencies, not another workspace
 //! member's) and of every file the code
 //! `include_bytes!`s, and `KIND_FILES`, for each stage kind the files its key covers:
-//! those reachable in the import graph (`src/pipeline/import_graph.rs`) from the
-//! kind's entry modules (`src/pipeline/kind_entries.rs`), and `Cargo.lock`. A stage's
+//! the kind's file (`src/pipeline/kinds/<kind>.rs`) and those it reaches in the import
+//! graph (`src/pipeline/import_graph.rs::kind_files`), and `Cargo.lock`. A stage's
 //! key then changes when the code it runs changes, not when any byte of the
 //! executable does (a typo fixed in the report code, another linker).
 
@@ -16,7 +16,6 @@ use std::path::{Path, PathBuf};
 #[path = "src/pipeline/import_graph.rs"]
 #[allow(dead_code)]
 mod import_graph;
-include!("src/pipeline/kind_entries.rs");
 
 fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {
     let Ok(rd) = std::fs::read_dir(dir) else {
@@ -90,8 +89,8 @@ fn main() {
     text.push_str("];\n\n");
     text.push_str("/// Each stage kind and the files its key covers, sorted.\n");
     text.push_str("pub const KIND_FILES: &[(&str, &[&str])] = &[\n");
-    for (kind, entries) in KIND_ENTRIES {
-        let mut reach = import_graph::reachable(&graph, entries);
+    for kind in import_graph::kind_names(code.iter().map(|(f, _)| f.as_str())) {
+        let mut reach = import_graph::kind_files(&graph, &kind);
         reach.insert("Cargo.lock".into());
         let _ = writeln!(text, "    ({kind:?}, &[");
         for f in &reach {

@@ -62,13 +62,8 @@ pub fn keys(p: &Pipeline) -> Result<BTreeMap<String, Keyed>> {
                 o.remove(k);
             }
             // How often a simulation checkpoints changes none of its numbers.
-            if matches!(
-                s.kind,
-                super::Kind::Simulate | super::Kind::Shear | super::Kind::Sweep | super::Kind::Ramp
-            ) {
-                for k in crate::stages::simulate::RUN_ONLY {
-                    o.remove(k);
-                }
+            for k in s.kind.def().run_only() {
+                o.remove(*k);
             }
         }
         let upstream = s

@@ -105,9 +105,7 @@ pub fn build(
                         ));
                     }
                     // Ingest reads settings beside its input; they shape the output too.
-                    if s.kind == Kind::Ingest
-                        && let Some(settings) = crate::stages::ingest::settings_path(&abs)
-                    {
+                    if let Some(settings) = s.kind.def().beside(&abs) {
                         st.files.insert(format!("{}.settings", ks.name), settings);
                     }
                     st.files.insert(ks.name.clone(), abs);
@@ -133,7 +131,7 @@ pub fn build(
                         .flatten()
                         .filter_map(|b| b.as_str())
                     {
-                        let d = dataset(src, raw, &path, b, branches)?;
+                        let d = dataset(src, schema, raw, &path, b, branches)?;
                         for (role, n) in [
                             ("tracks", &d.tracks),
                             ("kinematics", &d.kinematics),
@@ -159,43 +157,22 @@ pub fn build(
             }
         }
         st.params = p;
-        if st.kind == Kind::Shear {
-            let o: crate::stages::shear::ShearOptions =
-                serde_json::from_value(st.params.clone())
-                    .map_err(|e| src.err(&st.name, e.to_string()))?;
-            crate::stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
-        }
-        if st.kind == Kind::Ramp {
-            check_ramp(src, &st)?;
-        }
-        if st.kind == Kind::Render {
-            let p: super::params::RenderParams = serde_json::from_value(st.params.clone())
-                .map_err(|e| src.err(&st.name, e.to_string()))?;
-            if let Some((key, m)) = p.problem() {
-                return Err(src.err(&format!("{}.{key}", st.name), m));
-            }
-        }
-        if st.kind == Kind::Track {
-            let p: super::params::TrackParams = serde_json::from_value(st.params.clone())
-                .map_err(|e| src.err(&st.name, e.to_string()))?;
-            if let Some((key, m)) = p.problem() {
-                return Err(src.err(&format!("{}.{key}", st.name), m));
-            }
-            check_track_source(src, &st, &p)?;
-        }
-        if st.kind == Kind::Sweep {
-            stages.extend(sweep_points(src, &mut st)?);
-        }
+        stages.extend(st.kind.def().check(src, &mut st)?);
         stages.push(st);
     }
     check_cycles(src, &stages)?;
     check_types(src, schema, &stages)?;
-    check_ramp_sources(src, &stages)?;
+    for s in &stages {
+        s.kind.def().check_references(src, s, &stages)?;
+    }
     Ok(order(stages))
 }
 
+/// A branch's stages by role, each role an output type of the schema (`tracks`,
+/// `kinematics`, …), so a new kind that writes tracks serves as a data set's tracks.
 fn dataset(
     src: &Source,
+    schema: &PipelineSchema,
     raw: &[RawStage],
     path: &str,
     b: &str,
@@ -207,11 +184,14 @@ fn dataset(
             format!("no branch '{b}'; branches: {}", branches.join(", ")),
         ));
     }
-    let of = |kinds: &[Kind], role: &str| -> Result<Option<&RawStage>> {
-        let v: Vec<&RawStage> = raw
-            .iter()
-            .filter(|s| s.branch.as_deref() == Some(b) && kinds.contains(&s.kind))
-            .collect();
+    let output = |s: &RawStage| schema.stage(s.kind).output.as_str();
+    let all = |out: &str| -> Vec<&RawStage> {
+        raw.iter()
+            .filter(|s| s.branch.as_deref() == Some(b) && output(s) == out)
+            .collect()
+    };
+    let of = |out: &str, role: &str| -> Result<Option<&RawStage>> {
+        let v = all(out);
         if v.len() > 1 {
             let n: Vec<&str> = v.iter().map(|s| s.name.as_str()).collect();
             return Err(src.err(
@@ -225,15 +205,12 @@ fn dataset(
         }
         Ok(v.first().copied())
     };
-    let tracks = of(
-        &[Kind::Ingest, Kind::Simulate, Kind::Track],
-        "tracks (ingest, simulate or track)",
-    )?;
+    let tracks = of("tracks", "tracks (ingest, simulate or track)")?;
     Ok(Dataset {
         label: b.to_string(),
         tracks: tracks.map(|s| s.name.clone()),
-        kinematics: of(&[Kind::Kinematics], "kinematics")?.map(|s| s.name.clone()),
-        fit: of(&[Kind::Fit], "fit")?.map(|s| s.name.clone()),
+        kinematics: of("kinematics", "kinematics")?.map(|s| s.name.clone()),
+        fit: of("fit", "fit")?.map(|s| s.name.clone()),
         // A simulate stage's stress–strain, or an ingest stage's from a force sensor
         // (absent without one: the report then finds no table).
         stress: tracks
@@ -248,152 +225,10 @@ fn dataset(
                     && s.table.get("force").is_some()
             })
             .map(|s| s.name.clone()),
-        shear: of(&[Kind::Shear], "shear")?.map(|s| s.name.clone()),
-        sweep: of(&[Kind::Sweep], "sweep")?.map(|s| s.name.clone()),
-        ramps: raw
-            .iter()
-            .filter(|s| s.branch.as_deref() == Some(b) && s.kind == Kind::Ramp)
-            .map(|s| s.name.clone())
-            .collect(),
+        shear: of("shear_run", "shear")?.map(|s| s.name.clone()),
+        sweep: of("sweep", "sweep")?.map(|s| s.name.clone()),
+        ramps: all("shear_ramp").iter().map(|s| s.name.clone()).collect(),
     })
-}
-
-/// A ramp's options as the run will check them, at load: the physics at the stage,
-/// the ramp's own faults at the key (its direction against `rate` and `rate_end`, κ̃,
-/// a `dt` that does not divide τ_e).
-fn check_ramp(src: &Source, st: &Stage) -> Result<()> {
-    let p: super::params::RampParams =
-        serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))?;
-    let o = p.options();
-    let sp = crate::stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
-    match crate::stages::shear::ramp_problem(&o, &sp) {
-        Some((key, m)) => Err(src.err(&format!("{}.{key}", st.name), m)),
-        None => Ok(()),
-    }
-}
-
-/// A track stage reads a render stage's frames (`input`) or a folder (`frames`); a
-/// folder without a render's `camera.json` needs the scale and unit to convert pixels.
-fn check_track_source(src: &Source, st: &Stage, p: &super::params::TrackParams) -> Result<()> {
-    let Some(folder) = st.files.get("frames") else {
-        if p.input.is_none() {
-            return Err(src.err(
-                &st.name,
-                "give 'input' (a render stage) or 'frames' (a folder of camera frames)",
-            ));
-        }
-        return Ok(());
-    };
-    if folder.join("camera.json").is_file() {
-        return Ok(());
-    }
-    for (key, given) in [
-        ("px_per_unit", p.px_per_unit.is_some()),
-        ("unit", p.unit.is_some()),
-    ] {
-        if !given {
-            return Err(src.err(
-                &format!("{}.{key}", st.name),
-                format!(
-                    "needed: {} holds no camera.json (a render's pixel mapping) to convert the tracked pixels with",
-                    folder.display()
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// A ramp that starts `from` another's final state needs the same disks: N, φ, Q, model
-/// and Δt as the ramp it continues (its rate may differ: velocities are rescaled).
-fn check_ramp_sources(src: &Source, stages: &[Stage]) -> Result<()> {
-    for s in stages.iter().filter(|s| s.kind == Kind::Ramp) {
-        let Some(up) = s.upstream.get("from") else {
-            continue;
-        };
-        let u = stages.iter().find(|x| &x.name == up).expect("resolved");
-        // dt left out means the default for the stage's Q.
-        let value = |p: &Json, k: &str| match (k, p[k].as_f64(), p["q"].as_f64()) {
-            ("dt", None, Some(q)) => Json::from(crate::dem::shear::ShearParams::default_dt(q)),
-            _ => p[k].clone(),
-        };
-        let differ: Vec<String> = ["n", "phi", "q", "model", "dt"]
-            .into_iter()
-            .filter(|k| value(&s.params, k) != value(&u.params, k))
-            .map(|k| {
-                format!(
-                    "{k} = {} there, {} here",
-                    value(&u.params, k),
-                    value(&s.params, k)
-                )
-            })
-            .collect();
-        if !differ.is_empty() {
-            return Err(src.err(
-                &format!("{}.from", s.name),
-                format!(
-                    "'{up}' ran other disks: {}; a ramp continues only the same system",
-                    differ.join(", ")
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// The name of a sweep's grid point stage.
-pub fn point_name(sweep: &str, (phi, q, rate): (f64, f64, f64)) -> String {
-    format!("{sweep}:phi={phi},q={q},rate={rate:e}")
-}
-
-/// A sweep's grid points as `shear` stages of their own, each with exactly the
-/// parameters a hand-written `shear` stage of the same run resolves to, so it has the
-/// same cache key: a grown grid, or a shear stage elsewhere, reuses finished runs, and
-/// under Slurm the points form one job array. The sweep stage itself only gathers their
-/// summaries (its upstream `point:…` keys).
-fn sweep_points(src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
-    let p: super::params::SweepParams =
-        serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))?;
-    for (key, v) in [("phi", &p.phi), ("q", &p.q), ("rate", &p.rate)] {
-        if v.is_empty() {
-            return Err(src.err(
-                &format!("{}.{key}", st.name),
-                "an empty list: a sweep needs at least one value of each of phi, q and rate",
-            ));
-        }
-    }
-    let mut out = Vec::new();
-    for point in p.grid() {
-        let o = p.point(point);
-        crate::stages::shear::params_of(&o).map_err(|m| {
-            src.err(
-                &st.name,
-                format!(
-                    "grid point φ = {}, Q = {}, γ̇ = {:e}: {m}",
-                    point.0, point.1, point.2
-                ),
-            )
-        })?;
-        let given = serde_json::to_value(o).expect("json");
-        let params = super::params::resolve(Kind::Shear, given)
-            .map_err(|m| src.err(&st.name, format!("grid point {point:?}: {m}")))?;
-        let name = point_name(&st.name, point);
-        st.upstream.insert(
-            format!("point:phi={},q={},rate={:e}", point.0, point.1, point.2),
-            name.clone(),
-        );
-        out.push(Stage {
-            name,
-            kind: Kind::Shear,
-            branch: st.branch.clone(),
-            line: st.line,
-            params,
-            upstream: BTreeMap::new(),
-            datasets: Vec::new(),
-            files: BTreeMap::new(),
-        });
-    }
-    Ok(out)
 }
 
 /// A reference cycle, reported at the key that closes it.

@@ -606,6 +606,46 @@ pub fn reachable(g: &BTreeMap<String, BTreeSet<String>>, entries: &[&str]) -> BT
     seen
 }
 
+/// Where the stage kinds live, one file each (`<dir><name>.rs`; `mod.rs` is the registry).
+pub const KINDS_DIR: &str = "src/pipeline/kinds/";
+
+/// The stage kinds' names, from the files under `KINDS_DIR` among `files`, sorted.
+pub fn kind_names<'a>(files: impl IntoIterator<Item = &'a str>) -> Vec<String> {
+    let mut names: Vec<String> = files
+        .into_iter()
+        .filter_map(|f| f.strip_prefix(KINDS_DIR)?.strip_suffix(".rs"))
+        .filter(|n| *n != "mod" && !n.contains('/'))
+        .map(str::to_string)
+        .collect();
+    names.sort();
+    names
+}
+
+/// The files a kind's cache key covers: its file and what that reaches, without going
+/// through the pipeline's other files (the registry, the dispatch, the run bookkeeping
+/// change no result) except other kinds' files (a ramp runs as a shear stage does).
+pub fn kind_files(g: &BTreeMap<String, BTreeSet<String>>, kind: &str) -> BTreeSet<String> {
+    let counts = |f: &str| {
+        !f.starts_with("src/pipeline/") || (f.starts_with(KINDS_DIR) && !f.ends_with("/mod.rs"))
+    };
+    let entry = format!("{KINDS_DIR}{kind}.rs");
+    let mut seen: BTreeSet<String> = BTreeSet::new();
+    let mut todo = vec![entry];
+    while let Some(f) = todo.pop() {
+        if !seen.insert(f.clone()) {
+            continue;
+        }
+        if let Some(deps) = g.get(&f) {
+            todo.extend(
+                deps.iter()
+                    .filter(|d| counts(d) && !seen.contains(*d))
+                    .cloned(),
+            );
+        }
+    }
+    seen
+}
+
 /// The part of `Cargo.lock` that `root`'s build uses: its `[[package]]` entries in the
 /// dependency closure of `root`, in the file's order. A stage's key covers this rather
 /// than the whole lock, so a dependency of another workspace member (the Python

@@ -33,7 +33,7 @@ enum Msg {
 /// single-threaded stages (the sheared disks) and those on the shared rayon pool run
 /// side by side.
 fn exclusive(kind: super::Kind) -> bool {
-    kind == super::Kind::Simulate
+    kind.def().exclusive()
 }
 
 /// Stages at a time when `--jobs` is not given: the machine's cores.

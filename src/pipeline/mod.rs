@@ -14,8 +14,7 @@ pub mod exec;
 pub mod graph;
 #[cfg(test)]
 mod import_graph;
-#[cfg(test)]
-mod kind_entries;
+pub mod kinds;
 pub mod local;
 pub mod lock;
 pub mod options;
@@ -69,10 +68,7 @@ pub fn load(file: &Path, sets: &[String]) -> Result<Pipeline> {
     let mut params = Vec::new();
     for s in &raw.stages {
         let mut p = validate::stage_params(&src, &schema, s)?;
-        // The report's title defaults to the pipeline's.
-        if s.kind == Kind::Report && p["title"].is_null() {
-            p["title"] = serde_json::Value::String(header.title.clone());
-        }
+        s.kind.def().complete(&mut p, &header.title);
         params.push(p);
     }
     if raw.stages.is_empty() {

@@ -78,7 +78,7 @@ pub fn place_reports(
     let reports: Vec<&Stage> = p
         .stages
         .iter()
-        .filter(|s| s.kind == super::Kind::Report)
+        .filter(|s| s.kind.def().is_report())
         .collect();
     let mut first = None;
     for s in &reports {

@@ -8,63 +8,7 @@ use serde_json::Value as Json;
 
 pub const SCHEMA_TEXT: &str = include_str!("../../data_schema/pipeline.schema.json");
 
-/// The kinds of stage a pipeline can hold.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Kind {
-    Ingest,
-    Simulate,
-    Kinematics,
-    Fit,
-    Compare,
-    Report,
-    /// One sheared-disk run (vagberg-sheared-disks).
-    Shear,
-    /// A grid of sheared-disk runs, each grid point a `Shear` stage of its own.
-    Sweep,
-    /// One sheared-disk strain-rate ramp (vagberg-sheared-disks Eqs. 38–41, Fig. 31).
-    Ramp,
-    /// The camera emulator: tracks → frames (`pillar-pipe render`).
-    Render,
-    /// Frames → linked features → canonical tracks (`pillar-pipe track`, then `ingest`).
-    Track,
-}
-
-impl Kind {
-    pub const ALL: [Kind; 11] = [
-        Kind::Ingest,
-        Kind::Simulate,
-        Kind::Kinematics,
-        Kind::Fit,
-        Kind::Compare,
-        Kind::Report,
-        Kind::Shear,
-        Kind::Sweep,
-        Kind::Ramp,
-        Kind::Render,
-        Kind::Track,
-    ];
-    pub fn name(self) -> &'static str {
-        match self {
-            Kind::Ingest => "ingest",
-            Kind::Simulate => "simulate",
-            Kind::Kinematics => "kinematics",
-            Kind::Fit => "fit",
-            Kind::Compare => "compare",
-            Kind::Report => "report",
-            Kind::Shear => "shear",
-            Kind::Sweep => "sweep",
-            Kind::Ramp => "ramp",
-            Kind::Render => "render",
-            Kind::Track => "track",
-        }
-    }
-    pub fn from_name(s: &str) -> Option<Kind> {
-        Kind::ALL.into_iter().find(|k| k.name() == s)
-    }
-    pub fn names() -> String {
-        Kind::ALL.map(Kind::name).join(", ")
-    }
-}
+pub use super::kinds::Kind;
 
 #[derive(Debug, Clone, Deserialize)]
 pub struct KeySpec {

@@ -131,11 +131,7 @@ pub fn stage_params(src: &Source, schema: &PipelineSchema, s: &RawStage) -> Resu
         let path = format!("{}.{k}", s.name);
         let Some(ks) = schema.key(s.kind, k) else {
             let allowed: Vec<&str> = spec.keys.iter().map(|k| k.name.as_str()).collect();
-            let hint = if s.kind == super::Kind::Shear && params::RAMP_ONLY.contains(&k.as_str()) {
-                " (a strain-rate ramp is a stage of its own: kind = \"ramp\")"
-            } else {
-                ""
-            };
+            let hint = s.kind.def().unknown_key_hint(k).unwrap_or("");
             return Err(src.err(
                 &path,
                 format!(

@@ -42,6 +42,7 @@ pub fn hide_progress_on_this_thread() {
 
 pub mod bar_pressure;
 pub mod compare;
+pub mod datasets;
 pub mod export;
 pub mod fit;
 pub mod gofr;
@@ -55,6 +56,7 @@ pub mod run_dir;
 pub mod shear;
 pub mod shear_lines;
 pub mod simulate;
+pub mod size_analysis;
 pub mod sizes;
 pub mod sweep;
 pub mod timing;

@@ -87,6 +87,7 @@ pub fn run(
             }],
             map_stages: 3,
             provenance: serde_json::json!({"input": input.display().to_string(), "seed": seed, "bootstrap": bootstrap}),
+            sizes: None,
         },
     )?;
     let rep = QuickstartReport {

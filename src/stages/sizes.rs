@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 pub const WINDOW: (f64, f64) = (0.05, 0.2);
 
 /// One run of the scan.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct SizeRow {
     pub run: PathBuf,
     pub n: usize,
@@ -32,13 +32,10 @@ pub struct SizeRow {
     pub chi: [f64; 2],
     /// The mean bar pressure profile over `bar_pressure::WINDOW` (p in m g μ/D), or why
     /// there is none.
-    #[serde(skip)]
     pub pressure: std::result::Result<(crate::structure::pressure::PressureProfile, usize), String>,
     /// The yield point of σ(ε) over 0 ≤ ε ≤ `WINDOW.1` (σ_y in m g μ/D), or why none.
-    #[serde(skip)]
     pub yielding: crate::structure::yielding::Yield,
     /// Frames of the run: ε, σ (m g μ/D), κ, χ.
-    #[serde(skip)]
     pub curves: [Vec<f64>; 4],
 }
 
@@ -87,7 +84,7 @@ impl SizeRow {
 /// abstract's "the yield stress of the pillars increases linearly with pillar size") and
 /// of χ at `CHI_AT`, and the absolute spread of ⟨κ⟩. The tolerances: 10 %, 10 %,
 /// 5 %, 0.03.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct ScanChecks {
     pub sigma_over_w0_spread: f64,
     /// None when a run does not yield (the check cannot be made).
@@ -118,7 +115,7 @@ fn interpolate(eps: &[f64], v: &[f64], at: f64) -> f64 {
 }
 
 /// The scan's fit ⟨σ⟩ = c W0/D: c (m g μ/D per D) and its 95 % interval.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct SizeFit {
     pub c: f64,
     pub c_interval: [f64; 2],
@@ -251,7 +248,7 @@ pub struct SizeOutputs {
 }
 
 /// What the scan found.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct SizeScan {
     pub rows: Vec<SizeRow>,
     pub fit: Option<SizeFit>,

@@ -10,7 +10,7 @@
 //! the scale of W, and a bin narrower than a grain would only show the grains.
 
 /// One snapshot's (or an average's) pressure profile on `bins` equal bins of x/W.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PressureProfile {
     /// Bin centres in x/W, 0 and 1 being the interface's ends.
     pub x_over_w: Vec<f64>,

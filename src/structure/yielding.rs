@@ -30,7 +30,7 @@ use crate::rng::Rng;
 pub const MIN_AFTER: usize = 3;
 
 /// A yield point with its 95 % bootstrap intervals.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct YieldPoint {
     /// Yield strain ε_y (strain unit) and its interval.
     pub eps_y: f64,
@@ -47,7 +47,7 @@ pub struct YieldPoint {
 }
 
 /// What a curve says about yield.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Yield {
     Reached(YieldPoint),
     /// The curve does not yield within its strain range (or cannot be fitted): why.

@@ -282,7 +282,7 @@ fn pipeline_schema_and_code_agree() {
     assert_eq!(on_disk, schema::SCHEMA_TEXT);
     let s = schema::load();
     assert_eq!(s.stages.len(), Kind::ALL.len());
-    for kind in Kind::ALL {
+    for &kind in Kind::ALL {
         let spec = s.stage(kind);
         let rust = params::rust_defaults(kind);
         let rust_keys: Vec<&String> = rust.as_object().unwrap().keys().collect();

@@ -260,6 +260,7 @@ fn the_ramp_report_draws_both_branches_and_compares_them() {
             }],
             map_stages: 1,
             provenance: serde_json::json!({}),
+            sizes: None,
         },
     )
     .unwrap();

@@ -219,6 +219,7 @@ fn simulation_report_has_force_maps_kappa_and_numeric_colour_bars() {
             }],
             map_stages: stages,
             provenance: serde_json::json!({}),
+            sizes: None,
         },
     )
     .unwrap();

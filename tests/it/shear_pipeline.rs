@@ -24,6 +24,7 @@ fn report_of(out: &Path, d: pillar_pipe::stages::report::DatasetInputs) -> Strin
             datasets: vec![d],
             map_stages: 1,
             provenance: serde_json::json!({}),
+            sizes: None,
         },
     )
     .unwrap();
@@ -668,6 +669,7 @@ fn report_of_two_sizes_overlays_r_v() {
             datasets,
             map_stages: 1,
             provenance: serde_json::json!({}),
+            sizes: None,
         },
     )
     .unwrap();

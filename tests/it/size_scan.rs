@@ -95,6 +95,44 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "second run computed {:?}",
         computed(&again)
     );
+    // The scan is a cached stage of its own: a report-only change redraws it from the
+    // cache and computes nothing else (issue 33).
+    run_ok(
+        &[
+            "run",
+            file.to_str().unwrap(),
+            "--quiet",
+            "--set",
+            "report.map_stages=2",
+        ],
+        &runs,
+    );
+    let redrawn = latest(&runs);
+    assert_eq!(computed(&redrawn), vec!["report".to_string()]);
+    let again_dir = runs.join(redrawn["run_id"].as_str().unwrap());
+    assert_eq!(
+        std::fs::read(again_dir.join("size_scan.csv")).unwrap(),
+        std::fs::read(run_dir.join("size_scan.csv")).unwrap()
+    );
+    assert!(
+        std::fs::read_to_string(again_dir.join("report.html"))
+            .unwrap()
+            .contains("Size scan (li-granular-pillars Sec. V)")
+    );
+    // Named in a pipeline without a report, the same stage (the same cache entry)
+    // gives the scan's tables.
+    let alone = d.join("alone.toml");
+    std::fs::write(
+        &alone,
+        format!(
+            "[pipeline]\nroot = '{ROOT}'\n\n[experiment.ingest]\ninput = \"data/sample/tracks.csv\"\n\n{}{}[sizes]\ndatasets = [\"experiment\", \"small\", \"large\"]\n",
+            branch("small", 120),
+            branch("large", 360)
+        ),
+    )
+    .unwrap();
+    run_ok(&["run", alone.to_str().unwrap(), "--quiet"], &runs);
+    assert!(computed(&latest(&runs)).is_empty(), "the scan was cached");
     // A report with one pillar run has no size-scan section.
     let one = d.join("one.toml");
     std::fs::write(

@@ -24,36 +24,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// One side of the report (experiment, simulation, …).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-pub struct DatasetInputs {
-    pub label: String,
-    pub tracks: Option<PathBuf>,
-    pub kinematics: Option<PathBuf>,
-    pub fit: Option<PathBuf>,
-    /// A table with `frame`, `strain` and `stress` columns, optionally `stress_reduced`
-    /// and `kappa_exact` (the simulator's stress–strain output).
-    pub stress: Option<PathBuf>,
-    /// Per-grain forces (the simulator's forces table, data_schema/forces.schema.json);
-    /// drawn at the grains' positions in `tracks`.
-    #[serde(default)]
-    pub forces: Option<PathBuf>,
-    /// A force sensor's stress–strain table (`ingest-force`: `strain`, `stress`,
-    /// `stress_reduced` by sensor row), drawn with the stress–strain curves only (its
-    /// rows are not the tracks' frames).
-    #[serde(default)]
-    pub measured_stress: Option<PathBuf>,
-    /// A sheared-disk run's directory (`summary.json`, `collision_angles.parquet`, …).
-    #[serde(default)]
-    pub shear: Option<PathBuf>,
-    /// A sweep's directory (`sweep.parquet`, `sweep.json`).
-    #[serde(default)]
-    pub sweep: Option<PathBuf>,
-    /// Strain-rate ramps' directories (`summary.json`, `ramp.parquet`), drawn together
-    /// as one hysteresis loop (vagberg-sheared-disks Fig. 31).
-    #[serde(default)]
-    pub ramps: Vec<PathBuf>,
-}
+pub use crate::stages::datasets::DatasetInputs;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ReportOptions {
@@ -63,6 +34,10 @@ pub struct ReportOptions {
     pub map_stages: usize,
     /// Anything to print under "Provenance" (run id, parameters, hashes, version).
     pub provenance: serde_json::Value,
+    /// The size scan of the data sets' pillar runs (a `sizes` stage's
+    /// `size_analysis.msgpack`, its tables beside it), drawn as the "Size scan" section.
+    #[serde(default)]
+    pub sizes: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -206,7 +181,7 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
     }
 
     // Two or more pillar runs: the size scan (li-granular-pillars Sec. V).
-    if let Some(s) = sizes::size_section(&opt.datasets, out_dir, &figdir, &mut figures)? {
+    if let Some(s) = sizes::size_section(opt, out_dir, &figdir, &mut figures)? {
         sections.push(s);
     }
 

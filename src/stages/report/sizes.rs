@@ -7,31 +7,16 @@
 //! tables are written beside the report (`size_scan*.csv`).
 
 use crate::error::{Error, Result};
-use crate::io::csvdiag::Expect;
-use crate::io::read_tracks;
-use crate::io::table::read_table;
-use crate::stages::report::DatasetInputs;
 use crate::stages::report::render::SavedFigure;
 use crate::stages::report::render::curves::{XyFigure, XySeries};
 use crate::stages::report::render::figures::{MapFigure, MapPanel};
 use crate::stages::report::render::html::{Block, Section};
 use crate::stages::report::sections::Figures;
-use crate::stages::sizes::{CHI_AT, SizeOutputs, SizeScan};
-use crate::structure::{ShearLine, shape_distance};
-use crate::tracks::Tracks;
-use std::path::{Path, PathBuf};
-
-/// g(r) out to this many D, in bins of D/25.
-const GOFR_R_MAX: f64 = 4.0;
-const GOFR_BINS: usize = 100;
-
-/// A `simulate pillar` run directory behind a data set (its stress table's folder).
-fn pillar_run(d: &DatasetInputs) -> Option<PathBuf> {
-    let dir = d.stress.as_ref()?.parent()?.to_path_buf();
-    let text = std::fs::read_to_string(dir.join(crate::stages::manifest::MANIFEST)).ok()?;
-    let m: serde_json::Value = serde_json::from_str(&text).ok()?;
-    (m["command"] == "simulate pillar").then_some(dir)
-}
+use crate::stages::report::{DatasetInputs, ReportOptions};
+use crate::stages::size_analysis::{BAR_LAYER_DEG, GofrCurve, OutlinesAt, RunLines, SizeAnalysis};
+use crate::stages::sizes::{CHI_AT, SizeScan};
+use crate::structure::ShearLine;
+use std::path::Path;
 
 fn line(label: String, colour: usize, points: Vec<(f64, f64)>) -> XySeries {
     XySeries {
@@ -42,74 +27,52 @@ fn line(label: String, colour: usize, points: Vec<(f64, f64)>) -> XySeries {
     }
 }
 
-/// The section, or None when fewer than two pillar runs are shown.
+/// The section, from the `sizes` stage's analyses (None without one: fewer than two
+/// pillar runs); the scan's tables are copied beside the report.
 pub fn size_section(
-    datasets: &[DatasetInputs],
+    opt: &ReportOptions,
     out_dir: &Path,
     figdir: &Path,
     figures: &mut Vec<SavedFigure>,
 ) -> Result<Option<Section>> {
-    let runs: Vec<(String, PathBuf)> = datasets
-        .iter()
-        .filter_map(|d| pillar_run(d).map(|p| (d.label.clone(), p)))
-        .collect();
-    if runs.len() < 2 {
+    let Some(file) = &opt.sizes else {
         return Ok(None);
-    }
-    let dirs: Vec<PathBuf> = runs.iter().map(|r| r.1.clone()).collect();
+    };
+    let a: SizeAnalysis = crate::stages::size_analysis::read(file)?;
     let mut f = Figures {
         figdir,
         prefix: "sizes".into(),
         figures,
         blocks: Vec::new(),
     };
-    let scan = match crate::stages::sizes::scan(&dirs) {
+    let scan = match &a.scan {
         Ok(s) => s,
         Err(e) => {
             f.blocks.push(Block::Paragraph(format!(
                 "The data sets {} are pillar runs of different sizes, but they cannot be compared as a size scan: {e}",
-                runs.iter().map(|r| r.0.as_str()).collect::<Vec<_>>().join(", ")
+                a.labels.join(", ")
             )));
             return Ok(Some(section(f.blocks)));
         }
     };
-    crate::stages::sizes::write(
-        &scan,
-        &SizeOutputs {
-            table: out_dir.join("size_scan.csv"),
-            curves: Some(out_dir.join("size_scan_curves.csv")),
-            pressure: Some(out_dir.join("size_scan_pressure.csv")),
-        },
-    )?;
-    let label = |run: &Path| {
-        runs.iter()
-            .find(|r| r.1 == run)
-            .map_or_else(|| run.display().to_string(), |r| r.0.clone())
-    };
-    let names: Vec<String> = scan
-        .rows
-        .iter()
-        .map(|r| format!("{} (N = {})", label(&r.run), r.n))
-        .collect();
+    let from = file.parent().unwrap_or(Path::new("."));
+    for name in crate::stages::size_analysis::TABLES {
+        let (src, dest) = (from.join(name), out_dir.join(name));
+        if src.is_file() {
+            std::fs::copy(&src, &dest).map_err(|e| Error::io(&dest, e))?;
+        }
+    }
+    let names = &a.names;
     f.blocks.push(Block::Paragraph(format!(
         "{} pillar runs compared as the paper compares its sizes (li-granular-pillars Sec. V); stresses in m g μ/D, lengths in D. Tables: size_scan.csv, size_scan_curves.csv, size_scan_pressure.csv beside this report.",
         scan.rows.len()
     )));
-    f.blocks.push(run_table(&scan, &names));
-    f.blocks.push(checks_table(&scan));
-    curves(&mut f, &scan, &names)?;
-    shear_lines(&mut f, datasets, &scan, &names)?;
-    // Each run's tracks, read once for its outlines and its g(r).
-    let tracks = scan
-        .rows
-        .iter()
-        .map(|r| {
-            let path = r.run.join("tracks.parquet");
-            read_tracks(&path).map(|(t, _)| (path.display().to_string(), t))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    outlines(&mut f, &scan, &names, &tracks)?;
-    gofr(&mut f, datasets, &names, &tracks)?;
+    f.blocks.push(run_table(scan, names));
+    f.blocks.push(checks_table(scan));
+    curves(&mut f, scan, names)?;
+    shear_lines(&mut f, opt, scan, names, &a.lines)?;
+    outlines(&mut f, names, &a.outlines)?;
+    gofr(&mut f, &a.gofr)?;
     Ok(Some(section(f.blocks)))
 }
 
@@ -349,10 +312,6 @@ fn curves(f: &mut Figures, scan: &SizeScan, names: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// Lines steeper than this to the compression axis are the layer of grains sheared
-/// under the bar, not the bulk's transient shear lines.
-const BAR_LAYER_DEG: f64 = 75.0;
-
 /// Median and quartiles of `v` (NaN for none).
 fn quartiles(v: &mut [f64]) -> [f64; 3] {
     v.sort_by(f64::total_cmp);
@@ -372,44 +331,23 @@ fn quartiles(v: &mut [f64]) -> [f64; 3] {
 /// independent of size) as checks.
 fn shear_lines(
     f: &mut Figures,
-    datasets: &[DatasetInputs],
+    opt: &ReportOptions,
     scan: &SizeScan,
     names: &[String],
+    runs: &[RunLines],
 ) -> Result<()> {
     let mut rows = Vec::new();
     let (mut angles, mut widths) = (Vec::new(), Vec::new());
     let mut bulk_width_medians = Vec::new();
     // Per run: (index, name, start frame, its longest line) for the J2 maps.
     let mut shown: Vec<(usize, String, i64, ShearLine)> = Vec::new();
-    for (c, (r, name)) in scan.rows.iter().zip(names).enumerate() {
-        let Some(kin) = datasets
-            .iter()
-            .find(|d| pillar_run(d).as_deref() == Some(r.run.as_path()))
-            .and_then(|d| d.kinematics.clone())
-        else {
-            continue;
-        };
-        let by_frame = crate::stages::shear_lines::every_pair(&kin, &Default::default())?;
-        let is_bulk = |l: &&ShearLine| l.angle_deg < BAR_LAYER_DEG;
-        // The maps stand at one strain for every size (Fig. 11 compares sizes at one
-        // moment): the frame pair with a line away from the bar layer that starts
-        // nearest the frame at ε = MAP_STRAIN, and its longest such line. Each map's
-        // title states its own ε.
-        let target = frame_at_strain(&r.run, MAP_STRAIN)?;
-        if let Some((frame, line)) = by_frame
-            .iter()
-            .filter(|(_, ls)| ls.iter().any(|l| is_bulk(&l)))
-            .min_by_key(|(f, _)| target.map_or(0, |t| (*f - t).abs()))
-            .and_then(|(f, ls)| {
-                ls.iter()
-                    .filter(is_bulk)
-                    .max_by(|a, b| a.length_d.total_cmp(&b.length_d))
-                    .map(|l| (*f, l.clone()))
-            })
-        {
-            shown.push((c, name.clone(), frame, line));
+    for run in runs {
+        let (c, name) = (run.row, &names[run.row]);
+        if let Some((frame, line)) = &run.shown {
+            shown.push((c, name.clone(), *frame, line.clone()));
         }
-        let lines: Vec<ShearLine> = by_frame.into_iter().flat_map(|(_, ls)| ls).collect();
+        let lines = &run.lines;
+        let is_bulk = |l: &&ShearLine| l.angle_deg < BAR_LAYER_DEG;
         let bulk: Vec<_> = lines.iter().filter(is_bulk).collect();
         let [a, a1, a3] = quartiles(&mut bulk.iter().map(|l| l.angle_deg).collect::<Vec<_>>());
         let [w, w1, w3] = quartiles(&mut bulk.iter().map(|l| l.width_d).collect::<Vec<_>>());
@@ -473,7 +411,7 @@ fn shear_lines(
             if lo >= 1.5 && hi <= 3.0 { "holds" } else { "does not hold" }
         )));
     }
-    j2_maps(f, datasets, scan, &shown)?;
+    j2_maps(f, &opt.datasets, scan, &shown)?;
     for (series, file, title, x, caption) in [
         (
             angles,
@@ -519,7 +457,7 @@ fn j2_maps(
     for (c, _, frame, line) in shown {
         let Some(d) = datasets
             .iter()
-            .find(|d| pillar_run(d).as_deref() == Some(scan.rows[*c].run.as_path()))
+            .find(|d| d.pillar_run().as_deref() == Some(scan.rows[*c].run.as_path()))
         else {
             continue;
         };
@@ -568,68 +506,29 @@ fn j2_maps(
     )
 }
 
-/// The strain at which the Fig. 11 maps of every size stand.
-const MAP_STRAIN: f64 = 0.1;
-
-/// The strain of each frame of a run (its stress table).
-fn frame_at_strain(run: &Path, eps: f64) -> Result<Option<i64>> {
-    let t = read_table(
-        &run.join("stress_strain.parquet"),
-        &[("frame", Expect::Int), ("strain", Expect::Float)],
-    )?;
-    let (frames, strain) = (t.i64("frame")?, t.f64("strain")?);
-    Ok(frames
-        .iter()
-        .zip(&strain)
-        .filter(|(_, s)| (*s - eps).abs() <= 0.01)
-        .min_by(|a, b| (a.1 - eps).abs().total_cmp(&(b.1 - eps).abs()))
-        .map(|(f, _)| *f))
-}
-
 /// Fig. 9: each run's outline at ε = 0.1 and 0.2 rescaled by its W0, overlaid, and the
 /// rms distance of each to the largest run's.
-fn outlines(
-    f: &mut Figures,
-    scan: &SizeScan,
-    names: &[String],
-    tracks: &[(String, Tracks)],
-) -> Result<()> {
+fn outlines(f: &mut Figures, names: &[String], at: &[OutlinesAt]) -> Result<()> {
     let mut rows = Vec::new();
-    for eps in CHI_AT {
-        let mut series = Vec::new();
-        let mut got = Vec::new();
-        for (c, ((r, name), (source, t))) in scan.rows.iter().zip(names).zip(tracks).enumerate() {
-            let Some(frame) = frame_at_strain(&r.run, eps)? else {
-                continue;
-            };
-            let o = crate::stages::outline::outline_of_tracks(t, source, Some(frame))?;
-            let mut pts: Vec<(f64, f64)> = o
-                .outline
-                .polygon()
-                .iter()
-                .map(|p| ((p.x - o.x_mid) / o.w0, (p.y - o.outline.y0) / o.w0))
-                .collect();
-            if let Some(&first) = pts.first() {
-                pts.push(first);
-            }
-            series.push(line(name.clone(), c, pts));
-            got.push((name.clone(), o));
-        }
-        if let Some((big_name, big)) = got.last() {
-            for (name, o) in &got[..got.len() - 1] {
+    for o in at {
+        let eps = o.eps;
+        if let Some((big, _)) = o.runs.last() {
+            for (row, d) in &o.distances {
                 rows.push(vec![
                     format!("{eps}"),
-                    format!("{name} vs {big_name}"),
-                    format!(
-                        "{:.3}",
-                        shape_distance(&o.outline, o.w0, &big.outline, big.w0)
-                    ),
+                    format!("{} vs {}", names[*row], names[*big]),
+                    format!("{d:.3}"),
                 ]);
             }
         }
-        if series.is_empty() {
+        if o.runs.is_empty() {
             continue;
         }
+        let series = o
+            .runs
+            .iter()
+            .map(|(row, pts)| line(names[*row].clone(), *row, pts.clone()))
+            .collect();
         f.add(
             &XyFigure {
                 title: format!("Outlines rescaled by W0 at ε = {eps} (Fig. 9)"),
@@ -655,37 +554,13 @@ fn outlines(
 }
 
 /// Fig. 2: g(r) around small and around large grains of each run's first frame and of
-/// each experiment's (data sets with tracks and no simulation).
-fn gofr(
-    f: &mut Figures,
-    datasets: &[DatasetInputs],
-    names: &[String],
-    runs: &[(String, Tracks)],
-) -> Result<()> {
-    // The runs' tracks as read, then each experiment's (data sets with tracks and no
-    // simulation).
-    let mut experiments = Vec::new();
-    for d in datasets
-        .iter()
-        .filter(|d| d.stress.is_none() && d.shear.is_none() && d.sweep.is_none())
-    {
-        if let Some(p) = &d.tracks {
-            experiments.push((d.label.clone(), p.display().to_string(), read_tracks(p)?.0));
-        }
-    }
-    let sources: Vec<(&String, &String, &Tracks)> = names
-        .iter()
-        .zip(runs)
-        .map(|(n, (p, t))| (n, p, t))
-        .chain(experiments.iter().map(|(n, p, t)| (n, p, t)))
-        .collect();
+/// each experiment's.
+fn gofr(f: &mut Figures, curves: &[GofrCurve]) -> Result<()> {
     let (mut small, mut large) = (Vec::new(), Vec::new());
-    for (c, (name, path, t)) in sources.into_iter().enumerate() {
-        let (g, _, d) = crate::stages::gofr::of_tracks(t, path, None, GOFR_R_MAX, GOFR_BINS)
-            .map_err(|e| Error::Other(format!("g(r) of {name}: {e}")))?;
-        let pts = |v: &[f64]| g.r.iter().map(|r| r / d).zip(v.iter().copied()).collect();
-        small.push(line(name.clone(), c, pts(&g.g_small)));
-        large.push(line(name.clone(), c, pts(&g.g_large)));
+    for (c, g) in curves.iter().enumerate() {
+        let pts = |v: &[f64]| g.r_over_d.iter().copied().zip(v.iter().copied()).collect();
+        small.push(line(g.name.clone(), c, pts(&g.g_small)));
+        large.push(line(g.name.clone(), c, pts(&g.g_large)));
     }
     for (series, file, who) in [
         (small, "gofr_small", "small"),

@@ -86,7 +86,7 @@ impl Default for ShearLineOptions {
 }
 
 /// One shear line; lengths in D except the centre x, y (the positions' length unit).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShearLine {
     /// 0, 1, ... by decreasing number of grains.
     pub id: usize,

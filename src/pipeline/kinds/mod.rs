@@ -1,0 +1,150 @@
+//! Stage kinds, one file each (`kinds/<name>.rs`): its parameters' type, the checks at
+//! load the schema cannot express, the stage function it runs and the outputs it names.
+//! The pipeline's files ask the registry (`Kind::def`) instead of matching on the kind.
+//!
+//! A kind's cache key covers its own file and what that file reaches in the import
+//! graph outside `src/pipeline/` (`build.rs`): the wiring of parameters to options
+//! changes results, the dispatch around it does not.
+//!
+//! A new kind: its file here, one line in `registry!` below, and its entry in
+//! `data_schema/pipeline.schema.json` (the schema test names what is missing).
+
+use super::exec::{Ctx, Produced};
+use super::graph::Stage;
+use super::parse::Source;
+use crate::error::Result;
+use serde::{Serialize, de::DeserializeOwned};
+use serde_json::Value as Json;
+use std::path::{Path, PathBuf};
+
+/// What a stage kind does, beyond the keys the schema file describes.
+pub trait StageKind: Sync {
+    /// Every key with its value, defaults filled (what the manifest records and the key
+    /// hashes), from the validated stage table; or what is wrong.
+    fn resolve(&self, given: Json) -> std::result::Result<Json, String>;
+
+    /// Checks at load beyond the schema's, reported at the stage or its key; returns the
+    /// stages this one expands into (a sweep's grid points), which run before it.
+    fn check(&self, _src: &Source, _st: &mut Stage) -> Result<Vec<Stage>> {
+        Ok(Vec::new())
+    }
+
+    /// Checks against the stages it refers to, once every stage is built.
+    fn check_references(&self, _src: &Source, _st: &Stage, _all: &[Stage]) -> Result<()> {
+        Ok(())
+    }
+
+    /// A file read beside the input file `path` (ingest's settings): hashed into the
+    /// key under `<key>.settings`.
+    fn beside(&self, _path: &Path) -> Option<PathBuf> {
+        None
+    }
+
+    /// Fill keys whose default comes from the pipeline's header (a report's title).
+    fn complete(&self, _params: &mut Json, _title: &str) {}
+
+    /// Why `key` is unknown here, when it belongs to another kind.
+    fn unknown_key_hint(&self, _key: &str) -> Option<&'static str> {
+        None
+    }
+
+    /// Keys that change how a run behaves, not what it computes (how often it
+    /// checkpoints): left out of the cache key.
+    fn run_only(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// The stage spreads over every core on threads of its own (which wait for each
+    /// other at spinning barriers a second stage would stall): it runs alone.
+    fn exclusive(&self) -> bool {
+        false
+    }
+
+    /// The stage's outputs are a report the run directory shows (`report.html`).
+    fn is_report(&self) -> bool {
+        false
+    }
+
+    /// Run the stage into `out`: its parameters become the stage function's options,
+    /// its references the upstream stages' output files.
+    fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced>;
+}
+
+/// Defaults filled by a round trip through the kind's parameter type.
+pub(crate) fn round_trip<T: Serialize + DeserializeOwned>(
+    given: Json,
+) -> std::result::Result<Json, String> {
+    let t: T = serde_json::from_value(given).map_err(|e| e.to_string())?;
+    Ok(serde_json::to_value(t).expect("json"))
+}
+
+/// The stage's parameters as the kind's typed struct, or the schema error at its line.
+pub(crate) fn typed_at<T: DeserializeOwned>(src: &Source, st: &Stage) -> Result<T> {
+    serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))
+}
+
+macro_rules! registry {
+    ($($(#[$doc:meta])* $variant:ident => $module:ident;)*) => {
+        $(pub mod $module;)*
+
+        /// The kinds of stage a pipeline can hold; the name is the file's.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum Kind {
+            $($(#[$doc])* $variant,)*
+        }
+
+        impl Kind {
+            pub const ALL: &[Kind] = &[$(Kind::$variant,)*];
+
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(Kind::$variant => stringify!($module),)*
+                }
+            }
+
+            /// What the kind does.
+            pub fn def(self) -> &'static dyn StageKind {
+                match self {
+                    $(Kind::$variant => &$module::$variant,)*
+                }
+            }
+        }
+    };
+}
+
+registry! {
+    /// Tracks from a file (trackpy, LAMMPS, canonical), with an optional force sensor.
+    Ingest => ingest;
+    /// The pillar DEM (li-granular-pillars Sec. II).
+    Simulate => simulate;
+    Kinematics => kinematics;
+    Fit => fit;
+    Compare => compare;
+    Report => report;
+    /// One sheared-disk run (vagberg-sheared-disks).
+    Shear => shear;
+    /// A grid of sheared-disk runs, each grid point a `Shear` stage of its own.
+    Sweep => sweep;
+    /// One sheared-disk strain-rate ramp (vagberg-sheared-disks Eqs. 38–41, Fig. 31).
+    Ramp => ramp;
+    /// The camera emulator: tracks → frames (`pillar-pipe render`).
+    Render => render;
+    /// Frames → linked features → canonical tracks (`pillar-pipe track`, then `ingest`).
+    Track => track;
+    /// The size scan of pillar runs (li-granular-pillars Sec. V) a report draws.
+    Sizes => sizes;
+}
+
+impl Kind {
+    pub fn from_name(s: &str) -> Option<Kind> {
+        Kind::ALL.iter().copied().find(|k| k.name() == s)
+    }
+
+    pub fn names() -> String {
+        Kind::ALL
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
