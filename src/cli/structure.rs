@@ -272,32 +272,38 @@ pub fn sizes(args: SizesArgs) -> Result<()> {
         }
     }
     if let Some(c) = &scan.checks {
+        let tol = &pillar_pipe::stages::sizes::TOLERANCES;
         let verdict = |ok: bool| if ok { "holds" } else { "does NOT hold" };
         println!(
-            "check       <sigma>/W0 equal across sizes within 10 %: spread {:.1} % ({})",
+            "check       <sigma>/W0 equal across sizes within {:.0} %: spread {:.1} % ({})",
+            100.0 * tol.sigma_over_w0,
             100.0 * c.sigma_over_w0_spread,
-            verdict(c.sigma_over_w0_spread <= 0.10)
+            verdict(c.sigma_holds())
         );
-        match c.sigma_y_over_w0_spread {
-            Some(s) => println!(
-                "check       sigma_y/W0 equal across sizes within 10 %: spread {:.1} % ({})",
+        match (c.sigma_y_over_w0_spread, c.sigma_y_holds()) {
+            (Some(s), Some(ok)) => println!(
+                "check       sigma_y/W0 equal across sizes within {:.0} %: spread {:.1} % ({})",
+                100.0 * tol.sigma_y_over_w0,
                 100.0 * s,
-                verdict(s <= 0.10)
+                verdict(ok)
             ),
-            None => println!(
-                "check       sigma_y/W0 equal across sizes within 10 %: not made (a run does not yield)"
+            _ => println!(
+                "check       sigma_y/W0 equal across sizes within {:.0} %: not made (a run does not yield)",
+                100.0 * tol.sigma_y_over_w0
             ),
         }
         println!(
-            "check       kappa equal across sizes within 0.03: spread {:.3} ({})",
+            "check       kappa equal across sizes within {}: spread {:.3} ({})",
+            tol.kappa,
             c.kappa_spread,
-            verdict(c.kappa_spread <= 0.03)
+            verdict(c.kappa_holds())
         );
         for (k, at) in pillar_pipe::stages::sizes::CHI_AT.iter().enumerate() {
             println!(
-                "check       W/W0 at eps = {at} equal across sizes within 5 %: spread {:.1} % ({})",
+                "check       W/W0 at eps = {at} equal across sizes within {:.0} %: spread {:.1} % ({})",
+                100.0 * tol.chi,
                 100.0 * c.chi_spread[k],
-                verdict(c.chi_spread[k] <= 0.05)
+                verdict(c.chi_holds(k))
             );
         }
     }

@@ -93,6 +93,42 @@ pub struct ScanChecks {
     pub kappa_spread: f64,
 }
 
+/// The tolerance each claim is judged by (the issue's), the one place they are stated.
+pub struct Tolerances {
+    /// Relative spread of ⟨σ⟩/W0 and of σ_y/W0.
+    pub sigma_over_w0: f64,
+    pub sigma_y_over_w0: f64,
+    /// Absolute spread of ⟨κ⟩.
+    pub kappa: f64,
+    /// Relative spread of χ at each strain of `CHI_AT`.
+    pub chi: f64,
+}
+
+pub const TOLERANCES: Tolerances = Tolerances {
+    sigma_over_w0: 0.10,
+    sigma_y_over_w0: 0.10,
+    kappa: 0.03,
+    chi: 0.05,
+};
+
+impl ScanChecks {
+    pub fn sigma_holds(&self) -> bool {
+        self.sigma_over_w0_spread <= TOLERANCES.sigma_over_w0
+    }
+    /// None when the check cannot be made (a run does not yield).
+    pub fn sigma_y_holds(&self) -> Option<bool> {
+        self.sigma_y_over_w0_spread
+            .map(|s| s <= TOLERANCES.sigma_y_over_w0)
+    }
+    pub fn kappa_holds(&self) -> bool {
+        self.kappa_spread <= TOLERANCES.kappa
+    }
+    /// At the `k`-th strain of `CHI_AT`.
+    pub fn chi_holds(&self, k: usize) -> bool {
+        self.chi_spread[k] <= TOLERANCES.chi
+    }
+}
+
 fn spread(v: &[f64]) -> f64 {
     let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
         (a.0.min(x), a.1.max(x))
