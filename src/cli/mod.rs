@@ -119,22 +119,7 @@ pub fn dispatch(cmd: Cmd) -> Result<()> {
     }
 }
 
-/// `A,B` as two numbers (`--origin-px 165.98,850`, `--strain 0.1,0.2`).
-pub fn parse_pair(s: &str) -> std::result::Result<(f64, f64), String> {
-    let v: Vec<&str> = s.split(',').collect();
-    if v.len() != 2 {
-        return Err(format!("expected two numbers A,B, got '{s}'"));
-    }
-    let a = v[0]
-        .trim()
-        .parse::<f64>()
-        .map_err(|e| format!("'{}': {e}", v[0]))?;
-    let b = v[1]
-        .trim()
-        .parse::<f64>()
-        .map_err(|e| format!("'{}': {e}", v[1]))?;
-    Ok((a, b))
-}
+pub use pillar_pipe::pipeline::params::parse_pair;
 
 /// Where a command and a pipeline stage kind do the same work, their options are one
 /// set: the same names (a flag `--rc-over-d` is the key `rc_over_d`) and the same
@@ -292,6 +277,48 @@ mod option_drift {
                         "positional on the command line, a folder key in a pipeline",
                     ),
                 ],
+            },
+            Pair {
+                command: &["gofr"],
+                kind: Kind::Gofr,
+                cli_only: run_and(&["input"]),
+                pipeline_only: &["input"],
+                renamed: &[],
+                default_differs: &[],
+            },
+            Pair {
+                command: &["outline"],
+                kind: Kind::Outline,
+                // `against` is a path here, a stage there.
+                cli_only: run_and(&["input"]),
+                pipeline_only: &["input"],
+                renamed: &[],
+                default_differs: &[(
+                    "against",
+                    "a path on the command line, a stage in a pipeline",
+                )],
+            },
+            Pair {
+                command: &["shear-lines"],
+                kind: Kind::ShearLines,
+                cli_only: run_and(&[]),
+                pipeline_only: &[],
+                renamed: &[("kinematics", "input")],
+                default_differs: &[(
+                    "input",
+                    "positional: a path on the command line, a stage in a pipeline",
+                )],
+            },
+            Pair {
+                command: &["bar-pressure"],
+                kind: Kind::BarPressure,
+                cli_only: run_and(&[]),
+                pipeline_only: &[],
+                renamed: &[("run", "input")],
+                default_differs: &[(
+                    "input",
+                    "positional: a run folder on the command line, a stage in a pipeline",
+                )],
             },
             Pair {
                 command: &["compare"],

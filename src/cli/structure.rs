@@ -1,10 +1,12 @@
 //! The structure analyses of li-granular-pillars Secs. III and V, one command each:
 //! g(r), the outline, shear lines, the size scan and the bar pressure.
 
-use super::parse_pair;
 use anyhow::{Context, Result};
 use clap::Args;
-use pillar_pipe::structure::ShearLineOptions;
+use pillar_pipe::pipeline::kinds::bar_pressure::BarPressureParams;
+use pillar_pipe::pipeline::kinds::gofr::GofrParams;
+use pillar_pipe::pipeline::kinds::outline::OutlineParams;
+use pillar_pipe::pipeline::kinds::shear_lines::ShearLinesParams;
 use std::path::PathBuf;
 
 /// Pair distribution g(r) of one frame, around small and around large grains
@@ -16,25 +18,17 @@ pub struct GofrArgs {
     /// Output table (.parquet or .csv).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Frame (default: the first).
-    #[arg(long)]
-    pub frame: Option<i64>,
-    /// Largest r in units of D; open packings count only centres this far inside.
-    #[arg(long, default_value_t = 4.0)]
-    pub r_max: f64,
-    #[arg(long, default_value_t = 80)]
-    pub bins: usize,
+    #[command(flatten)]
+    pub params: GofrParams,
 }
 
 pub fn gofr(args: GofrArgs) -> Result<()> {
     let GofrArgs {
         input,
         output,
-        frame,
-        r_max,
-        bins,
+        params: p,
     } = args;
-    let (g, f, d) = pillar_pipe::stages::gofr::run(&input, &output, frame, r_max, bins)
+    let (g, f, d) = pillar_pipe::stages::gofr::run(&input, &output, p.frame, p.r_max, p.bins)
         .with_context(|| format!("g(r) of {}", input.display()))?;
     let peak = |v: &[f64]| {
         g.r.iter()
@@ -66,27 +60,22 @@ pub struct OutlineArgs {
     pub input: PathBuf,
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Frame (default: the last).
-    #[arg(long)]
-    pub frame: Option<i64>,
     /// Another pillar's tracks to compare with (e.g. another size).
     #[arg(long)]
     pub against: Option<PathBuf>,
-    /// Its frame (default: the last).
-    #[arg(long)]
-    pub against_frame: Option<i64>,
+    #[command(flatten)]
+    pub params: OutlineParams,
 }
 
 pub fn outline(args: OutlineArgs) -> Result<()> {
     let OutlineArgs {
         input,
         output,
-        frame,
         against,
-        against_frame,
+        params: p,
     } = args;
-    let other = against.as_deref().map(|p| (p, against_frame));
-    let (a, distance) = pillar_pipe::stages::outline::run(&input, frame, other, &output)
+    let other = against.as_deref().map(|a| (a, p.against_frame));
+    let (a, distance) = pillar_pipe::stages::outline::run(&input, p.frame, other, &output)
         .with_context(|| format!("outline of {}", input.display()))?;
     let hw = a.outline.half_width();
     let widest = hw.iter().fold(0.0f64, |m, &w| m.max(2.0 * w));
@@ -118,28 +107,8 @@ pub struct ShearLinesArgs {
     /// Output table (.csv or .parquet); default <stem>.shear_lines.csv beside the input.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Start frame of the pair (default: the first).
-    #[arg(long)]
-    pub frame: Option<i64>,
-    /// Lag of the pair in frames, frame_end - frame (default: the smallest there).
-    #[arg(long)]
-    pub lag_frames: Option<i64>,
-    /// A grain is high when J2 > THRESHOLD x J2_ref, the mean J2 of the pair's grains
-    /// below their 99th percentile (dimensionless).
-    #[arg(long, default_value_t = ShearLineOptions::default().threshold)]
-    pub threshold: f64,
-    /// Fewest grains in a line.
-    #[arg(long, default_value_t = ShearLineOptions::default().min_grains)]
-    pub min_grains: usize,
-    /// Least length of a line, in D.
-    #[arg(long, default_value_t = ShearLineOptions::default().min_length_over_d)]
-    pub min_length: f64,
-    /// Least elongation of a line (length / width).
-    #[arg(long, default_value_t = ShearLineOptions::default().min_elongation)]
-    pub min_elongation: f64,
-    /// Large-grain diameter D in the table's length unit (default: the table's sidecar).
-    #[arg(long)]
-    pub diameter: Option<f64>,
+    #[command(flatten)]
+    pub params: ShearLinesParams,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -149,29 +118,12 @@ pub fn shear_lines(args: ShearLinesArgs) -> Result<()> {
     let ShearLinesArgs {
         kinematics,
         output,
-        frame,
-        lag_frames,
-        threshold,
-        min_grains,
-        min_length,
-        min_elongation,
-        diameter,
+        params,
         json,
     } = args;
     use pillar_pipe::stages::shear_lines as sl;
     let output = output.unwrap_or_else(|| sl::default_output(&kinematics));
-    let opt = sl::ShearLinesOptions {
-        frame,
-        lag_frames,
-        diameter,
-        detect: ShearLineOptions {
-            threshold,
-            min_grains,
-            min_length_over_d: min_length,
-            min_elongation,
-            ..ShearLineOptions::default()
-        },
-    };
+    let opt = params.options();
     let rep = sl::run(&kinematics, &output, &opt)
         .with_context(|| format!("shear lines of {}", kinematics.display()))?;
     if json {
@@ -321,12 +273,8 @@ pub fn sizes(args: SizesArgs) -> Result<()> {
 pub struct BarPressureArgs {
     /// A `simulate pillar` output directory.
     pub run: PathBuf,
-    /// Strain window LO,HI of the snapshots averaged (engineering strain).
-    #[arg(long, value_parser = parse_pair, default_value = "0.1,0.2")]
-    pub strain: (f64, f64),
-    /// Bins across the interface.
-    #[arg(long, default_value_t = 10)]
-    pub bins: usize,
+    #[command(flatten)]
+    pub params: BarPressureParams,
     /// x_over_w, p table (CSV or Parquet by extension).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -335,8 +283,7 @@ pub struct BarPressureArgs {
 pub fn bar_pressure(args: BarPressureArgs) -> Result<()> {
     let BarPressureArgs {
         run,
-        strain,
-        bins,
+        params: BarPressureParams { strain, bins, .. },
         output,
     } = args;
     let (p, snaps) = pillar_pipe::stages::bar_pressure::run(&run, strain, bins, &output)

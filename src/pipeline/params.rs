@@ -37,3 +37,20 @@ pub fn typed<T: DeserializeOwned>(stage: &str, params: &Json) -> Result<T> {
     }
     serde_json::from_value(p).map_err(|e| Error::param(stage, e.to_string()))
 }
+
+/// `A,B` as two numbers (`--origin-px 165.98,850`, `--strain 0.1,0.2`).
+pub fn parse_pair(s: &str) -> std::result::Result<(f64, f64), String> {
+    let v: Vec<&str> = s.split(',').collect();
+    if v.len() != 2 {
+        return Err(format!("expected two numbers A,B, got '{s}'"));
+    }
+    let a = v[0]
+        .trim()
+        .parse::<f64>()
+        .map_err(|e| format!("'{}': {e}", v[0]))?;
+    let b = v[1]
+        .trim()
+        .parse::<f64>()
+        .map_err(|e| format!("'{}': {e}", v[1]))?;
+    Ok((a, b))
+}

@@ -3,8 +3,9 @@
 //! with Figs. 2, 9 and 10, the checks table and the scan's tables beside the report; a
 //! second run computes nothing.
 
-use crate::common::{computed, latest, pp, run_ok, tmpdir};
+use crate::common::{cli, computed, latest, pp, run_ok, tmpdir};
 use pillar_pipe::io::table::read_table;
+use std::path::Path;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -133,6 +134,136 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
     .unwrap();
     run_ok(&["run", alone.to_str().unwrap(), "--quiet"], &runs);
     assert!(computed(&latest(&runs)).is_empty(), "the scan was cached");
+
+    // The structure analyses as stages: the same tables as their commands write.
+    let analyses = d.join("analyses.toml");
+    std::fs::write(
+        &analyses,
+        format!(
+            "[pipeline]\nroot = '{ROOT}'\n\n{}{}[small.gofr]\ninput = \"small.simulate\"\nbins = 40\n\n[small.outline]\ninput = \"small.simulate\"\nagainst = \"large.simulate\"\n\n[small.shear_lines]\ninput = \"small.kinematics\"\n\n[small.bar_pressure]\ninput = \"small.simulate\"\n",
+            branch("small", 120),
+            branch("large", 360)
+        ),
+    )
+    .unwrap();
+    run_ok(&["run", analyses.to_str().unwrap(), "--quiet"], &runs);
+    let m = latest(&runs);
+    let mut got = computed(&m);
+    got.sort();
+    assert_eq!(
+        got,
+        [
+            "small.bar_pressure",
+            "small.gofr",
+            "small.outline",
+            "small.shear_lines"
+        ]
+    );
+    let stage_file = |name: &str| {
+        let s = m["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name)
+            .unwrap_or_else(|| panic!("no stage {name}"));
+        let (dir, outs) = (
+            s["dir"].as_str().unwrap(),
+            s["outputs"].as_object().unwrap(),
+        );
+        let first = outs.values().next().unwrap().as_str().unwrap();
+        runs.join(dir).join(first)
+    };
+    let (sim, large, kin) = (
+        stage_file("small.simulate").parent().unwrap().to_path_buf(),
+        stage_file("large.simulate").parent().unwrap().to_path_buf(),
+        stage_file("small.kinematics"),
+    );
+    let tracks = sim.join("tracks.parquet");
+    let cmd = d.join("cmd");
+    std::fs::create_dir_all(&cmd).unwrap();
+    let out = |f: &str| cmd.join(f).to_str().unwrap().to_string();
+    for (args, stage) in [
+        (
+            vec![
+                "gofr".to_string(),
+                tracks.display().to_string(),
+                "--bins".into(),
+                "40".into(),
+                "-o".into(),
+                out("gofr.parquet"),
+            ],
+            "small.gofr",
+        ),
+        (
+            vec![
+                "outline".to_string(),
+                tracks.display().to_string(),
+                "--against".into(),
+                large.join("tracks.parquet").display().to_string(),
+                "-o".into(),
+                out("outline.parquet"),
+            ],
+            "small.outline",
+        ),
+        (
+            vec![
+                "shear-lines".to_string(),
+                kin.display().to_string(),
+                "-o".into(),
+                out("shear_lines.parquet"),
+            ],
+            "small.shear_lines",
+        ),
+        (
+            vec![
+                "bar-pressure".to_string(),
+                sim.display().to_string(),
+                "-o".into(),
+                out("bar_pressure.parquet"),
+            ],
+            "small.bar_pressure",
+        ),
+    ] {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (ok, o) = cli(&a);
+        assert!(ok, "{a:?}: {o}");
+        let stage_t = read_table(&stage_file(stage), &[]).unwrap();
+        let cmd_t = read_table(Path::new(args.last().unwrap()), &[]).unwrap();
+        assert_eq!(stage_t.df.height(), cmd_t.df.height(), "{stage}");
+        assert!(stage_t.df.height() > 0, "{stage} is empty");
+        let names: Vec<String> = stage_t
+            .df
+            .get_column_names()
+            .iter()
+            .map(|n| n.to_string())
+            .collect();
+        assert!(!names.is_empty());
+        for c in names {
+            if let (Ok(x), Ok(y)) = (stage_t.f64(&c), cmd_t.f64(&c)) {
+                assert_eq!(
+                    x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    y.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    "{stage}: column {c}"
+                );
+            }
+        }
+    }
+    // Bar pressure reads a simulation's force snapshots: another stage is refused at
+    // load, at its key.
+    let wrong = d.join("wrong.toml");
+    std::fs::write(
+        &wrong,
+        format!(
+            "[pipeline]\nroot = '{ROOT}'\n\n[experiment.ingest]\ninput = \"data/sample/tracks.csv\"\n\n[experiment.bar_pressure]\ninput = \"experiment.ingest\"\n"
+        ),
+    )
+    .unwrap();
+    let (ok, _, e) = pp(&["run", wrong.to_str().unwrap(), "--quiet"], &runs);
+    assert!(!ok);
+    assert!(
+        e.contains("experiment.bar_pressure.input") && e.contains("simulate stage"),
+        "{e}"
+    );
     // A report with one pillar run has no size-scan section.
     let one = d.join("one.toml");
     std::fs::write(

@@ -133,6 +133,14 @@ registry! {
     Track => track;
     /// The size scan of pillar runs (li-granular-pillars Sec. V) a report draws.
     Sizes => sizes;
+    /// g(r) of one frame by species (li-granular-pillars Fig. 2).
+    Gofr => gofr;
+    /// A pillar's outline over W0 (li-granular-pillars Fig. 9).
+    Outline => outline;
+    /// Transient shear lines of one frame pair (li-granular-pillars Fig. 11).
+    ShearLines => shear_lines;
+    /// Contact pressure along the bar (li-granular-pillars Fig. 10c).
+    BarPressure => bar_pressure;
 }
 
 impl Kind {
