@@ -466,3 +466,102 @@ fn every_unsafe_fn_and_impl_states_its_contract() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// The report draws what other stages computed: from `src/stages/report/` it names the
+/// pipeline never, and other stages and the simulators only by their constants (file
+/// names, bins), types and readers (`read_…`); a call into another stage's computation
+/// (as the size scan once was) fails here with its file and line. Exceptions are
+/// listed with why.
+#[test]
+fn the_report_renders_and_never_computes_another_stage() {
+    const EXCEPTIONS: &[(&str, &str)] = &[
+        (
+            "fit::num",
+            "formats a fit's number as the fit's own report does",
+        ),
+        ("fit::with_interval", "formats a value with its interval"),
+        (
+            "compare::incompatibility",
+            "why two fits cannot be compared, from their recorded settings",
+        ),
+    ];
+    let dir = Path::new(ROOT).join("src/stages/report");
+    let mut files = Vec::new();
+    rust_files(&dir, &mut files);
+    files.sort();
+    let mut problems = Vec::new();
+    let mut seen = 0;
+    for f in &files {
+        for (n, line) in non_test_lines(f) {
+            for prefix in ["crate::pipeline", "crate::stages::", "crate::dem::"] {
+                let mut rest = line.as_str();
+                while let Some(i) = rest.find(prefix) {
+                    rest = &rest[i + prefix.len()..];
+                    if prefix == "crate::pipeline" {
+                        problems.push(format!("{}:{n}: names the pipeline", f.display()));
+                        continue;
+                    }
+                    let module: String = rest
+                        .chars()
+                        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                        .collect();
+                    if prefix == "crate::stages::" && (module == "report" || module == "datasets") {
+                        continue;
+                    }
+                    // Past `module::`: nested modules, then one item or a `{…}` list.
+                    let mut tail = &rest[module.len()..];
+                    let mut path = vec![module.clone()];
+                    while let Some(t) = tail.strip_prefix("::") {
+                        let seg: String = t
+                            .chars()
+                            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                            .collect();
+                        if seg.is_empty() {
+                            tail = t;
+                            break;
+                        }
+                        path.push(seg.clone());
+                        tail = &t[seg.len()..];
+                        if seg.starts_with(|c: char| c.is_ascii_lowercase())
+                            && !tail.starts_with("::")
+                        {
+                            break;
+                        }
+                    }
+                    let items: Vec<String> = if let Some(list) = tail.strip_prefix('{') {
+                        list.split('}')
+                            .next()
+                            .unwrap_or("")
+                            .split(',')
+                            .map(|s| s.trim().to_string())
+                            .filter(|s| !s.is_empty())
+                            .collect()
+                    } else {
+                        path.pop().into_iter().collect()
+                    };
+                    for item in items {
+                        seen += 1;
+                        let constant = item
+                            .chars()
+                            .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_');
+                        let ty = item.starts_with(|c: char| c.is_ascii_uppercase());
+                        let reader = item.starts_with("read");
+                        let key = format!("{module}::{item}");
+                        if !(constant || ty || reader || EXCEPTIONS.iter().any(|(k, _)| *k == key))
+                        {
+                            problems.push(format!(
+                                "{}:{n}: {prefix}{key} is another stage's computation",
+                                f.display()
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        seen > 10,
+        "the scan found only {seen} references: is it reading the report?"
+    );
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
