@@ -20,14 +20,14 @@ fn wait_for(what: &str, ready: impl Fn() -> bool) {
     }
 }
 
-fn signal(child: &Child, sig: i32) {
+pub(crate) fn signal(child: &Child, sig: i32) {
     // SAFETY: kill(2) on our own child's pid; no memory is touched.
     let r = unsafe { libc::kill(child.id() as libc::pid_t, sig) };
     assert_eq!(r, 0, "kill failed");
 }
 
 /// Wait for the child; (exit code, stdout + stderr).
-fn finish(child: Child) -> (Option<i32>, String) {
+pub(crate) fn finish(child: Child) -> (Option<i32>, String) {
     let o = child.wait_with_output().unwrap();
     let text = format!(
         "{}{}",
@@ -37,7 +37,7 @@ fn finish(child: Child) -> (Option<i32>, String) {
     (o.status.code(), text)
 }
 
-fn spawn(args: &[&str]) -> Child {
+pub(crate) fn spawn(args: &[&str]) -> Child {
     Command::new(BIN)
         .args(args)
         .stdout(Stdio::piped())
@@ -395,37 +395,5 @@ fn sigterm_stops_a_ramp_stage_which_resumes_from_its_work_dir() {
     assert!(
         in_work(".work-ramp-").is_none(),
         "the work directory is gone"
-    );
-}
-
-/// Regression: `pack` printed "stopping at the next safe point" on SIGINT but its
-/// minimiser never looked, so it ran on to the end (28.8 s after a signal at 3 s, found
-/// through the Python package). It now stops within a CG step of 64 and writes nothing.
-#[test]
-fn sigint_stops_a_packing_under_way_and_writes_nothing() {
-    let d = tmpdir("sig-pack");
-    let out = d.join("pk.parquet");
-    let child = spawn(&[
-        "pack",
-        "--n",
-        "4000",
-        "--seed",
-        "1",
-        "--quiet",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    // A 4000-grain packing takes 25 s or more here; 1.5 s in, it is minimising.
-    std::thread::sleep(Duration::from_millis(1500));
-    let t = Instant::now();
-    signal(&child, libc::SIGINT);
-    let (code, text) = finish(child);
-    let took = t.elapsed();
-    assert_eq!(code, Some(130), "{text}");
-    assert!(text.contains("packing stopped after"), "{text}");
-    assert!(!out.exists(), "nothing written");
-    assert!(
-        took < Duration::from_secs(10),
-        "stopped {took:?} after the signal: the minimiser did not look"
     );
 }

@@ -21,6 +21,7 @@ mod pipeline_cache;
 mod pipeline_failures;
 mod python;
 mod ramp_pipeline;
+mod regression;
 mod report;
 mod shear;
 mod shear_lines;
