@@ -279,6 +279,15 @@ mod option_drift {
                 ],
             },
             Pair {
+                command: &["pack"],
+                kind: Kind::Pack,
+                // The serial reference is a benchmark's.
+                cli_only: run_and(&["serial"]),
+                pipeline_only: &[],
+                renamed: &[],
+                default_differs: &[],
+            },
+            Pair {
                 command: &["gofr"],
                 kind: Kind::Gofr,
                 cli_only: run_and(&["input"]),

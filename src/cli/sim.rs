@@ -271,16 +271,10 @@ pub struct ShearArgs {
 
 #[derive(Args)]
 pub struct PackArgs {
-    #[arg(long, default_value_t = 1000)]
-    n: usize,
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    #[command(flatten)]
+    params: pillar_pipe::pipeline::kinds::pack::PackParams,
     #[arg(short, long)]
     output: PathBuf,
-    /// How the box grows between minimisations: `halving` (default) or `secant` (half
-    /// the growths, about as many CG iterations).
-    #[arg(long, value_enum, default_value_t = pillar_pipe::dem::pillar::pack::Growth::Halving)]
-    growth: pillar_pipe::dem::pillar::pack::Growth,
     /// The packer before 2026-11-27, bit for bit: one serial force sum, grains in the
     /// order drawn (the reference of `bench pack`; the same packings below 2049 grains).
     #[arg(long)]
@@ -339,7 +333,8 @@ pub fn simulate(cmd: SimulateCmd) -> Result<()> {
 }
 
 pub fn pack(a: PackArgs) -> Result<()> {
-    let rep = pillar_pipe::stages::pack::run(&a.output, a.n, a.seed, a.growth, a.serial, a.quiet)
+    let p = &a.params;
+    let rep = pillar_pipe::stages::pack::run(&a.output, p.n, p.seed, p.growth, a.serial, a.quiet)
         .with_context(|| format!("pack into {}", a.output.display()))?;
     println!("{rep}");
     Ok(())

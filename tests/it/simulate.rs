@@ -514,3 +514,80 @@ strain = 0.005
     );
     refused(&file, &d.join("runs2"), &both, &["packing"]);
 }
+
+/// Issue 35: a `pack` stage is one packing every simulate stage that names it starts
+/// from (packed once, shared from the cache): two runs of a parameter study begin from
+/// the same grains, the packing is `pillar-pipe pack`'s bit for bit, and a rerun packs
+/// nothing.
+#[test]
+fn a_pack_stage_is_packed_once_and_shared_by_the_simulations_that_name_it() {
+    use crate::common::{computed, latest, run_ok};
+    let d = tmpdir("pack-stage");
+    let runs = d.join("runs");
+    let file = d.join("p.toml");
+    let sim = |name: &str, k_n: &str| {
+        format!(
+            "[{name}.simulate]\npreset = \"fast\"\npacking_stage = \"pack\"\nstrain = 0.004\nset = {{ k_n = {k_n} }}\n\n"
+        )
+    };
+    std::fs::write(
+        &file,
+        format!(
+            "[pipeline]\nroot = '{}'\n\n[pack]\nn = 150\nseed = 3\n\n{}{}",
+            env!("CARGO_MANIFEST_DIR"),
+            sim("soft", "1000.0"),
+            sim("stiff", "3000.0")
+        ),
+    )
+    .unwrap();
+    run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    let m = latest(&runs);
+    let mut got = computed(&m);
+    got.sort();
+    assert_eq!(got, ["pack", "soft.simulate", "stiff.simulate"]);
+    let dir_of = |name: &str| {
+        let st = m["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name)
+            .unwrap_or_else(|| panic!("no stage {name}: {m}"));
+        runs.join(st["dir"].as_str().unwrap())
+    };
+    let packing = dir_of("pack").join("tracks.parquet");
+    let cli_pack = d.join("pk.parquet");
+    let (ok, text) = run(&[
+        "pack",
+        "--n",
+        "150",
+        "--seed",
+        "3",
+        "--quiet",
+        "-o",
+        cli_pack.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let (a, b) = (
+        pillar_pipe::io::read_tracks(&packing).unwrap().0,
+        pillar_pipe::io::read_tracks(&cli_pack).unwrap().0,
+    );
+    assert_eq!(a.x, b.x, "the stage's packing is the command's");
+    assert_eq!(a.y, b.y);
+    // Both runs start from it: their first frames hold the same grains, and their
+    // manifests name the one packing by its hash.
+    let sha = pillar_pipe::io::sha256_file(&packing).unwrap();
+    let first = |name: &str| {
+        let t = pillar_pipe::io::read_tracks(&dir_of(name).join("tracks.parquet"))
+            .unwrap()
+            .0;
+        let n = t.frame.iter().filter(|f| **f == t.frame[0]).count();
+        (t.x[..n].to_vec(), t.y[..n].to_vec())
+    };
+    assert_eq!(first("soft.simulate"), first("stiff.simulate"));
+    for name in ["soft.simulate", "stiff.simulate"] {
+        let text = std::fs::read_to_string(dir_of(name).join("manifest.json")).unwrap();
+        assert!(text.contains(&sha), "{name} names another packing");
+    }
+    run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    assert!(computed(&latest(&runs)).is_empty(), "a rerun packs nothing");
+}

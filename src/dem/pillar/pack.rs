@@ -63,7 +63,7 @@ pub struct PackOptions {
 /// The growth of the box between two minimisations. Both end the same way: the last
 /// growth is the paper's 1e-5 from a jammed state (p ≥ p_target) to one with
 /// p < p_target, so the packing is within 1e-5 of jamming as in the paper.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Growth {
     /// Grow to the zero of the secant p(Λ) through the last two jammed states (p(Λ)

@@ -141,6 +141,8 @@ registry! {
     ShearLines => shear_lines;
     /// Contact pressure along the bar (li-granular-pillars Fig. 10c).
     BarPressure => bar_pressure;
+    /// A jammed packing (li-granular-pillars Sec. II.A) simulate stages share.
+    Pack => pack;
 }
 
 impl Kind {
