@@ -282,6 +282,13 @@ fn pipeline_schema_and_code_agree() {
     assert_eq!(on_disk, schema::SCHEMA_TEXT);
     let s = schema::load();
     assert_eq!(s.stages.len(), Kind::ALL.len());
+    // `kind = "..."` accepts every registered kind, and only those.
+    let kind_key = s.common_keys.iter().find(|k| k.name == "kind").unwrap();
+    let mut allowed = kind_key.allowed.clone().unwrap();
+    let mut names: Vec<String> = Kind::ALL.iter().map(|k| k.name().to_string()).collect();
+    allowed.sort();
+    names.sort();
+    assert_eq!(allowed, names, "the kind key's allowed list");
     for &kind in Kind::ALL {
         let spec = s.stage(kind);
         let rust = params::rust_defaults(kind);
