@@ -31,6 +31,9 @@ pub struct Dataset {
     /// ramp down draw one hysteresis loop (Fig. 31).
     #[serde(default)]
     pub ramps: Vec<String>,
+    /// A parameter study of the branch (a stage with `vary`).
+    #[serde(default)]
+    pub grid: Option<String>,
 }
 
 /// A validated stage, ready to run.
@@ -140,6 +143,7 @@ pub fn build(
                             ("force", &d.force),
                             ("shear", &d.shear),
                             ("sweep", &d.sweep),
+                            ("grid", &d.grid),
                         ] {
                             if let Some(n) = n {
                                 st.upstream
@@ -157,7 +161,12 @@ pub fn build(
             }
         }
         st.params = p;
-        stages.extend(st.kind.def().check(src, &mut st)?);
+        match s.table.get("vary") {
+            Some(toml::Value::Table(v)) => {
+                stages.extend(super::vary::expand(src, schema, &mut st, v)?)
+            }
+            _ => stages.extend(st.kind.def().check(src, &mut st)?),
+        }
         stages.push(st);
     }
     check_cycles(src, &stages)?;
@@ -184,7 +193,14 @@ fn dataset(
             format!("no branch '{b}'; branches: {}", branches.join(", ")),
         ));
     }
-    let output = |s: &RawStage| schema.stage(s.kind).output.as_str();
+    // A stage with `vary` is a grid of points.
+    let output = |s: &RawStage| {
+        if s.table.contains_key("vary") {
+            "grid"
+        } else {
+            schema.stage(s.kind).output.as_str()
+        }
+    };
     let all = |out: &str| -> Vec<&RawStage> {
         raw.iter()
             .filter(|s| s.branch.as_deref() == Some(b) && output(s) == out)
@@ -228,6 +244,7 @@ fn dataset(
         shear: of("shear_run", "shear")?.map(|s| s.name.clone()),
         sweep: of("sweep", "sweep")?.map(|s| s.name.clone()),
         ramps: all("shear_ramp").iter().map(|s| s.name.clone()).collect(),
+        grid: of("grid", "grid (a stage with `vary`)")?.map(|s| s.name.clone()),
     })
 }
 

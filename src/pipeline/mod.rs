@@ -27,6 +27,7 @@ pub mod schema;
 pub mod slurm;
 pub mod source_key;
 pub mod validate;
+pub mod vary;
 pub mod views;
 
 pub use graph::{Dataset, Stage};

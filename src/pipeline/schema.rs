@@ -150,6 +150,31 @@ pub fn check(spec: &KeySpec, v: &toml::Value) -> std::result::Result<toml::Value
         }
         ("bool", T::Boolean(_)) => Ok(v.clone()),
         ("branches", T::Array(a)) if !a.is_empty() && a.iter().all(|x| x.is_str()) => Ok(v.clone()),
+        // Each key's values are checked against its own spec when the points are made.
+        ("vary", T::Table(t)) if !t.is_empty() => {
+            let mut len = None;
+            for (k, x) in t {
+                let T::Array(a) = x else {
+                    return Err(format!(
+                        "'{k}': expected an array of values, found {}",
+                        x.type_str()
+                    ));
+                };
+                if a.is_empty() {
+                    return Err(format!("'{k}': an empty list"));
+                }
+                match len {
+                    Some(n) if n != a.len() => {
+                        return Err(format!(
+                            "'{k}' has {} values, another key {n}: point i takes the i-th value of every key, so the lists are as long",
+                            a.len()
+                        ));
+                    }
+                    _ => len = Some(a.len()),
+                }
+            }
+            Ok(v.clone())
+        }
         ("integer[]", T::Array(a)) if !a.is_empty() => {
             for x in a {
                 match x {
@@ -203,6 +228,7 @@ fn describe(ty: &str) -> &'static str {
         "integer[2]" => "an array of two integers",
         "float{}" => "a table of numbers, { name = value, ... }",
         "string[]" => "an array of strings",
+        "vary" => "a table of key = [values, ...]",
         _ => "a value of an unknown schema type",
     }
 }

@@ -142,7 +142,8 @@ pub fn stage_params(src: &Source, schema: &PipelineSchema, s: &RawStage) -> Resu
             ));
         };
         let v = schema::check(ks, v).map_err(|m| src.err(&path, m))?;
-        if k != "kind" {
+        // `vary` makes points of the stage (`vary.rs`); it is no parameter of the kind.
+        if k != "kind" && k != "vary" {
             given.insert(k.clone(), schema::to_json(&v));
         }
     }

@@ -33,6 +33,9 @@ pub struct DatasetInputs {
     /// as one hysteresis loop (vagberg-sheared-disks Fig. 31).
     #[serde(default)]
     pub ramps: Vec<PathBuf>,
+    /// A parameter study's folder (`grid.csv`, `grid.json`), drawn against its varied key.
+    #[serde(default)]
+    pub grid: Option<PathBuf>,
 }
 
 impl DatasetInputs {
@@ -47,6 +50,6 @@ impl DatasetInputs {
 
     /// An experiment's data set: tracks and no simulation.
     pub fn is_experiment(&self) -> bool {
-        self.stress.is_none() && self.shear.is_none() && self.sweep.is_none()
+        self.stress.is_none() && self.shear.is_none() && self.sweep.is_none() && self.grid.is_none()
     }
 }

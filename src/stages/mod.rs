@@ -46,6 +46,7 @@ pub mod datasets;
 pub mod export;
 pub mod fit;
 pub mod gofr;
+pub mod grid;
 pub mod link;
 pub mod pack;
 pub mod quickstart;

@@ -157,7 +157,9 @@ pub struct SizeFit {
     pub c_interval: [f64; 2],
 }
 
-fn row(dir: &Path) -> Result<SizeRow> {
+/// One `simulate pillar` run's row: ⟨σ⟩ and κ over `WINDOW`, χ, the yield point and the
+/// bar pressure (the run must reach ε = `WINDOW.1`).
+pub fn row(dir: &Path) -> Result<SizeRow> {
     let mpath = dir.join(crate::stages::manifest::MANIFEST);
     let text = std::fs::read_to_string(&mpath).map_err(|e| Error::io(&mpath, e))?;
     let m: serde_json::Value = serde_json::from_str(&text)

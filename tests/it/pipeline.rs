@@ -222,6 +222,7 @@ fn bundled_pipelines_validate() {
         "shear-ramps",
         "paper-sizes",
         "camera-check",
+        "pillar-parameters",
     ] {
         assert!(names.iter().any(|n| n == must), "{must}: {names:?}");
     }

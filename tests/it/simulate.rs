@@ -591,3 +591,101 @@ fn a_pack_stage_is_packed_once_and_shared_by_the_simulations_that_name_it() {
     run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
     assert!(computed(&latest(&runs)).is_empty(), "a rerun packs nothing");
 }
+
+/// Issue 36: `vary` runs a stage at several values of its keys, each point a stage of
+/// its own with the cache key a hand-written one gets; the grid gathers ⟨σ⟩, κ and the
+/// yield point per point into grid.csv, and a report draws the study with its checks.
+#[test]
+fn vary_makes_a_parameter_study_of_cached_points_and_a_report_section() {
+    use crate::common::{computed, latest, pp, run_ok};
+    use pillar_pipe::io::table::read_table;
+    let d = tmpdir("vary");
+    let runs = d.join("runs");
+    let root = env!("CARGO_MANIFEST_DIR");
+    let file = d.join("study.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[pipeline]\nroot = '{root}'\n\n[pack]\nn = 100\nseed = 2\n\n[kn.simulate]\npreset = \"fast\"\npacking_stage = \"pack\"\nstrain = 0.2\nvary = {{ \"set.k_n\" = [1000.0, 3000.0], \"set.dt\" = [4e-5, 3e-5] }}\n\n[report]\ndatasets = [\"kn\"]\n"
+        ),
+    )
+    .unwrap();
+    run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    let m = latest(&runs);
+    let mut got = computed(&m);
+    got.sort();
+    assert_eq!(
+        got,
+        [
+            "kn.simulate",
+            "kn.simulate:set.dt=0.00003,set.k_n=3000.0",
+            "kn.simulate:set.dt=0.00004,set.k_n=1000.0",
+            "pack",
+            "report"
+        ]
+    );
+    let dir_of = |name: &str| {
+        let st = m["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name)
+            .unwrap_or_else(|| panic!("no stage {name}: {m}"));
+        runs.join(st["dir"].as_str().unwrap())
+    };
+    let t = read_table(&dir_of("kn.simulate").join("grid.csv"), &[]).unwrap();
+    assert_eq!(t.f64("set.k_n").unwrap(), vec![1000.0, 3000.0]);
+    for c in ["sigma_mean", "kappa_mean", "steps"] {
+        let v = t.f64(c).unwrap();
+        assert!(v.iter().all(|x| x.is_finite() && *x > 0.0), "{c}: {v:?}");
+    }
+    let run_dir = runs.join(m["run_id"].as_str().unwrap());
+    let html = std::fs::read_to_string(run_dir.join("report.html")).unwrap();
+    assert!(
+        html.contains("Parameter study: set.dt, set.k_n (kn)"),
+        "no study section"
+    );
+    assert!(
+        html.contains("against set.k_n"),
+        "k_n is the axis, dt varies with it"
+    );
+    assert!(html.contains("flow stress not significantly influenced by k_n"));
+    // A hand-written stage with a point's values is that point: cached.
+    let one = d.join("one.toml");
+    std::fs::write(
+        &one,
+        format!(
+            "[pipeline]\nroot = '{root}'\n\n[pack]\nn = 100\nseed = 2\n\n[x.simulate]\npreset = \"fast\"\npacking_stage = \"pack\"\nstrain = 0.2\nset = {{ k_n = 3000.0, dt = 3e-5 }}\n"
+        ),
+    )
+    .unwrap();
+    run_ok(&["run", one.to_str().unwrap(), "--quiet"], &runs);
+    assert!(computed(&latest(&runs)).is_empty(), "the point was cached");
+    // Faults are named at the key.
+    for (body, needles) in [
+        (
+            "[a.simulate]\nvary = { \"set.k_n\" = [1000.0, 2000.0], seed = [1] }\n",
+            &["a.simulate.vary", "as long"][..],
+        ),
+        (
+            "[a.simulate]\nvary = { bogus = [1] }\n",
+            &["a.simulate.vary.bogus", "not a key"][..],
+        ),
+        (
+            "[a.simulate]\nvary = { packing = [\"x\"] }\n",
+            &["a.simulate.vary.packing", "cannot be varied"][..],
+        ),
+        (
+            "[a.simulate]\n\n[report]\ndatasets = [\"a\"]\nvary = { map_stages = [1, 2] }\n",
+            &["report.vary", "gathers"][..],
+        ),
+    ] {
+        let f = d.join("bad.toml");
+        std::fs::write(&f, format!("[pipeline]\nroot = '{root}'\n\n{body}")).unwrap();
+        let (ok, _, e) = pp(&["run", f.to_str().unwrap(), "--quiet"], &runs);
+        assert!(!ok, "{body}");
+        for n in needles {
+            assert!(e.contains(n), "{body}: {e}");
+        }
+    }
+}

@@ -143,6 +143,8 @@ registry! {
     BarPressure => bar_pressure;
     /// A jammed packing (li-granular-pillars Sec. II.A) simulate stages share.
     Pack => pack;
+    /// A parameter study's points gathered (made by `vary` on a stage).
+    Grid => grid;
 }
 
 impl Kind {

@@ -131,5 +131,6 @@ pub(crate) fn dataset_inputs(d: &Dataset, ctx: &Ctx) -> DatasetInputs {
             .filter_map(|n| ctx.done.get(n))
             .map(|d| d.dir.clone())
             .collect(),
+        grid: dir(&d.grid),
     }
 }

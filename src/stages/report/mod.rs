@@ -6,6 +6,7 @@
 
 mod data;
 mod fit;
+mod grid;
 pub use fit::crossover_figure;
 pub mod frames;
 pub mod render;
@@ -183,6 +184,13 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
     // Two or more pillar runs: the size scan (li-granular-pillars Sec. V).
     if let Some(s) = sizes::size_section(opt, out_dir, &figdir, &mut figures)? {
         sections.push(s);
+    }
+
+    // Parameter studies (a stage with `vary`), each against its key.
+    for d in &opt.datasets {
+        if let Some(dir) = &d.grid {
+            sections.push(grid::grid_section(&d.label, dir, &figdir, &mut figures)?);
+        }
     }
 
     // Sheared disks: one run, and a sweep; sweeps of one model at several sizes side by
