@@ -298,3 +298,42 @@ pub fn bar_pressure(args: BarPressureArgs) -> Result<()> {
     println!("wrote       {}", output.display());
     Ok(())
 }
+
+/// The front between moving and resting grains (li-granular-pillars Fig. 5a: sharp,
+/// at about 45°) in every frame pair of a `kinematics` table. A grain moves when its
+/// speed is at least MOVING times the pair's 95th-percentile speed (the grains the bar
+/// drives). Per slab one D wide the boundary best separating moving from resting
+/// grains; per half of the pillar a straight line through those boundaries. Writes one
+/// row per pair and side: the angle to the bar (x axis) in degrees (0-90), slope,
+/// intercept (length unit), the boundaries' rms about the line in D, and the fraction
+/// of grains on the wrong side.
+#[derive(Args)]
+pub struct FrontArgs {
+    /// A `kinematics` table (from `pillar-pipe kinematics`: frame, frame_end, x, y, speed).
+    pub kinematics: PathBuf,
+    /// Output table (.csv or .parquet).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// A grain moves when |v| >= MOVING x the pair's 95th-percentile speed (a fraction).
+    #[arg(long, default_value_t = pillar_pipe::stages::front::FrontOptions::default().moving)]
+    pub moving: f64,
+    /// Only the pair starting at this frame (default: every pair).
+    #[arg(long)]
+    pub frame: Option<i64>,
+    /// Large-grain diameter D in the table's length unit (default: the table's sidecar).
+    #[arg(long)]
+    pub diameter: Option<f64>,
+}
+
+pub fn front(args: FrontArgs) -> Result<()> {
+    let opt = pillar_pipe::stages::front::FrontOptions {
+        moving: args.moving,
+        frame: args.frame,
+        diameter: args.diameter,
+    };
+    let rep = pillar_pipe::stages::front::run(&args.kinematics, &args.output, &opt)
+        .with_context(|| format!("front of {}", args.kinematics.display()))?;
+    println!("{rep}");
+    println!("wrote       {}", args.output.display());
+    Ok(())
+}

@@ -3,6 +3,7 @@
 //! both call these; neither does any work of its own.
 
 pub mod force;
+pub mod front;
 pub mod ingest;
 
 /// Tool name and version recorded in every output.

@@ -100,7 +100,7 @@ pub fn default_output(input: &Path) -> PathBuf {
 }
 
 /// A kinematics table, or an error naming the file and what it lacks.
-fn read_kinematics(input: &Path) -> Result<Table> {
+pub(crate) fn read_kinematics(input: &Path) -> Result<Table> {
     let expect = [
         ("frame", Expect::Int),
         ("frame_end", Expect::Int),
@@ -190,7 +190,7 @@ pub fn run(input: &Path, output: &Path, opt: &ShearLinesOptions) -> Result<Shear
 }
 
 /// D from `--diameter`, else the kinematics sidecar's `d_large`.
-fn diameter(
+pub(crate) fn diameter(
     input: &Path,
     file: &str,
     meta: Option<&serde_json::Value>,

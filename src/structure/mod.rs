@@ -2,7 +2,8 @@
 //! (li-granular-pillars Fig. 2: small-centred and large-centred g(r) against r/D), and
 //! the pillar's outline ([`Outline`], Fig. 9) with a distance between rescaled outlines,
 //! the transient shear lines of a J2 map ([`shear_lines()`], Fig. 11), and the yield
-//! point of a stress–strain curve ([`yielding`], Sec. III, Fig. 4).
+//! point of a stress–strain curve ([`yielding`], Sec. III, Fig. 4), and the front
+//! between moving and resting grains ([`front`], Fig. 5a).
 //!
 //! An open pillar has edges, where a shell around a grain reaches into empty space and
 //! g(r) would fall below 1 for no physical reason. So only centres at least r_max inside
@@ -15,6 +16,7 @@
 //! g_c(r) = ⟨number of grains in [r, r + dr) around a centre of species c⟩ / (ρ 2π r dr),
 //! with ρ the density of all grains: it tends to 1 at large r for any species mix.
 
+pub mod front;
 mod outline;
 mod pair_counts;
 pub mod pressure;

@@ -392,3 +392,75 @@ fn bar_pressure_writes_a_sidecar_naming_its_inputs() {
     assert_eq!(v["table"], "bar_pressure");
     assert!(v["snapshots"].as_u64().unwrap() > 0, "{v}");
 }
+
+/// Issue 36: `front` finds a planted moving/resting front at its angle (a V at 45° on
+/// a lattice, moving grains above it), on both sides, and refuses a table without
+/// speeds, a tracks table and a fraction out of (0, 1), naming what is wrong.
+#[test]
+fn front_finds_a_planted_45_degree_front_and_refuses_bad_input() {
+    use crate::common::{cli, tmpdir};
+    let d = tmpdir("front");
+    let kin = d.join("k.csv");
+    let mut text = String::from("frame,frame_end,x,y,j2,speed\n");
+    for i in 0..80 {
+        for j in 0..60 {
+            let (x, y) = (0.25 + 0.5 * i as f64, 0.25 + 0.5 * j as f64);
+            let v = if y > 8.0 + (x - 20.0f64).abs() {
+                1.0
+            } else {
+                0.01
+            };
+            text.push_str(&format!("0,1,{x},{y},0.1,{v}\n"));
+        }
+    }
+    std::fs::write(&kin, &text).unwrap();
+    let out = d.join("front.csv");
+    let (ok, o) = cli(&[
+        "front",
+        kin.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--diameter",
+        "1",
+    ]);
+    assert!(ok, "{o}");
+    assert!(o.contains("1 frame pairs"), "{o}");
+    let t = pillar_pipe::io::table::read_table(&out, &[]).unwrap();
+    let angles = t.f64("angle_deg").unwrap();
+    assert_eq!(angles.len(), 2, "left and right");
+    for a in angles {
+        assert!((a - 45.0).abs() < 2.0, "{a}");
+    }
+    assert!(d.join("front.csv.meta.json").is_file(), "sidecar");
+    // No speed column.
+    let no_speed = d.join("ns.csv");
+    std::fs::write(&no_speed, "frame,frame_end,x,y,j2\n0,1,0,0,1\n").unwrap();
+    let (ok, o) = cli(&[
+        "front",
+        no_speed.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--diameter",
+        "1",
+    ]);
+    assert!(!ok && o.contains("speed") && o.contains("ns.csv"), "{o}");
+    // A tracks table.
+    let tracks = d.join("t.csv");
+    std::fs::write(&tracks, "frame,particle,x,y,radius\n0,1,0,0,0.5\n").unwrap();
+    let (ok, o) = cli(&[
+        "front",
+        tracks.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && o.contains("not a kinematics table"), "{o}");
+    let (ok, o) = cli(&[
+        "front",
+        kin.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--moving",
+        "1.5",
+    ]);
+    assert!(!ok && o.contains("moving"), "{o}");
+}
