@@ -9,7 +9,7 @@ pub mod noise;
 mod points_boot;
 pub mod range;
 
-pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, reduce};
+pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, fit_points, reduce};
 pub use model::d2min_over_r2;
 pub use range::{FitRange, RangeRule};
 
@@ -128,9 +128,24 @@ fn positive(s: &Samples) -> (Vec<f64>, Vec<f64>, Vec<u32>) {
 /// Fit with one estimator, bootstrap over groups.
 pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<EstimatorResult> {
     let (eta, y, group) = positive(s);
-    let pts = reduce(&eta, &y, method, &set.binning);
-    let best =
-        fit_method(&pts, method).map_err(|e| Error::Other(format!("{}: {e}", method.name())))?;
+    // The points estimator's points are the samples: fitted as they are, not copied
+    // into a hundred-byte point each.
+    let pts = if method == Method::Points {
+        Vec::new()
+    } else {
+        reduce(&eta, &y, method, &set.binning)
+    };
+    let best = if method == Method::Points {
+        fit_points(&eta, &y)
+    } else {
+        fit_method(&pts, method)
+    }
+    .map_err(|e| Error::Other(format!("{}: {e}", method.name())))?;
+    let fitted_points = if method == Method::Points {
+        eta.len()
+    } else {
+        pts.len()
+    };
     let mut groups: Vec<u32> = group.clone();
     groups.sort_unstable();
     groups.dedup();
@@ -187,8 +202,17 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     };
     let theta_interval = interval(|p| p.theta);
     let eta_c_interval = interval(|p| p.eta_c);
-    let (lo, hi) = pts.iter().fold((f64::MAX, f64::MIN), |a, p| {
-        (a.0.min(p.eta_s), a.1.max(p.eta_s))
+    let fitted_eta = |f: &mut dyn FnMut(f64)| {
+        if method == Method::Points {
+            eta.iter().for_each(|&e| f(e));
+        } else {
+            pts.iter().for_each(|p| f(p.eta_s));
+        }
+    };
+    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+    fitted_eta(&mut |e| {
+        lo = lo.min(e);
+        hi = hi.max(e);
     });
     let mut notes = Vec::new();
     let mut theta_ok = true;
@@ -245,15 +269,11 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
         eta_c_constrained: eta_c_ok,
         notes,
         residual_rms,
-        fitted_points: pts.len(),
+        fitted_points,
         bootstrap_replicates: reps,
         bootstrap_failures: reps - ok.len(),
         iterations: best.iterations,
-        curve: if method == Method::Points {
-            Vec::new()
-        } else {
-            pts
-        },
+        curve: pts,
     })
 }
 
@@ -383,8 +403,12 @@ pub fn sensitivity(s: &Samples, rc_over_d: f64, lo: f64, b: &Binning) -> Vec<Sen
                 .filter(|(e, _)| **e >= lo && **e <= hi)
                 .map(|(e, v)| (*e, *v))
                 .unzip();
-            let pts = reduce(&e, &v, m, b);
-            let fit = fit_method(&pts, m).ok();
+            let (fit, fitted_points) = if m == Method::Points {
+                (fit_points(&e, &v).ok(), e.len())
+            } else {
+                let pts = reduce(&e, &v, m, b);
+                (fit_method(&pts, m).ok(), pts.len())
+            };
             SensitivityRow {
                 method: m,
                 rc_over_d,
@@ -392,7 +416,7 @@ pub fn sensitivity(s: &Samples, rc_over_d: f64, lo: f64, b: &Binning) -> Vec<Sen
                 hi,
                 theta: fit.map_or(f64::NAN, |f| f.theta),
                 eta_c: fit.map_or(f64::NAN, |f| f.eta_c),
-                fitted_points: pts.len(),
+                fitted_points,
             }
         })
         .collect()

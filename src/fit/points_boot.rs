@@ -8,7 +8,7 @@
 //! equals `fit_method` on the resampled samples to rounding (sums in another order).
 
 use super::estimate::{GRID_STEPS, LN_4, PointFit, grid_node, refine};
-use super::model::ln_shape_of_ln;
+use super::model::{ln_shape_in, shape_table};
 use argmin::core::CostFunction;
 use rayon::prelude::*;
 
@@ -60,7 +60,9 @@ impl PointsBoot {
     /// the first sample's residual.
     fn shift(&self, ln_eta_c: f64) -> f64 {
         match (self.ln_y.first(), self.ln_eta.first()) {
-            (Some(ly), Some(le)) => ly - LN_4 - ln_eta_c - ln_shape_of_ln(le - ln_eta_c),
+            (Some(ly), Some(le)) => {
+                ly - LN_4 - ln_eta_c - ln_shape_in(shape_table(), le - ln_eta_c)
+            }
             _ => 0.0,
         }
     }
@@ -68,9 +70,10 @@ impl PointsBoot {
     /// (Σr, Σr²) over start g's samples, r = ln y − ln model(Θ = 1) − shift.
     fn sums(&self, g: usize, ln_eta_c: f64, shift: f64) -> (f64, f64) {
         let r = self.offsets[g]..self.offsets[g + 1];
+        let table = shape_table();
         let (mut s1, mut s2) = (0.0, 0.0);
         for (ly, le) in self.ln_y[r.clone()].iter().zip(&self.ln_eta[r]) {
-            let x = ly - LN_4 - ln_eta_c - ln_shape_of_ln(le - ln_eta_c) - shift;
+            let x = ly - LN_4 - ln_eta_c - ln_shape_in(table, le - ln_eta_c) - shift;
             s1 += x;
             s2 += x * x;
         }
