@@ -2,7 +2,7 @@
 //! each η_c the best Θ is closed form, so the fit is a one-dimensional minimisation over
 //! ln η_c (positive, and the scatter's decades weigh alike in the log fit).
 
-use super::model::d2min_over_r2;
+use super::model::{d2min_over_r2, residual_sums};
 use crate::error::{Error, Result};
 use crate::stats::{mean, median_sorted, quantile_sorted};
 use argmin::core::{CostFunction, Executor, State};
@@ -191,7 +191,6 @@ struct LogCost<'a> {
     /// ln η^s per point where the model is Eq. 19 at the point (no bin-mean nodes): the
     /// log model is then ln 4 + ln η_c + ln shape(η/η_c), tabulated in ln(η/η_c).
     ln_eta: Option<Vec<f64>>,
-    table: &'static [(f64, f64)],
 }
 
 impl<'a> LogCost<'a> {
@@ -209,7 +208,6 @@ impl<'a> LogCost<'a> {
                 Vec::new()
             },
             ln_eta: plain.then(|| pts.iter().map(|p| p.eta_s.ln()).collect()),
-            table: super::model::shape_table(),
         }
     }
     /// The `points` estimator's cost straight from the samples: the same numbers as
@@ -222,7 +220,6 @@ impl<'a> LogCost<'a> {
             ln_y: y.iter().map(|v| v.ln()).collect(),
             weights: Vec::new(),
             ln_eta: Some(eta.iter().map(|e| e.ln()).collect()),
-            table: super::model::shape_table(),
         }
     }
     /// ln of the model at Θ = 1 for point `i`.
@@ -236,7 +233,7 @@ impl<'a> LogCost<'a> {
     /// ln of Eq. 19 at Θ = 1 at ln η^s = `le`.
     #[inline(always)]
     fn ln_plain(&self, le: f64, ln_eta_c: f64) -> f64 {
-        LN_4 + ln_eta_c + super::model::ln_shape_in(self.table, le - ln_eta_c)
+        LN_4 + ln_eta_c + super::model::ln_shape_of_ln(le - ln_eta_c)
     }
     /// ln(4Θ η_c g) = ln Θ + ln(4 η_c g): Θ only shifts (scales, in linear space).
     fn eval(&self, ln_theta: f64, ln_eta_c: f64) -> f64 {
@@ -269,12 +266,9 @@ impl<'a> LogCost<'a> {
         let n = self.n as f64;
         let c = if let Some(le) = self.ln_eta.as_ref().filter(|_| self.weights.is_empty()) {
             let shift = self.ln_y[0] - self.ln_plain(le[0], ln_eta_c);
-            let (mut s1, mut s2) = (0.0, 0.0);
-            for (ly, &e) in self.ln_y.iter().zip(le) {
-                let r = ly - self.ln_plain(e, ln_eta_c) - shift;
-                s1 += r;
-                s2 += r * r;
-            }
+            let (s1, s2) = residual_sums(&self.ln_y, le, ln_eta_c, |ly, shape| {
+                ly - (LN_4 + ln_eta_c + shape) - shift
+            });
             (s2 - s1 * s1 / n) / n
         } else if self.weights.is_empty() {
             let shift = self.ln_y[0] - self.ln_model(0, ln_eta_c, ec);
