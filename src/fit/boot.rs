@@ -11,6 +11,7 @@
 //! 4 M-sample fit no longer walk half of every bin each.
 
 use super::estimate::{BinPoint, Binning, Method, NODES};
+use rayon::prelude::*;
 
 /// Entries between the marks of a [`Sorted`] list.
 const STRIDE: usize = 128;
@@ -89,11 +90,12 @@ struct PreBin {
     sum2: Vec<f64>,
 }
 
-/// Samples binned once for the bootstrap of one binned estimator.
+/// Samples binned once for the bootstrap of one binned estimator (the bins are shared
+/// by every binned estimator: see [`Prebinned::for_method`]).
 pub struct Prebinned {
     method: Method,
     min_count: usize,
-    bins: Vec<PreBin>,
+    bins: std::sync::Arc<Vec<PreBin>>,
 }
 
 impl Prebinned {
@@ -112,50 +114,67 @@ impl Prebinned {
             .enumerate()
             .map(|(k, e)| ((e.log10() * b.bins_per_decade).floor() as i64, k))
             .collect();
-        keyed.sort_unstable_by_key(|&(key, k)| (key, k));
-        let mut bins = Vec::new();
+        // Keys unique (k is): any sort gives this order.
+        keyed.par_sort_unstable_by_key(|&(key, k)| (key, k));
+        let mut ranges = Vec::new();
         let mut s = 0;
         while s < keyed.len() {
             let mut e = s;
             while e < keyed.len() && keyed[e].0 == keyed[s].0 {
                 e += 1;
             }
-            let idx = &keyed[s..e];
-            let pe: Vec<(f64, u32)> = idx.iter().map(|&(_, k)| (eta[k], group[k])).collect();
-            let py = Sorted::new(
-                idx.iter().map(|&(_, k)| (y[k], group[k])).collect(),
-                n_groups,
-            );
-            let (mut count, mut sum, mut sum2) = (
-                vec![0u32; n_groups],
-                vec![0.0; n_groups],
-                vec![0.0; n_groups],
-            );
-            for &(v, g) in &py.v {
-                count[g as usize] += 1;
-                sum[g as usize] += v;
-                sum2[g as usize] += v * v;
-            }
-            bins.push(PreBin {
-                eta: Sorted::new(pe, n_groups),
-                y: py,
-                count,
-                sum,
-                sum2,
-            });
+            ranges.push(s..e);
             s = e;
         }
+        // Bins apart, each on its own thread: the same bins.
+        let bins: Vec<PreBin> = ranges
+            .into_par_iter()
+            .map(|r| {
+                let idx = &keyed[r];
+                let pe: Vec<(f64, u32)> = idx.iter().map(|&(_, k)| (eta[k], group[k])).collect();
+                let py = Sorted::new(
+                    idx.iter().map(|&(_, k)| (y[k], group[k])).collect(),
+                    n_groups,
+                );
+                let (mut count, mut sum, mut sum2) = (
+                    vec![0u32; n_groups],
+                    vec![0.0; n_groups],
+                    vec![0.0; n_groups],
+                );
+                for &(v, g) in &py.v {
+                    count[g as usize] += 1;
+                    sum[g as usize] += v;
+                    sum2[g as usize] += v * v;
+                }
+                PreBin {
+                    eta: Sorted::new(pe, n_groups),
+                    y: py,
+                    count,
+                    sum,
+                    sum2,
+                }
+            })
+            .collect();
         Prebinned {
             method,
             min_count: b.min_count,
-            bins,
+            bins: std::sync::Arc::new(bins),
+        }
+    }
+
+    /// The same samples for another binned estimator, without binning them again.
+    pub fn for_method(&self, method: Method) -> Prebinned {
+        Prebinned {
+            method,
+            min_count: self.min_count,
+            bins: self.bins.clone(),
         }
     }
 
     /// The binned curve of a replicate that drew start g `weight[g]` times.
     pub fn reduce(&self, weight: &[u32]) -> Vec<BinPoint> {
         let mut out = Vec::with_capacity(self.bins.len());
-        for bin in &self.bins {
+        for bin in self.bins.iter() {
             let n: u64 = bin
                 .count
                 .iter()

@@ -95,12 +95,24 @@ pub(super) fn residual_sums(
     ln_eta_c: f64,
     residual: impl Fn(f64, f64) -> f64,
 ) -> (f64, f64) {
+    let [s, _] = residual_sums_pair([(ln_y, ln_eta), (&[], &[])], ln_eta_c, residual);
+    s
+}
+
+/// [`residual_sums`] of two lists at once, each summed in its own order: one list's
+/// sums wait on each addition (four cycles each, in order), and two lists' additions
+/// interleave. The same sums as two calls.
+pub(super) fn residual_sums_pair(
+    lists: [(&[f64], &[f64]); 2],
+    ln_eta_c: f64,
+    residual: impl Fn(f64, f64) -> f64,
+) -> [(f64, f64); 2] {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: this CPU has AVX2, checked just above.
-        return unsafe { residual_sums_avx2(ln_y, ln_eta, ln_eta_c, residual) };
+        return unsafe { residual_sums_avx2(lists, ln_eta_c, residual) };
     }
-    residual_sums_any(ln_y, ln_eta, ln_eta_c, residual)
+    residual_sums_any(lists, ln_eta_c, residual)
 }
 
 /// [`residual_sums_any`] compiled for AVX2 (four lanes, gathers for the table).
@@ -108,44 +120,99 @@ pub(super) fn residual_sums(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn residual_sums_avx2(
+    lists: [(&[f64], &[f64]); 2],
+    ln_eta_c: f64,
+    residual: impl Fn(f64, f64) -> f64,
+) -> [(f64, f64); 2] {
+    residual_sums_any(lists, ln_eta_c, residual)
+}
+
+const CHUNK: usize = 256;
+
+/// One chunk's residuals into `r` (its first `ln_y.len()` entries).
+#[inline(always)]
+fn residual_chunk(
+    table: &[(f64, f64); TABLE_NODES],
     ln_y: &[f64],
     ln_eta: &[f64],
     ln_eta_c: f64,
-    residual: impl Fn(f64, f64) -> f64,
-) -> (f64, f64) {
-    residual_sums_any(ln_y, ln_eta, ln_eta_c, residual)
+    residual: &impl Fn(f64, f64) -> f64,
+    r: &mut [f64; CHUNK],
+) {
+    let mut outside = false;
+    for ((r, &ly), &le) in r.iter_mut().zip(ln_y).zip(ln_eta) {
+        let (shape, inside) = ln_shape_tabled(table, le - ln_eta_c);
+        outside |= !inside;
+        *r = residual(ly, shape);
+    }
+    if outside {
+        for ((r, &ly), &le) in r.iter_mut().zip(ln_y).zip(ln_eta) {
+            *r = residual(ly, ln_shape_in(table, le - ln_eta_c));
+        }
+    }
 }
 
 #[inline(always)]
 fn residual_sums_any(
-    ln_y: &[f64],
-    ln_eta: &[f64],
+    lists: [(&[f64], &[f64]); 2],
     ln_eta_c: f64,
     residual: impl Fn(f64, f64) -> f64,
-) -> (f64, f64) {
-    const CHUNK: usize = 256;
+) -> [(f64, f64); 2] {
     let table = shape_table();
-    let mut r = [0.0f64; CHUNK];
-    let (mut s1, mut s2) = (0.0, 0.0);
-    for (ly, le) in ln_y.chunks(CHUNK).zip(ln_eta.chunks(CHUNK)) {
-        let m = ly.len().min(le.len());
-        let mut outside = false;
-        for ((r, &ly), &le) in r.iter_mut().zip(ly).zip(le) {
-            let (shape, inside) = ln_shape_tabled(table, le - ln_eta_c);
-            outside |= !inside;
-            *r = residual(ly, shape);
+    let [(ya, ea), (yb, eb)] = lists;
+    let (na, nb) = (ya.len().min(ea.len()), yb.len().min(eb.len()));
+    let (mut ra, mut rb) = ([0.0f64; CHUNK], [0.0f64; CHUNK]);
+    let (mut a1, mut a2, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0);
+    // Both lists' chunks while both last, then the longer one's rest.
+    let both = na.min(nb);
+    let mut at = 0;
+    while at < both {
+        let end = (at + CHUNK).min(both);
+        residual_chunk(
+            table,
+            &ya[at..end],
+            &ea[at..end],
+            ln_eta_c,
+            &residual,
+            &mut ra,
+        );
+        residual_chunk(
+            table,
+            &yb[at..end],
+            &eb[at..end],
+            ln_eta_c,
+            &residual,
+            &mut rb,
+        );
+        for (&x, &z) in ra[..end - at].iter().zip(&rb[..end - at]) {
+            a1 += x;
+            a2 += x * x;
+            b1 += z;
+            b2 += z * z;
         }
-        if outside {
-            for ((r, &ly), &le) in r.iter_mut().zip(ly).zip(le) {
-                *r = residual(ly, ln_shape_in(table, le - ln_eta_c));
+        at = end;
+    }
+    for (y, e, s1, s2) in [(ya, ea, &mut a1, &mut a2), (yb, eb, &mut b1, &mut b2)] {
+        let n = y.len().min(e.len());
+        let mut at = both;
+        while at < n {
+            let end = (at + CHUNK).min(n);
+            residual_chunk(
+                table,
+                &y[at..end],
+                &e[at..end],
+                ln_eta_c,
+                &residual,
+                &mut ra,
+            );
+            for &x in &ra[..end - at] {
+                *s1 += x;
+                *s2 += x * x;
             }
-        }
-        for &x in &r[..m] {
-            s1 += x;
-            s2 += x * x;
+            at = end;
         }
     }
-    (s1, s2)
+    [(a1, a2), (b1, b2)]
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 //! equals `fit_method` on the resampled samples to rounding (sums in another order).
 
 use super::estimate::{GRID_STEPS, LN_4, PointFit, grid_node, refine};
-use super::model::{ln_shape_of_ln, residual_sums};
+use super::model::{ln_shape_of_ln, residual_sums, residual_sums_pair};
 use argmin::core::CostFunction;
 use rayon::prelude::*;
 use std::cell::RefCell;
@@ -86,12 +86,22 @@ impl PointsBoot {
 
     /// The weighted (Σr, Σr²) at ln η_c over the drawn starts.
     fn weighted_sums(&self, weight: &[u32], ln_eta_c: f64, shift: f64) -> (f64, f64) {
+        // The drawn starts two at a time (their sums interleave), added in start order.
+        let drawn: Vec<usize> = (0..weight.len()).filter(|&g| weight[g] > 0).collect();
         let (mut s1, mut s2) = (0.0, 0.0);
-        for (g, &w) in weight.iter().enumerate() {
-            if w > 0 {
-                let (a, b) = self.sums(g, ln_eta_c, shift);
-                s1 += w as f64 * a;
-                s2 += w as f64 * b;
+        for pair in drawn.chunks(2) {
+            let of = |g: usize| {
+                let r = self.offsets[g]..self.offsets[g + 1];
+                (&self.ln_y[r.clone()], &self.ln_eta[r])
+            };
+            let second = pair.get(1).map_or((&[][..], &[][..]), |&g| of(g));
+            let sums = residual_sums_pair([of(pair[0]), second], ln_eta_c, |ly, shape| {
+                ly - LN_4 - ln_eta_c - shape - shift
+            });
+            for (&g, (a, b)) in pair.iter().zip(sums) {
+                let w = weight[g] as f64;
+                s1 += w * a;
+                s2 += w * b;
             }
         }
         (s1, s2)
