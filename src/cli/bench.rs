@@ -129,16 +129,23 @@ pub enum BenchCmd {
         #[arg(long)]
         json: bool,
     },
-    /// The crossover fit (Eq. 19, every estimator, bootstrap over starts) on
-    /// protocol-shaped synthetic samples: time per estimator and for the whole fit.
+    /// The whole `fit` command as a user runs it (`fit k.parquet --diameter 1
+    /// --bootstrap 1000`) on a protocol-shaped synthetic `kinematics` table: wall time
+    /// and peak memory of each process, against issue 35's targets.
     Fit {
-        /// Samples (an N = 16,000 pillar gives about 4 M: 35 starts × 7 lags).
-        #[arg(long, default_value_t = 4_000_000)]
+        /// Rows (an N = 16,000 pillar gives about 4 M: 35 starts × 7 lags).
+        #[arg(long, default_value_t = 4_004_000)]
         samples: usize,
         #[arg(long, default_value_t = 35)]
         starts: u32,
         #[arg(long, default_value_t = 1000)]
         bootstrap: usize,
+        /// Runs of the command (median wall time, largest peak memory).
+        #[arg(long, default_value_t = 2)]
+        reps: usize,
+        /// Where to put the table and outputs (default: a fresh temp dir, removed after).
+        #[arg(long)]
+        dir: Option<PathBuf>,
         #[arg(long)]
         json: bool,
     },
@@ -229,18 +236,52 @@ pub fn bench(what: BenchCmd) -> Result<()> {
             samples,
             starts,
             bootstrap,
+            reps,
+            dir,
             json,
         } => {
-            let b = pillar_pipe::bench::fit::bench_fit(samples, starts, bootstrap);
+            let (work, temp) = match dir {
+                Some(d) => (d, false),
+                None => (
+                    std::env::temp_dir().join(format!("pillar-pipe-fit-{}", std::process::id())),
+                    true,
+                ),
+            };
+            let exe = std::env::current_exe()?;
+            let b =
+                pillar_pipe::bench::fit::bench_fit(&exe, &work, samples, starts, bootstrap, reps);
+            if temp {
+                let _ = std::fs::remove_dir_all(&work);
+            }
+            let b = b?;
             if json {
                 println!("{}", serde_json::to_string(&b)?);
             } else {
+                let mb = |b: u64| b as f64 / 1e6;
+                let met = |ok: bool| if ok { "met" } else { "NOT met" };
                 println!(
-                    "fit   {} samples, {} starts, {} replicates: whole fit {:.2} s (issue 22 target: 30 s at 4 M); Θ = {:.4}, η_c = {:.4} (true 0.3, 0.05; mean-based estimators see e^(s²/2) more)",
-                    b.samples, b.starts, b.bootstrap, b.fit_all_s, b.theta, b.eta_c
+                    "fit   `pillar-pipe fit` on a {} row kinematics table ({:.0} MB, {} starts × 7 lags), --bootstrap {}: median {:.2} s, peak {:.0} MB over {} runs (issue 35 targets: {:.0} s {}, {:.0} MB {}); Θ = {:.4}, η_c = {:.4} (true 0.3, 0.05)",
+                    b.rows,
+                    mb(b.table_bytes),
+                    b.starts,
+                    b.bootstrap,
+                    b.median_s,
+                    mb(b.peak_rss_bytes),
+                    b.runs.len(),
+                    b.target_s,
+                    met(b.median_s < b.target_s),
+                    mb(b.target_peak_bytes),
+                    met(b.peak_rss_bytes < b.target_peak_bytes),
+                    b.theta,
+                    b.eta_c
                 );
-                for (m, t) in &b.estimator_s {
-                    println!("      {m:14} {t:.2} s");
+                for r in &b.runs {
+                    println!(
+                        "      {:.2} s wall, {:.2} s CPU, peak {:.0} MB",
+                        r.seconds,
+                        r.cpu_seconds,
+                        mb(r.peak_rss_bytes)
+                    );
                 }
             }
         }

@@ -9,7 +9,7 @@ pub mod noise;
 mod points_boot;
 pub mod range;
 
-pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, reduce};
+pub use estimate::{BinPoint, Binning, Method, PointFit, fit_method, fit_points, reduce};
 pub use model::d2min_over_r2;
 pub use range::{FitRange, RangeRule};
 
@@ -125,49 +125,104 @@ fn positive(s: &Samples) -> (Vec<f64>, Vec<f64>, Vec<u32>) {
     (e, y, g)
 }
 
-/// Fit with one estimator, bootstrap over groups.
-pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<EstimatorResult> {
+/// What every estimator's fit of one set of samples shares, computed once: the
+/// positive samples, their starts numbered densely, the binned curves (one sort) with
+/// the end slopes of binned-median's, and the bootstrap's bins.
+struct Prepared {
+    eta: Vec<f64>,
+    y: Vec<f64>,
+    dense: Vec<u32>,
+    n_groups: usize,
+    /// [binned-median's, binned-mean's] (weighted-mean's is binned-mean's).
+    curves: [Vec<BinPoint>; 2],
+    slopes: Option<(f64, f64)>,
+    /// For the binned estimators' bootstrap (None when only `points` is fitted).
+    prebinned: Option<boot::Prebinned>,
+}
+
+fn prepare(s: &Samples, b: &Binning, binned: bool) -> Prepared {
     let (eta, y, group) = positive(s);
-    let pts = reduce(&eta, &y, method, &set.binning);
-    let best =
-        fit_method(&pts, method).map_err(|e| Error::Other(format!("{}: {e}", method.name())))?;
     let mut groups: Vec<u32> = group.clone();
     groups.sort_unstable();
     groups.dedup();
-    let reps = if method == Method::Points {
-        set.bootstrap.min(POINTS_REPLICATES_MAX)
-    } else {
-        set.bootstrap
-    };
     // Each replicate weighs the starts it drew: the binned estimators bin once, the
     // points estimator keeps each start's residual sums.
     let dense: Vec<u32> = group
         .iter()
         .map(|g| groups.binary_search(g).expect("a start of the samples") as u32)
         .collect();
+    drop(group);
+    let curves = estimate::reduce_binned(&eta, &y, b);
+    let slopes = end_slopes(&curves[0]);
+    let prebinned = binned
+        .then(|| boot::Prebinned::new(&eta, &y, &dense, groups.len(), Method::BinnedMedian, b));
+    Prepared {
+        eta,
+        y,
+        dense,
+        n_groups: groups.len(),
+        curves,
+        slopes,
+        prebinned,
+    }
+}
+
+/// Fit with one estimator, bootstrap over groups.
+pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<EstimatorResult> {
+    estimate_prepared(
+        &prepare(s, &set.binning, method != Method::Points),
+        method,
+        set,
+    )
+}
+
+fn estimate_prepared(p: &Prepared, method: Method, set: &FitSettings) -> Result<EstimatorResult> {
+    let (eta, y) = (&p.eta, &p.y);
+    // The points estimator's points are the samples: fitted as they are, not copied
+    // into a hundred-byte point each.
+    let pts = match method {
+        Method::Points => Vec::new(),
+        Method::BinnedMedian => p.curves[0].clone(),
+        Method::BinnedMean | Method::WeightedMean => p.curves[1].clone(),
+    };
+    let best = if method == Method::Points {
+        fit_points(eta, y)
+    } else {
+        fit_method(&pts, method)
+    }
+    .map_err(|e| Error::Other(format!("{}: {e}", method.name())))?;
+    let fitted_points = if method == Method::Points {
+        eta.len()
+    } else {
+        pts.len()
+    };
+    let reps = if method == Method::Points {
+        set.bootstrap.min(POINTS_REPLICATES_MAX)
+    } else {
+        set.bootstrap
+    };
+    let n_groups = p.n_groups;
     enum Pre {
         Binned(boot::Prebinned),
         Points(points_boot::PointsBoot),
     }
     let pre = if method == Method::Points {
-        Pre::Points(points_boot::PointsBoot::new(&eta, &y, &dense, groups.len()))
+        Pre::Points(points_boot::PointsBoot::new(eta, y, &p.dense, n_groups))
     } else {
-        Pre::Binned(boot::Prebinned::new(
-            &eta,
-            &y,
-            &dense,
-            groups.len(),
-            method,
-            &set.binning,
-        ))
+        Pre::Binned(
+            p.prebinned
+                .as_ref()
+                .expect("binned samples for a binned estimator")
+                .for_method(method),
+        )
     };
     let fits: Vec<Option<PointFit>> = (0..reps)
         .into_par_iter()
         .map(|b| {
             let mut rng = Rng::new(set.seed ^ (b as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-            let mut weight = vec![0u32; groups.len()];
-            for _ in 0..groups.len() {
-                weight[rng.below(groups.len())] += 1;
+            let mut weight = vec![0u32; n_groups];
+            for _ in 0..n_groups {
+                weight[rng.below(n_groups)] += 1;
             }
             match &pre {
                 Pre::Binned(pre) => fit_method(&pre.reduce(&weight), method).ok(),
@@ -187,8 +242,17 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
     };
     let theta_interval = interval(|p| p.theta);
     let eta_c_interval = interval(|p| p.eta_c);
-    let (lo, hi) = pts.iter().fold((f64::MAX, f64::MIN), |a, p| {
-        (a.0.min(p.eta_s), a.1.max(p.eta_s))
+    let fitted_eta = |f: &mut dyn FnMut(f64)| {
+        if method == Method::Points {
+            eta.iter().for_each(|&e| f(e));
+        } else {
+            pts.iter().for_each(|p| f(p.eta_s));
+        }
+    };
+    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+    fitted_eta(&mut |e| {
+        lo = lo.min(e);
+        hi = hi.max(e);
     });
     let mut notes = Vec::new();
     let mut theta_ok = true;
@@ -206,7 +270,7 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
             "no data in the ballistic regime: smallest η^s {lo:.3e} > η_c/2; η_c is not determined"
         ));
     }
-    if let Some((low, high)) = end_slopes(&eta, &y, &set.binning)
+    if let Some((low, high)) = p.slopes
         && low < high + SLOPE_FALL_MIN
     {
         eta_c_ok = false;
@@ -222,7 +286,7 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
             ));
         }
     }
-    if groups.len() < 2 {
+    if n_groups < 2 {
         theta_ok = false;
         eta_c_ok = false;
         notes.push("a single start time: no bootstrap interval".into());
@@ -245,15 +309,11 @@ pub fn fit_estimator(s: &Samples, method: Method, set: &FitSettings) -> Result<E
         eta_c_constrained: eta_c_ok,
         notes,
         residual_rms,
-        fitted_points: pts.len(),
+        fitted_points,
         bootstrap_replicates: reps,
         bootstrap_failures: reps - ok.len(),
         iterations: best.iterations,
-        curve: if method == Method::Points {
-            Vec::new()
-        } else {
-            pts
-        },
+        curve: pts,
     })
 }
 
@@ -368,33 +428,48 @@ pub struct SensitivityRow {
 /// how much the headline number depends on where the fit stops, shown next to it.
 pub fn sensitivity(s: &Samples, rc_over_d: f64, lo: f64, b: &Binning) -> Vec<SensitivityRow> {
     let (eta, y, _) = positive(s);
-    let mut cells = Vec::new();
-    for m in Method::ALL {
-        for hi in SENSITIVITY_UPPER {
-            cells.push((m, hi.unwrap_or(f64::INFINITY)));
-        }
-    }
-    cells
-        .into_par_iter()
-        .map(|(m, hi)| {
+    // One upper end at a time (the points fit beside the binning): each holds copies
+    // of up to all the samples, and four at once took the command past 1 GB. Its
+    // samples are filtered once and binned once for the three binned estimators (their
+    // curves come from one sort).
+    let per_hi: Vec<Vec<SensitivityRow>> = SENSITIVITY_UPPER
+        .into_iter()
+        .map(|hi| {
+            let hi = hi.unwrap_or(f64::INFINITY);
             let (e, v): (Vec<f64>, Vec<f64>) = eta
                 .iter()
                 .zip(&y)
                 .filter(|(e, _)| **e >= lo && **e <= hi)
                 .map(|(e, v)| (*e, *v))
                 .unzip();
-            let pts = reduce(&e, &v, m, b);
-            let fit = fit_method(&pts, m).ok();
-            SensitivityRow {
+            let row = |m: Method, fit: Option<PointFit>, fitted_points: usize| SensitivityRow {
                 method: m,
                 rc_over_d,
                 lo,
                 hi,
                 theta: fit.map_or(f64::NAN, |f| f.theta),
                 eta_c: fit.map_or(f64::NAN, |f| f.eta_c),
-                fitted_points: pts.len(),
-            }
+                fitted_points,
+            };
+            let (points, binned) = rayon::join(
+                || fit_points(&e, &v).ok(),
+                || estimate::reduce_binned(&e, &v, b),
+            );
+            Method::ALL
+                .iter()
+                .map(|&m| match m {
+                    Method::Points => row(m, points, e.len()),
+                    _ => {
+                        let pts = &binned[usize::from(m != Method::BinnedMedian)];
+                        row(m, fit_method(pts, m).ok(), pts.len())
+                    }
+                })
+                .collect()
         })
+        .collect();
+    // Cells in the table's order: by estimator, then upper end.
+    (0..Method::ALL.len())
+        .flat_map(|m| per_hi.iter().map(move |rows| rows[m].clone()))
         .collect()
 }
 
@@ -409,8 +484,7 @@ pub const DIFFUSIVE_SLOPE_TOLERANCE: f64 = 0.25;
 /// Least-squares log–log slopes of the binned medians over the lowest and the highest
 /// quarter of the binned range (at least three bins each); None with fewer than six
 /// bins.
-fn end_slopes(eta: &[f64], y: &[f64], b: &Binning) -> Option<(f64, f64)> {
-    let pts = reduce(eta, y, Method::BinnedMedian, b);
+fn end_slopes(pts: &[BinPoint]) -> Option<(f64, f64)> {
     if pts.len() < 6 {
         return None;
     }
@@ -456,12 +530,12 @@ pub fn fit_all_above(
         )));
     }
     let range = range::choose_above(s, set.range, &set.binning, noise_floor);
-    let kept = s.within(range.lo, range.hi);
+    let prepared = prepare(&s.within(range.lo, range.hi), &set.binning, true);
     let mut all = BTreeMap::new();
     for m in Method::ALL {
         all.insert(
             m.name().to_string(),
-            fit_estimator(&kept, m, set).map_err(|e| e.to_string()),
+            estimate_prepared(&prepared, m, set).map_err(|e| e.to_string()),
         );
     }
     let chosen = all[set.method.name()].clone().map_err(|e| {

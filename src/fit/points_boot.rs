@@ -8,9 +8,10 @@
 //! equals `fit_method` on the resampled samples to rounding (sums in another order).
 
 use super::estimate::{GRID_STEPS, LN_4, PointFit, grid_node, refine};
-use super::model::ln_shape_of_ln;
+use super::model::{ln_shape_of_ln, residual_sums, residual_sums_pair};
 use argmin::core::CostFunction;
 use rayon::prelude::*;
+use std::cell::RefCell;
 
 /// Samples grouped by start, in log space, with the grid scan's per-start sums.
 pub struct PointsBoot {
@@ -68,13 +69,12 @@ impl PointsBoot {
     /// (Σr, Σr²) over start g's samples, r = ln y − ln model(Θ = 1) − shift.
     fn sums(&self, g: usize, ln_eta_c: f64, shift: f64) -> (f64, f64) {
         let r = self.offsets[g]..self.offsets[g + 1];
-        let (mut s1, mut s2) = (0.0, 0.0);
-        for (ly, le) in self.ln_y[r.clone()].iter().zip(&self.ln_eta[r]) {
-            let x = ly - LN_4 - ln_eta_c - ln_shape_of_ln(le - ln_eta_c) - shift;
-            s1 += x;
-            s2 += x * x;
-        }
-        (s1, s2)
+        residual_sums(
+            &self.ln_y[r.clone()],
+            &self.ln_eta[r],
+            ln_eta_c,
+            |ly, shape| ly - LN_4 - ln_eta_c - shape - shift,
+        )
     }
 
     /// Variance of the log residuals from weighted per-start sums (f64::MAX where not
@@ -86,12 +86,22 @@ impl PointsBoot {
 
     /// The weighted (Σr, Σr²) at ln η_c over the drawn starts.
     fn weighted_sums(&self, weight: &[u32], ln_eta_c: f64, shift: f64) -> (f64, f64) {
+        // The drawn starts two at a time (their sums interleave), added in start order.
+        let drawn: Vec<usize> = (0..weight.len()).filter(|&g| weight[g] > 0).collect();
         let (mut s1, mut s2) = (0.0, 0.0);
-        for (g, &w) in weight.iter().enumerate() {
-            if w > 0 {
-                let (a, b) = self.sums(g, ln_eta_c, shift);
-                s1 += w as f64 * a;
-                s2 += w as f64 * b;
+        for pair in drawn.chunks(2) {
+            let of = |g: usize| {
+                let r = self.offsets[g]..self.offsets[g + 1];
+                (&self.ln_y[r.clone()], &self.ln_eta[r])
+            };
+            let second = pair.get(1).map_or((&[][..], &[][..]), |&g| of(g));
+            let sums = residual_sums_pair([of(pair[0]), second], ln_eta_c, |ly, shape| {
+                ly - LN_4 - ln_eta_c - shape - shift
+            });
+            for (&g, (a, b)) in pair.iter().zip(sums) {
+                let w = weight[g] as f64;
+                s1 += w * a;
+                s2 += w * b;
             }
         }
         (s1, s2)
@@ -108,33 +118,43 @@ impl PointsBoot {
         if n < 3.0 {
             return None;
         }
-        let best = self
+        let grid: Vec<(f64, f64)> = self
             .grid
             .iter()
-            .enumerate()
-            .map(|(k, per)| {
+            .map(|per| {
                 let (mut s1, mut s2) = (0.0, 0.0);
                 for (&w, &(a, b)) in weight.iter().zip(per) {
                     s1 += w as f64 * a;
                     s2 += w as f64 * b;
                 }
-                (k, Self::cost_of(s1, s2, n))
+                (s1, s2)
             })
+            .collect();
+        let best = grid
+            .iter()
+            .enumerate()
+            .map(|(k, &(s1, s2))| (k, Self::cost_of(s1, s2, n)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map_or(0, |(k, _)| k);
+        // The best node's sums are the grid's (the terms of undrawn starts there are
+        // zeros, which leave a sum as it is), and refine asks again for the cost at
+        // the node and at Brent's answer, which then asks once more: each is a pass
+        // over most samples, so every evaluation is kept.
+        let seen = Evaluated(RefCell::new(vec![(grid_node(best).to_bits(), grid[best])]));
+        let sums = |l: f64| {
+            seen.get_or(l, || {
+                let shift = self.shift(l);
+                self.weighted_sums(weight, l, shift)
+            })
+        };
         let profile = |l: f64| {
-            let shift = self.shift(l);
-            let (s1, s2) = self.weighted_sums(weight, l, shift);
+            let (s1, s2) = sums(l);
             Self::cost_of(s1, s2, n)
         };
-        let cost = Replicate {
-            boot: self,
-            weight,
-            n,
-        };
+        let cost = Replicate { profile: &profile };
         let (ln_ec, iterations) = refine(cost, best, profile).ok()?;
         let shift = self.shift(ln_ec);
-        let (s1, s2) = self.weighted_sums(weight, ln_ec, shift);
+        let (s1, s2) = sums(ln_ec);
         // Θ closed form: the mean log residual; the cost at it is the variance.
         let ln_th = s1 / n + shift;
         Some(PointFit {
@@ -146,20 +166,31 @@ impl PointsBoot {
     }
 }
 
+/// One replicate's weighted sums at each ln η_c evaluated so far.
+struct Evaluated(RefCell<Vec<(u64, (f64, f64))>>);
+
+impl Evaluated {
+    fn get_or(&self, l: f64, compute: impl FnOnce() -> (f64, f64)) -> (f64, f64) {
+        let key = l.to_bits();
+        if let Some(&(_, v)) = self.0.borrow().iter().find(|(k, _)| *k == key) {
+            return v;
+        }
+        let v = compute();
+        self.0.borrow_mut().push((key, v));
+        v
+    }
+}
+
 /// One replicate's profile cost for argmin.
 struct Replicate<'a> {
-    boot: &'a PointsBoot,
-    weight: &'a [u32],
-    n: f64,
+    profile: &'a dyn Fn(f64) -> f64,
 }
 
 impl CostFunction for Replicate<'_> {
     type Param = f64;
     type Output = f64;
     fn cost(&self, l: &f64) -> std::result::Result<f64, argmin::core::Error> {
-        let shift = self.boot.shift(*l);
-        let (s1, s2) = self.boot.weighted_sums(self.weight, *l, shift);
-        Ok(PointsBoot::cost_of(s1, s2, self.n))
+        Ok((self.profile)(*l))
     }
 }
 

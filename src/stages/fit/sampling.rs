@@ -5,7 +5,7 @@
 use crate::error::{Error, Result};
 use crate::fit::Samples;
 use crate::io::csvdiag::Expect;
-use crate::io::table::read_table;
+use crate::io::table::{ParquetColumns, Table, TableFormat, read_table};
 use crate::kinematics::{Convention, KinematicsParams, frame_pair};
 use crate::stages::fit::{
     FitOptions, MIN_NEIGHBORS_FOR_D2MIN, MIN_STARTS, Protocol, START_SPACING, default_lags,
@@ -197,6 +197,57 @@ pub(crate) fn from_tracks(
     Ok((s, rows, protocol))
 }
 
+/// A `kinematics` table's columns: a CSV read whole, a Parquet file a column at a time
+/// (only the eight the fit reads, never polars' copy of all 24 beside ours: 1.4 GB at
+/// 4 M rows).
+enum Columns {
+    Whole(Table),
+    Parquet(ParquetColumns),
+}
+
+impl Columns {
+    fn open(input: &Path) -> Result<Self> {
+        Ok(match TableFormat::of(input) {
+            TableFormat::Parquet => Columns::Parquet(ParquetColumns::open(input)?),
+            TableFormat::Csv => Columns::Whole(read_table(
+                input,
+                &[
+                    ("frame", Expect::Int),
+                    ("frame_end", Expect::Int),
+                    ("particle", Expect::Int),
+                    ("eta_s", Expect::Float),
+                    ("d2min", Expect::Float),
+                ],
+            )?),
+        })
+    }
+    /// The table's columns (for a Parquet file, without their values).
+    fn schema(&self) -> &Table {
+        match self {
+            Columns::Whole(t) => t,
+            Columns::Parquet(p) => &p.schema,
+        }
+    }
+    fn i64(&self, c: &str) -> Result<Vec<i64>> {
+        match self {
+            Columns::Whole(t) => t.i64(c),
+            Columns::Parquet(p) => p.column(c)?.i64(c),
+        }
+    }
+    fn f64(&self, c: &str) -> Result<Vec<f64>> {
+        match self {
+            Columns::Whole(t) => t.f64(c),
+            Columns::Parquet(p) => p.column(c)?.f64(c),
+        }
+    }
+    fn bool(&self, c: &str) -> Result<Vec<bool>> {
+        match self {
+            Columns::Whole(t) => t.bool(c),
+            Columns::Parquet(p) => p.column(c)?.bool(c),
+        }
+    }
+}
+
 /// Fit the rows of a `kinematics` table as they are (valid rows only).
 pub(crate) fn from_kinematics(
     input: &Path,
@@ -204,17 +255,9 @@ pub(crate) fn from_kinematics(
     warnings: &mut Vec<String>,
 ) -> Result<(Samples, ScatterRows, Protocol)> {
     let file = input.display().to_string();
-    let t = read_table(
-        input,
-        &[
-            ("frame", Expect::Int),
-            ("frame_end", Expect::Int),
-            ("particle", Expect::Int),
-            ("eta_s", Expect::Float),
-            ("d2min", Expect::Float),
-        ],
-    )?;
-    t.require(&["frame", "frame_end", "particle", "valid", "eta_s", "d2min"])?;
+    let t = Columns::open(input)?;
+    t.schema()
+        .require(&["frame", "frame_end", "particle", "valid", "eta_s", "d2min"])?;
     let meta: Option<serde_json::Value> = std::fs::read_to_string(crate::io::sidecar_path(input))
         .ok()
         .and_then(|s| serde_json::from_str(&s).ok());
@@ -244,12 +287,12 @@ pub(crate) fn from_kinematics(
     let r = 0.5 * d;
     let (start, end, particle) = (t.i64("frame")?, t.i64("frame_end")?, t.i64("particle")?);
     let (eta, d2, valid) = (t.f64("eta_s")?, t.f64("d2min")?, t.bool("valid")?);
-    let n_nb: Option<Vec<i64>> = if t.has("n_neighbors") {
+    let n_nb: Option<Vec<i64>> = if t.schema().has("n_neighbors") {
         Some(t.i64("n_neighbors")?)
     } else {
         None
     };
-    let species: Vec<i32> = if t.has("species") {
+    let species: Vec<i32> = if t.schema().has("species") {
         t.i64("species")?.into_iter().map(|v| v as i32).collect()
     } else {
         vec![-1; start.len()]
@@ -366,6 +409,10 @@ pub(crate) fn is_kinematics(input: &Path) -> Result<bool> {
     {
         return Ok(table == "kinematics");
     }
-    let t = read_table(input, &[])?;
+    // The column names only: the whole table would be read again by the fit.
+    let t = match TableFormat::of(input) {
+        TableFormat::Parquet => ParquetColumns::open(input)?.schema,
+        TableFormat::Csv => read_table(input, &[])?,
+    };
     Ok(t.has("d2min") && t.has("eta_s"))
 }
