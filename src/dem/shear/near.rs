@@ -294,10 +294,77 @@ impl Slots {
                 near: &mut near,
                 sel: &sel,
                 all,
+                log: None,
             },
         );
         (self.hist, self.sel) = (near, sel);
         r
+    }
+
+    /// A thread's tables for grains `lo..hi` (the near list's CSR runs of those grains,
+    /// a contiguous range of its slots): `own`, those slots in order, and `imports`, in
+    /// order, the slots of earlier grains whose partner j lies in `lo..hi`. Evaluated
+    /// in that order, imports first, they add to each grain of the range every term it
+    /// gets, in the near list's order: the same sums bit for bit as one pass over the
+    /// list. (The import slots are also evaluated by their owner's thread: a few
+    /// duplicated pairs, against waiting.) Returns the first slot of `own` in the list.
+    pub(crate) fn split_into(
+        &self,
+        (lo, hi): (usize, usize),
+        own: &mut Slots,
+        imports: &mut Slots,
+    ) -> usize {
+        let (k0, k1) = (self.start[lo] as usize, self.start[hi] as usize);
+        own.clear_table();
+        own.extend_from(self, k0..k1);
+        own.pad(lo);
+        imports.clear_table();
+        for k in 0..k0 {
+            let j = self.j[k] as usize;
+            if (lo..hi).contains(&j) {
+                imports.extend_from(self, k..k + 1);
+            }
+        }
+        imports.pad(lo);
+        for t in [&mut *own, &mut *imports] {
+            t.n = self.n;
+        }
+        k0
+    }
+
+    fn clear_table(&mut self) {
+        self.i.clear();
+        self.j.clear();
+        self.inv_dij.clear();
+        self.dij2.clear();
+        self.hist.clear();
+    }
+
+    fn extend_from(&mut self, from: &Slots, r: std::ops::Range<usize>) {
+        self.i.extend_from_slice(&from.i[r.clone()]);
+        self.j.extend_from_slice(&from.j[r.clone()]);
+        self.inv_dij.extend_from_slice(&from.inv_dij[r.clone()]);
+        self.dij2.extend_from_slice(&from.dij2[r.clone()]);
+        self.hist.extend_from_slice(&from.hist[r]);
+    }
+
+    /// Padded to a multiple of eight with slots (g, g) that never touch (as `select`
+    /// pads, on a grain of the thread's own, so that their ±0.0 terms land there).
+    fn pad(&mut self, g: usize) {
+        self.len = self.i.len();
+        let padded = self.len.next_multiple_of(8);
+        self.i.resize(padded, g as u32);
+        self.j.resize(padded, g as u32);
+        self.inv_dij.resize(padded, 0.0);
+        self.dij2.resize(padded, -1.0);
+        self.hist.resize(padded, 0.0);
+    }
+
+    /// Copy the near list's current histories of slots `k0..` into this table's
+    /// (`split_into`'s `own`).
+    pub(crate) fn copy_history(&mut self, from: &Slots, k0: usize) {
+        let len = self.len;
+        self.hist[..len].copy_from_slice(&from.hist[k0..k0 + len]);
     }
 
     /// The pairs (i, j) of the near list, in order.
@@ -323,6 +390,32 @@ pub struct History<'a> {
     pub near: &'a mut [f64],
     sel: &'a [u32],
     all: &'a mut [f64],
+    /// A thread's evaluation: events are logged, not applied, and applied afterwards in
+    /// slot order (`Collisions` sums durations, whose rounding depends on the order).
+    log: Option<&'a mut Vec<Event>>,
+}
+
+/// A contact event a thread met (see [`History::logging`]): near slot `k` of its table,
+/// with what [`History::update`] was given.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Event {
+    pub k: usize,
+    pub touch: bool,
+    pub d: (f64, f64),
+    pub dv: (f64, f64),
+}
+
+impl<'a> History<'a> {
+    /// A history that reads `near` (a thread's copy of its slots' histories) and logs
+    /// each event into `log` instead of applying it.
+    pub(crate) fn logging(near: &'a mut [f64], log: &'a mut Vec<Event>) -> Self {
+        History {
+            near,
+            sel: &[],
+            all: &mut [],
+            log: Some(log),
+        }
+    }
 }
 
 impl History<'_> {
@@ -341,6 +434,11 @@ impl History<'_> {
     ) {
         let h = self.near[k];
         if touch != (h != 0.0) {
+            if let Some(log) = self.log.as_mut() {
+                let dv = dv();
+                log.push(Event { k, touch, d, dv });
+                return;
+            }
             let new = contact_event(h, touch, d, dv(), now, coll);
             self.near[k] = new;
             self.all[self.sel[k] as usize] = new;
