@@ -11,7 +11,9 @@
 //! the thin skin) and every pair with contact history, so the forces, their order of
 //! summation and the contact bookkeeping are those of the whole list.
 
-use crate::dem::base::verlet::{Boundary, PairList, strain_since, stray_limit, strays};
+use crate::dem::base::verlet::{
+    Boundary, PairList, chunked, even_ranges, strain_since, stray_limit, strays,
+};
 use crate::dem::shear::params::{Collisions, angle_bin, collision_angle};
 
 /// Extra distance beyond contact kept in the near list (d_s): the range its skin adapts
@@ -70,6 +72,27 @@ pub struct Slots {
     all_i: Vec<u32>,
     all_inv_dij: Vec<f64>,
     all_dij: Vec<f64>,
+}
+
+/// One range's selection (see `Slots::select`).
+struct Selected {
+    i: Vec<u32>,
+    j: Vec<u32>,
+    inv_dij: Vec<f64>,
+    dij2: Vec<f64>,
+    hist: Vec<f64>,
+    sel: Vec<u32>,
+}
+
+impl Selected {
+    fn truncate(&mut self, m: usize) {
+        self.i.truncate(m);
+        self.j.truncate(m);
+        self.inv_dij.truncate(m);
+        self.dij2.truncate(m);
+        self.hist.truncate(m);
+        self.sel.truncate(m);
+    }
 }
 
 /// See [`Slots::stray_test`]: positions at the last selection (d_s), the shear since
@@ -223,34 +246,74 @@ impl Slots {
             self.all_inv_dij
                 .extend(self.all_dij.iter().map(|d| 1.0 / d));
         }
+        let delta = b.image();
+        // Ranges of grains select apart (on the threads the Verlet list was lent, if
+        // any) and join in order: the same list.
+        let pool = list.spare.pool.as_deref();
+        let threads = pool.map_or(1, |p| p.current_num_threads());
+        let ranges = even_ranges(n, threads);
+        let items = ranges
+            .iter()
+            .map(|g| list.start[g.start] as usize..list.start[g.end] as usize)
+            .collect();
+        let this = &*self;
+        let parts = chunked(pool, items, |ks: std::ops::Range<usize>| {
+            let len = ks.len();
+            let mut out = Selected {
+                i: vec![0; len],
+                j: vec![0; len],
+                inv_dij: vec![0.0; len],
+                dij2: vec![0.0; len],
+                hist: vec![0.0; len],
+                sel: vec![0; len],
+            };
+            // Every Verlet slot is written at m and kept by advancing m: whether it is
+            // near is a coin flip a branch would mispredict.
+            let mut m = 0;
+            for k in ks {
+                let (a, c) = (this.all_i[k] as usize, list.j[k] as usize);
+                let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
+                let dij = this.all_dij[k];
+                let reach = dij + this.skin;
+                let h = list.shear[k];
+                // Pairs with history stay, however far: their contact ends here.
+                // (Written as "not beyond" so a NaN separation stays in, as the
+                // straight loop sees it.)
+                let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
+                out.i[m] = a as u32;
+                out.j[m] = c as u32;
+                out.inv_dij[m] = this.all_inv_dij[k];
+                out.dij2[m] = dij * dij;
+                out.hist[m] = h;
+                out.sel[m] = k as u32;
+                m += keep as usize;
+            }
+            out.truncate(m);
+            out
+        });
+        for v in [&mut self.i, &mut self.j, &mut self.sel] {
+            v.clear();
+        }
+        for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
+            v.clear();
+        }
+        for p in &parts {
+            self.i.extend_from_slice(&p.i);
+            self.j.extend_from_slice(&p.j);
+            self.inv_dij.extend_from_slice(&p.inv_dij);
+            self.dij2.extend_from_slice(&p.dij2);
+            self.hist.extend_from_slice(&p.hist);
+            self.sel.extend_from_slice(&p.sel);
+        }
+        let m = self.i.len();
+        // Padding up to the whole Verlet list's length, rounded up to eight.
         let padded = total.next_multiple_of(8);
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
             v.resize(padded, 0);
         }
-        for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
-            v.resize(padded, 0.0);
-        }
-        let delta = b.image();
-        // Every Verlet slot is written at m and kept by advancing m: whether it is near
-        // is a coin flip a branch would mispredict.
-        let mut m = 0;
-        for k in 0..total {
-            let (a, c) = (self.all_i[k] as usize, list.j[k] as usize);
-            let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
-            let dij = self.all_dij[k];
-            let reach = dij + self.skin;
-            let h = list.shear[k];
-            // Pairs with history stay, however far: their contact ends here. (Written
-            // as "not beyond" so a NaN separation stays in, as the straight loop sees it.)
-            let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
-            self.i[m] = a as u32;
-            self.j[m] = c as u32;
-            self.inv_dij[m] = self.all_inv_dij[k];
-            self.dij2[m] = dij * dij;
-            self.hist[m] = h;
-            self.sel[m] = k as u32;
-            m += keep as usize;
-        }
+        self.inv_dij.resize(padded, 0.0);
+        self.dij2.resize(padded, -1.0);
+        self.hist.resize(padded, 0.0);
         self.len = m;
         self.start.clear();
         self.start.resize(n + 1, 0);
@@ -261,12 +324,6 @@ impl Slots {
             self.start[a + 1] += self.start[a];
         }
         let padded = m.next_multiple_of(8);
-        for v in [&mut self.i, &mut self.j, &mut self.sel] {
-            v[m..padded].fill(0);
-        }
-        self.inv_dij[m..padded].fill(0.0);
-        self.dij2[m..padded].fill(-1.0);
-        self.hist[m..padded].fill(0.0);
         self.x_ref.clear();
         self.x_ref.extend_from_slice(x);
         self.y_ref.clear();

@@ -245,6 +245,9 @@ impl ShearSim {
         assert!(std::is_x86_feature_detected!("avx2"), "no AVX2");
         let bounds = bounds(n, threads);
         let pool = self.par.pool(threads);
+        // The Verlet list's rebuilds and the near list's selections, inside the syncs
+        // below, run on the same threads.
+        self.list.spare.pool = Some(pool.clone());
         self.advance_clock();
         let b = self.boundary();
         let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
@@ -426,6 +429,7 @@ impl ShearSim {
                 .collect();
             on_threads(&pool, jobs);
         }
+        self.list.spare.pool = None;
         // The events, in slot order: part by part, each part's in its order.
         let ShearSim {
             slots,
