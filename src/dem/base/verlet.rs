@@ -133,6 +133,8 @@ pub struct Spare {
     cell: Vec<u32>,
     /// Threads to build on (the sheared disks' steps lend theirs): the same list.
     pub pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+    /// Per range of grains, its partners and CSR ends (`build`'s scratch).
+    segs: Vec<(Vec<u32>, Vec<u32>)>,
 }
 
 /// `f` over each item (a range of grains, with what it writes), on the threads of
@@ -260,6 +262,7 @@ impl PairList {
             items,
             mut cell,
             pool,
+            segs: mut segments,
         } = std::mem::take(&mut self.spare);
         start.clear();
         js.clear();
@@ -273,10 +276,14 @@ impl PairList {
         // listed apart (on threads, where lent) and joined in order.
         let threads = pool.as_ref().map_or(1, |p| p.current_num_threads());
         let ranges = even_ranges(n, threads);
-        let segments = chunked(pool.as_deref(), ranges.clone(), |grains| {
+        // Each range's buffers are kept for the next build.
+        segments.resize_with(ranges.len(), Default::default);
+        let items = ranges.iter().cloned().zip(segments.iter_mut()).collect();
+        chunked(pool.as_deref(), items, |(grains, (js, ends))| {
             let mut seg: Vec<u32> = vec![0; 64];
             let mut cells = [(0, 0); 9];
-            let (mut js, mut ends) = (Vec::new(), Vec::with_capacity(grains.len()));
+            js.clear();
+            ends.clear();
             for i in grains {
                 let count = match &grid {
                     Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
@@ -309,14 +316,12 @@ impl PairList {
                 js.extend_from_slice(seg);
                 ends.push(js.len() as u32);
             }
-            (js, ends)
         });
         for (part, ends) in &segments {
             let base = js.len() as u32;
             js.extend_from_slice(part);
             start.extend(ends.iter().map(|e| base + e));
         }
-        drop(segments);
         // Carry the history of surviving pairs (both segments are sorted by j).
         shear.clear();
         shear.resize(js.len(), 0.0);
@@ -358,6 +363,7 @@ impl PairList {
             items,
             cell,
             pool,
+            segs: segments,
         };
         self.x_ref.clear();
         self.x_ref.extend_from_slice(x);

@@ -72,9 +72,12 @@ pub struct Slots {
     all_i: Vec<u32>,
     all_inv_dij: Vec<f64>,
     all_dij: Vec<f64>,
+    /// Per range of grains, the buffers of its selection (scratch).
+    selected: Vec<Selected>,
 }
 
-/// One range's selection (see `Slots::select`).
+/// One range's selection (see `Slots::select`): its first `len` slots.
+#[derive(Debug, Clone, Default)]
 struct Selected {
     i: Vec<u32>,
     j: Vec<u32>,
@@ -82,16 +85,18 @@ struct Selected {
     dij2: Vec<f64>,
     hist: Vec<f64>,
     sel: Vec<u32>,
+    len: usize,
 }
 
 impl Selected {
-    fn truncate(&mut self, m: usize) {
-        self.i.truncate(m);
-        self.j.truncate(m);
-        self.inv_dij.truncate(m);
-        self.dij2.truncate(m);
-        self.hist.truncate(m);
-        self.sel.truncate(m);
+    /// Room for `len` slots, each written before it is read.
+    fn resize(&mut self, len: usize) {
+        for v in [&mut self.i, &mut self.j, &mut self.sel] {
+            v.resize(len, 0);
+        }
+        for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
+            v.resize(len, 0.0);
+        }
     }
 }
 
@@ -252,21 +257,18 @@ impl Slots {
         let pool = list.spare.pool.as_deref();
         let threads = pool.map_or(1, |p| p.current_num_threads());
         let ranges = even_ranges(n, threads);
+        // Each range's buffers are kept for the next selection (fresh memory is slow to
+        // touch).
+        let mut parts = std::mem::take(&mut self.selected);
+        parts.resize_with(ranges.len(), Default::default);
         let items = ranges
             .iter()
             .map(|g| list.start[g.start] as usize..list.start[g.end] as usize)
+            .zip(parts.iter_mut())
             .collect();
         let this = &*self;
-        let parts = chunked(pool, items, |ks: std::ops::Range<usize>| {
-            let len = ks.len();
-            let mut out = Selected {
-                i: vec![0; len],
-                j: vec![0; len],
-                inv_dij: vec![0.0; len],
-                dij2: vec![0.0; len],
-                hist: vec![0.0; len],
-                sel: vec![0; len],
-            };
+        chunked(pool, items, |(ks, out): (std::ops::Range<usize>, &mut Selected)| {
+            out.resize(ks.len());
             // Every Verlet slot is written at m and kept by advancing m: whether it is
             // near is a coin flip a branch would mispredict.
             let mut m = 0;
@@ -288,8 +290,7 @@ impl Slots {
                 out.sel[m] = k as u32;
                 m += keep as usize;
             }
-            out.truncate(m);
-            out
+            out.len = m;
         });
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
             v.clear();
@@ -298,13 +299,15 @@ impl Slots {
             v.clear();
         }
         for p in &parts {
-            self.i.extend_from_slice(&p.i);
-            self.j.extend_from_slice(&p.j);
-            self.inv_dij.extend_from_slice(&p.inv_dij);
-            self.dij2.extend_from_slice(&p.dij2);
-            self.hist.extend_from_slice(&p.hist);
-            self.sel.extend_from_slice(&p.sel);
+            let m = p.len;
+            self.i.extend_from_slice(&p.i[..m]);
+            self.j.extend_from_slice(&p.j[..m]);
+            self.inv_dij.extend_from_slice(&p.inv_dij[..m]);
+            self.dij2.extend_from_slice(&p.dij2[..m]);
+            self.hist.extend_from_slice(&p.hist[..m]);
+            self.sel.extend_from_slice(&p.sel[..m]);
         }
+        self.selected = parts;
         let m = self.i.len();
         // Padding up to the whole Verlet list's length, rounded up to eight.
         let padded = total.next_multiple_of(8);

@@ -87,8 +87,9 @@ impl ShearThreads {
         }
     }
 
-    /// The tables for the current selection of `slots` and split `bounds`.
-    fn split(&mut self, slots: &Slots, bounds: &[usize]) {
+    /// The tables for the current selection of `slots` and split `bounds`, each made
+    /// by its own thread of `pool`.
+    fn split(&mut self, slots: &Slots, bounds: &[usize], pool: &rayon::ThreadPool) {
         if self
             .split_of
             .as_ref()
@@ -98,15 +99,23 @@ impl ShearThreads {
         }
         let moved = self.split_of.as_ref().is_none_or(|(_, b)| b != bounds);
         self.parts.resize_with(bounds.len() - 1, Part::default);
-        for (t, p) in self.parts.iter_mut().enumerate() {
-            if moved {
-                // Sums another share left (outside its own range) would be read now.
-                p.acc.clear();
-            }
-            p.lo = bounds[t];
-            p.hi = bounds[t + 1];
-            p.k0 = slots.split_into((p.lo, p.hi), &mut p.own, &mut p.imports);
-        }
+        let jobs: Vec<_> = self
+            .parts
+            .iter_mut()
+            .enumerate()
+            .map(|(t, p)| {
+                move || {
+                    if moved {
+                        // Sums another share left (outside its range) would be read now.
+                        p.acc.clear();
+                    }
+                    p.lo = bounds[t];
+                    p.hi = bounds[t + 1];
+                    p.k0 = slots.split_into((p.lo, p.hi), &mut p.own, &mut p.imports);
+                }
+            })
+            .collect();
+        on_threads(pool, jobs);
         self.split_of = Some((slots.selections, bounds.to_vec()));
         // `split_into` copied the histories.
         self.hist_synced = true;
@@ -298,7 +307,7 @@ impl ShearSim {
         let pr = &self.pred;
         self.slots
             .sync_tested(&mut self.list, r, (&pr.x, &pr.y), b, strayed);
-        self.par.split(&self.slots, &bounds);
+        self.par.split(&self.slots, &bounds, &pool);
 
         // Forces at the predicted state, and Eqs. 23–24 range by range as each part's
         // sums are complete; the state at t + Δt to `packed_now`.
@@ -385,7 +394,7 @@ impl ShearSim {
         let g = &self.g;
         self.slots
             .sync_tested(&mut self.list, &g.radius, (&g.x, &g.y), b, strayed);
-        self.par.split(&self.slots, &bounds);
+        self.par.split(&self.slots, &bounds, &pool);
 
         // Forces at t + Δt (f_0 of the next step) into the arrays, part by part, the
         // contact events logged.
