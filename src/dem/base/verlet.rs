@@ -137,8 +137,15 @@ pub struct Spare {
     segs: Vec<(Vec<u32>, Vec<u32>)>,
 }
 
-/// `f` over each item (a range of grains, with what it writes), on the threads of
-/// `pool` where there is one and more than one item; the results in order.
+/// Threads of a team: the workers of `pool` and the calling thread (one without).
+pub(crate) fn team_size(pool: Option<&rayon::ThreadPool>) -> usize {
+    pool.map_or(1, |p| p.current_num_threads() + 1)
+}
+
+/// `f` over each item (a range of grains, with what it writes): the first on the
+/// calling thread, the others on the workers of `pool` where there is one and more
+/// than one item (the caller works rather than sleeps, and its wake-up is saved); the
+/// results in order.
 pub(crate) fn chunked<I: Send, T: Send>(
     pool: Option<&rayon::ThreadPool>,
     items: Vec<I>,
@@ -148,7 +155,7 @@ pub(crate) fn chunked<I: Send, T: Send>(
         Some(pool) if items.len() > 1 => {
             let mut out: Vec<Option<T>> = items.iter().map(|_| None).collect();
             let f = &f;
-            pool.scope(|s| {
+            pool.in_place_scope(|s| {
                 let mut it = items.into_iter().zip(out.iter_mut());
                 let first = it.next();
                 for (item, o) in it {
@@ -274,8 +281,7 @@ impl PairList {
         let skin = self.skin;
         // Each grain's partners depend on nothing but the grid: ranges of grains are
         // listed apart (on threads, where lent) and joined in order.
-        let threads = pool.as_ref().map_or(1, |p| p.current_num_threads());
-        let ranges = even_ranges(n, threads);
+        let ranges = even_ranges(n, team_size(pool.as_deref()));
         // Each range's buffers are kept for the next build.
         segments.resize_with(ranges.len(), Default::default);
         let items = ranges.iter().cloned().zip(segments.iter_mut()).collect();

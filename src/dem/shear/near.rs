@@ -12,7 +12,7 @@
 //! summation and the contact bookkeeping are those of the whole list.
 
 use crate::dem::base::verlet::{
-    Boundary, PairList, chunked, even_ranges, strain_since, stray_limit, strays,
+    Boundary, PairList, chunked, even_ranges, strain_since, stray_limit, strays, team_size,
 };
 use crate::dem::shear::params::{Collisions, angle_bin, collision_angle};
 
@@ -255,8 +255,7 @@ impl Slots {
         // Ranges of grains select apart (on the threads the Verlet list was lent, if
         // any) and join in order: the same list.
         let pool = list.spare.pool.as_deref();
-        let threads = pool.map_or(1, |p| p.current_num_threads());
-        let ranges = even_ranges(n, threads);
+        let ranges = even_ranges(n, team_size(pool));
         // Each range's buffers are kept for the next selection (fresh memory is slow to
         // touch).
         let mut parts = std::mem::take(&mut self.selected);
@@ -267,31 +266,35 @@ impl Slots {
             .zip(parts.iter_mut())
             .collect();
         let this = &*self;
-        chunked(pool, items, |(ks, out): (std::ops::Range<usize>, &mut Selected)| {
-            out.resize(ks.len());
-            // Every Verlet slot is written at m and kept by advancing m: whether it is
-            // near is a coin flip a branch would mispredict.
-            let mut m = 0;
-            for k in ks {
-                let (a, c) = (this.all_i[k] as usize, list.j[k] as usize);
-                let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
-                let dij = this.all_dij[k];
-                let reach = dij + this.skin;
-                let h = list.shear[k];
-                // Pairs with history stay, however far: their contact ends here.
-                // (Written as "not beyond" so a NaN separation stays in, as the
-                // straight loop sees it.)
-                let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
-                out.i[m] = a as u32;
-                out.j[m] = c as u32;
-                out.inv_dij[m] = this.all_inv_dij[k];
-                out.dij2[m] = dij * dij;
-                out.hist[m] = h;
-                out.sel[m] = k as u32;
-                m += keep as usize;
-            }
-            out.len = m;
-        });
+        chunked(
+            pool,
+            items,
+            |(ks, out): (std::ops::Range<usize>, &mut Selected)| {
+                out.resize(ks.len());
+                // Every Verlet slot is written at m and kept by advancing m: whether it is
+                // near is a coin flip a branch would mispredict.
+                let mut m = 0;
+                for k in ks {
+                    let (a, c) = (this.all_i[k] as usize, list.j[k] as usize);
+                    let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
+                    let dij = this.all_dij[k];
+                    let reach = dij + this.skin;
+                    let h = list.shear[k];
+                    // Pairs with history stay, however far: their contact ends here.
+                    // (Written as "not beyond" so a NaN separation stays in, as the
+                    // straight loop sees it.)
+                    let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
+                    out.i[m] = a as u32;
+                    out.j[m] = c as u32;
+                    out.inv_dij[m] = this.all_inv_dij[k];
+                    out.dij2[m] = dij * dij;
+                    out.hist[m] = h;
+                    out.sel[m] = k as u32;
+                    m += keep as usize;
+                }
+                out.len = m;
+            },
+        );
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
             v.clear();
         }

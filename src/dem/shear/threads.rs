@@ -18,6 +18,7 @@
 use crate::dem::backend::shear_integrate_avx2::{
     Now, correct_packed, predict_packed_into, unpack_forces,
 };
+use crate::dem::base::verlet::{chunked, team_size};
 use crate::dem::shear::ShearSim;
 use crate::dem::shear::integrate::{Pos, Quad};
 use crate::dem::shear::near::{Event, History, Slots};
@@ -70,13 +71,14 @@ impl ShearThreads {
         self.hist_synced = false;
     }
 
+    /// A pool of `threads` − 1 workers: the calling thread is the team's first.
     fn pool(&mut self, threads: usize) -> Arc<rayon::ThreadPool> {
         match &self.pool {
-            Some(p) if p.current_num_threads() == threads => p.clone(),
+            Some(p) if team_size(Some(p)) == threads => p.clone(),
             _ => {
                 let p = Arc::new(
                     rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
+                        .num_threads(threads - 1)
                         .thread_name(|t| format!("shear-{t}"))
                         .build()
                         .expect("a thread pool for the sheared disks"),
@@ -165,25 +167,14 @@ fn cut<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
     out
 }
 
-/// Run each job on a thread of `pool` (the first where the pool starts the scope);
-/// their results in order.
+/// Run each job, the first on the calling thread, the others on the workers of
+/// `pool`; their results in order.
 fn on_threads<J, T>(pool: &rayon::ThreadPool, jobs: Vec<J>) -> Vec<T>
 where
     J: FnOnce() -> T + Send,
     T: Send,
 {
-    let mut out: Vec<Option<T>> = jobs.iter().map(|_| None).collect();
-    pool.scope(|s| {
-        let mut it = jobs.into_iter().zip(out.iter_mut());
-        let first = it.next();
-        for (job, slot) in it {
-            s.spawn(move |_| *slot = Some(job()));
-        }
-        if let Some((job, slot)) = first {
-            *slot = Some(job());
-        }
-    });
-    out.into_iter().map(|o| o.expect("every job ran")).collect()
+    chunked(Some(pool), jobs, |job| job())
 }
 
 /// Forces of one part at the packed state (`pos`, `vel`): the imports, then its own
