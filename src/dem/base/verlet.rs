@@ -282,51 +282,62 @@ impl PairList {
         // Each grain's partners depend on nothing but the grid: ranges of grains are
         // listed apart (on threads, where lent) and joined in order.
         let ranges = even_ranges(n, team_size(pool.as_deref()));
-        // Each range's buffers are kept for the next build.
-        segments.resize_with(ranges.len(), Default::default);
-        let items = ranges.iter().cloned().zip(segments.iter_mut()).collect();
-        chunked(pool.as_deref(), items, |(grains, (js, ends))| {
-            let mut seg: Vec<u32> = vec![0; 64];
-            let mut cells = [(0, 0); 9];
-            js.clear();
-            ends.clear();
-            for i in grains {
-                let count = match &grid {
-                    Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
-                    None => {
-                        cells[0] = (i as u32 + 1, n as u32);
-                        1
-                    }
-                };
-                let ranges = &cells[..count];
-                // Every candidate is written and kept only by advancing `m`: whether j > i
-                // and whether it is in reach are coin flips a branch would mispredict.
-                let mut m = 0;
-                for &(a, b) in ranges {
-                    for q in a as usize..b as usize {
-                        let j = match &grid {
-                            Some(g) => g.items[q] as usize,
-                            None => q,
-                        };
-                        let (dx, dy) = delta.of(x[i] - x[j], y[i] - y[j]);
-                        let c = r[i] + r[j] + skin;
-                        if m == seg.len() {
-                            seg.push(0);
+        // A range's partners onto `js`, the end of each grain's onto `ends` (offsets
+        // within `js`).
+        let list_range =
+            |grains: std::ops::Range<usize>, js: &mut Vec<u32>, ends: &mut Vec<u32>| {
+                let mut seg: Vec<u32> = vec![0; 64];
+                let mut cells = [(0, 0); 9];
+                for i in grains {
+                    let count = match &grid {
+                        Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
+                        None => {
+                            cells[0] = (i as u32 + 1, n as u32);
+                            1
                         }
-                        seg[m] = j as u32;
-                        m += ((j > i) & (dx * dx + dy * dy < c * c)) as usize;
+                    };
+                    let ranges = &cells[..count];
+                    // Every candidate is written and kept only by advancing `m`: whether j > i
+                    // and whether it is in reach are coin flips a branch would mispredict.
+                    let mut m = 0;
+                    for &(a, b) in ranges {
+                        for q in a as usize..b as usize {
+                            let j = match &grid {
+                                Some(g) => g.items[q] as usize,
+                                None => q,
+                            };
+                            let (dx, dy) = delta.of(x[i] - x[j], y[i] - y[j]);
+                            let c = r[i] + r[j] + skin;
+                            if m == seg.len() {
+                                seg.push(0);
+                            }
+                            seg[m] = j as u32;
+                            m += ((j > i) & (dx * dx + dy * dy < c * c)) as usize;
+                        }
                     }
+                    let seg = &mut seg[..m];
+                    seg.sort_unstable();
+                    js.extend_from_slice(seg);
+                    ends.push(js.len() as u32);
                 }
-                let seg = &mut seg[..m];
-                seg.sort_unstable();
-                js.extend_from_slice(seg);
-                ends.push(js.len() as u32);
+            };
+        if ranges.len() == 1 {
+            // One range: straight into the list (`start` holds its leading 0).
+            list_range(0..n, &mut js, &mut start);
+        } else {
+            // Each range's buffers are kept for the next build.
+            segments.resize_with(ranges.len(), Default::default);
+            let items = ranges.iter().cloned().zip(segments.iter_mut()).collect();
+            chunked(pool.as_deref(), items, |(grains, (js, ends))| {
+                js.clear();
+                ends.clear();
+                list_range(grains, js, ends);
+            });
+            for (part, ends) in &segments {
+                let base = js.len() as u32;
+                js.extend_from_slice(part);
+                start.extend(ends.iter().map(|e| base + e));
             }
-        });
-        for (part, ends) in &segments {
-            let base = js.len() as u32;
-            js.extend_from_slice(part);
-            start.extend(ends.iter().map(|e| base + e));
         }
         // Carry the history of surviving pairs (both segments are sorted by j).
         shear.clear();

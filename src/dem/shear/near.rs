@@ -256,70 +256,95 @@ impl Slots {
         // any) and join in order: the same list.
         let pool = list.spare.pool.as_deref();
         let ranges = even_ranges(n, team_size(pool));
-        // Each range's buffers are kept for the next selection (fresh memory is slow to
-        // touch).
+        let select_range = |ks: std::ops::Range<usize>, out: &mut Selected| {
+            out.resize(ks.len());
+            // Every Verlet slot is written at m and kept by advancing m: whether it is
+            // near is a coin flip a branch would mispredict.
+            let mut m = 0;
+            for k in ks {
+                let (a, c) = (self.all_i[k] as usize, list.j[k] as usize);
+                let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
+                let dij = self.all_dij[k];
+                let reach = dij + self.skin;
+                let h = list.shear[k];
+                // Pairs with history stay, however far: their contact ends here.
+                // (Written as "not beyond" so a NaN separation stays in, as the
+                // straight loop sees it.)
+                let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
+                out.i[m] = a as u32;
+                out.j[m] = c as u32;
+                out.inv_dij[m] = self.all_inv_dij[k];
+                out.dij2[m] = dij * dij;
+                out.hist[m] = h;
+                out.sel[m] = k as u32;
+                m += keep as usize;
+            }
+            out.len = m;
+        };
         let mut parts = std::mem::take(&mut self.selected);
-        parts.resize_with(ranges.len(), Default::default);
-        let items = ranges
-            .iter()
-            .map(|g| list.start[g.start] as usize..list.start[g.end] as usize)
-            .zip(parts.iter_mut())
-            .collect();
-        let this = &*self;
-        chunked(
-            pool,
-            items,
-            |(ks, out): (std::ops::Range<usize>, &mut Selected)| {
-                out.resize(ks.len());
-                // Every Verlet slot is written at m and kept by advancing m: whether it is
-                // near is a coin flip a branch would mispredict.
-                let mut m = 0;
-                for k in ks {
-                    let (a, c) = (this.all_i[k] as usize, list.j[k] as usize);
-                    let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
-                    let dij = this.all_dij[k];
-                    let reach = dij + this.skin;
-                    let h = list.shear[k];
-                    // Pairs with history stay, however far: their contact ends here.
-                    // (Written as "not beyond" so a NaN separation stays in, as the
-                    // straight loop sees it.)
-                    let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
-                    out.i[m] = a as u32;
-                    out.j[m] = c as u32;
-                    out.inv_dij[m] = this.all_inv_dij[k];
-                    out.dij2[m] = dij * dij;
-                    out.hist[m] = h;
-                    out.sel[m] = k as u32;
-                    m += keep as usize;
-                }
-                out.len = m;
-            },
-        );
-        for v in [&mut self.i, &mut self.j, &mut self.sel] {
-            v.clear();
+        if ranges.len() == 1 {
+            // One range: straight into the list's own arrays.
+            let mut out = Selected {
+                i: std::mem::take(&mut self.i),
+                j: std::mem::take(&mut self.j),
+                inv_dij: std::mem::take(&mut self.inv_dij),
+                dij2: std::mem::take(&mut self.dij2),
+                hist: std::mem::take(&mut self.hist),
+                sel: std::mem::take(&mut self.sel),
+                len: 0,
+            };
+            select_range(0..total, &mut out);
+            parts.clear();
+            parts.push(out);
+        } else {
+            // Each range's buffers are kept for the next selection (fresh memory is
+            // slow to touch).
+            parts.resize_with(ranges.len(), Default::default);
+            let items = ranges
+                .iter()
+                .map(|g| list.start[g.start] as usize..list.start[g.end] as usize)
+                .zip(parts.iter_mut())
+                .collect();
+            chunked(pool, items, |(ks, out)| select_range(ks, out));
         }
-        for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
-            v.clear();
-        }
-        for p in &parts {
-            let m = p.len;
-            self.i.extend_from_slice(&p.i[..m]);
-            self.j.extend_from_slice(&p.j[..m]);
-            self.inv_dij.extend_from_slice(&p.inv_dij[..m]);
-            self.dij2.extend_from_slice(&p.dij2[..m]);
-            self.hist.extend_from_slice(&p.hist[..m]);
-            self.sel.extend_from_slice(&p.sel[..m]);
+        let m: usize = parts.iter().map(|p| p.len).sum();
+        if ranges.len() == 1 {
+            let out = parts.pop().expect("one range");
+            (self.i, self.j, self.inv_dij) = (out.i, out.j, out.inv_dij);
+            (self.dij2, self.hist, self.sel) = (out.dij2, out.hist, out.sel);
+        } else {
+            for v in [&mut self.i, &mut self.j, &mut self.sel] {
+                v.clear();
+            }
+            for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
+                v.clear();
+            }
+            for p in &parts {
+                let m = p.len;
+                self.i.extend_from_slice(&p.i[..m]);
+                self.j.extend_from_slice(&p.j[..m]);
+                self.inv_dij.extend_from_slice(&p.inv_dij[..m]);
+                self.dij2.extend_from_slice(&p.dij2[..m]);
+                self.hist.extend_from_slice(&p.hist[..m]);
+                self.sel.extend_from_slice(&p.sel[..m]);
+            }
         }
         self.selected = parts;
-        let m = self.i.len();
-        // Padding up to the whole Verlet list's length, rounded up to eight.
+        // Padding (pairs that never touch) up to a multiple of eight; the arrays keep
+        // the Verlet list's length, rounded up to eight.
         let padded = total.next_multiple_of(8);
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
+            v.truncate(m);
             v.resize(padded, 0);
         }
-        self.inv_dij.resize(padded, 0.0);
-        self.dij2.resize(padded, -1.0);
-        self.hist.resize(padded, 0.0);
+        for (v, pad) in [
+            (&mut self.inv_dij, 0.0),
+            (&mut self.dij2, -1.0),
+            (&mut self.hist, 0.0),
+        ] {
+            v.truncate(m);
+            v.resize(padded, pad);
+        }
         self.len = m;
         self.start.clear();
         self.start.resize(n + 1, 0);
