@@ -342,7 +342,18 @@ pub struct ShearBench {
     pub near_selections: u64,
     /// Same steps from the same state without re-sorting into cell order (same run).
     pub ns_per_particle_step_unsorted: f64,
+    /// The timed steps again from the same state on one thread and on two, alternating
+    /// (medians of `THREAD_ROUNDS` rounds each, same run), their ratio, and whether the
+    /// two runs ended in the same state bit for bit.
+    pub ns_per_particle_step_one_thread: f64,
+    pub ns_per_particle_step_two_threads: f64,
+    pub two_thread_speedup: f64,
+    pub two_threads_same_bits: bool,
 }
+
+/// Rounds of the one- and two-thread timings (alternating, medians: the machine may be
+/// shared).
+const THREAD_ROUNDS: usize = 3;
 
 /// Sheared disks at φ = 0.82, Q = 1, γ̇ = 1e-4, CDrot: `warmup` steps, then `steps` timed.
 pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
@@ -358,6 +369,8 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         seed: 1,
     };
     let mut s = ShearSim::new(p);
+    // The headline figures on one thread, as they always were.
+    s.threads = 1;
     for _ in 0..warmup {
         s.step();
     }
@@ -376,6 +389,8 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         s.step();
     }
     let seconds = t.elapsed().as_secs_f64();
+    let (one, two, same) = time_shear_threads(&s, steps);
+    let per = |secs: f64| secs / (n as f64 * steps as f64) * 1e9;
     ShearBench {
         n,
         steps,
@@ -385,7 +400,49 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         list_builds: s.list.builds - b0,
         near_selections: s.slots.selections - s0,
         ns_per_particle_step_unsorted: seconds_unsorted / (n as f64 * steps as f64) * 1e9,
+        ns_per_particle_step_one_thread: per(one),
+        ns_per_particle_step_two_threads: per(two),
+        two_thread_speedup: one / two,
+        two_threads_same_bits: same,
     }
+}
+
+/// `steps` steps from `start` on one thread and on two, alternating for
+/// `THREAD_ROUNDS` rounds: the median seconds of each, and whether every run ended in
+/// the same grains, forces and contact counts bit for bit.
+fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, f64, bool) {
+    let mut times = [Vec::new(), Vec::new()];
+    let mut ends = Vec::new();
+    for _ in 0..THREAD_ROUNDS {
+        for (k, threads) in [1, 2].into_iter().enumerate() {
+            let mut s = start.clone();
+            s.threads = threads;
+            let t = Instant::now();
+            for _ in 0..steps {
+                s.step();
+            }
+            times[k].push(t.elapsed().as_secs_f64());
+            ends.push(s);
+        }
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let bits = |s: &crate::dem::shear::ShearSim| {
+        let g = &s.g;
+        [
+            &g.x, &g.y, &g.vx, &g.vy, &g.omega, &g.theta, &s.fx, &s.fy, &s.tq,
+        ]
+        .iter()
+        .flat_map(|v| v.iter().map(|x| x.to_bits()))
+        .collect::<Vec<u64>>()
+    };
+    let first = bits(&ends[0]);
+    let same = ends
+        .iter()
+        .all(|e| bits(e) == first && e.coll == ends[0].coll && e.list.shear == ends[0].list.shear);
+    (median(&mut times[0]), median(&mut times[1]), same)
 }
 
 #[cfg(test)]

@@ -267,6 +267,10 @@ pub struct ShearArgs {
     from: Option<PathBuf>,
     #[command(flatten)]
     run: RunControl,
+    /// Threads (default: one per core, at most one per 4096 disks; any count gives the
+    /// same numbers).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
 }
 
 #[derive(Args)]
@@ -403,6 +407,7 @@ fn shear_options(a: ShearArgs) -> Result<(PathBuf, pillar_pipe::stages::shear::S
         quiet: a.run.quiet,
         halt_after: a.run.halt_after,
         from_state: a.from.map(|d| d.join(pillar_pipe::stages::shear::STATE)),
+        threads: a.threads,
     };
     Ok((out, opt))
 }
@@ -576,7 +581,7 @@ mod tests {
             panic!("shear")
         };
         let (_, opt) = shear_options(a.args).unwrap();
-        let skip = ["resume", "quiet", "halt_after"];
+        let skip = ["resume", "quiet", "threads", "halt_after"];
         assert_eq!(
             physics(&opt, &skip),
             physics(ShearOptions::default(), &skip),

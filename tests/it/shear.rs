@@ -1101,3 +1101,100 @@ fn a_checkpoint_with_the_old_direction_histograms_is_refused_with_the_reason() {
         "{err}"
     );
 }
+
+/// Any thread count gives the same run bit for bit: positions, velocities, spins,
+/// forces, contact histories and collision counts after a few hundred steps fast
+/// enough to re-select the near list, rebuild the Verlet list and re-sort on the way,
+/// at every vector level that runs threads; a run that changes its thread count
+/// half-way too; and `simulate shear`'s output tables, byte for byte.
+#[test]
+fn any_thread_count_gives_the_same_run_bit_for_bit() {
+    use pillar_pipe::dem::backend::simd::{Level, detected, use_at_most};
+    let bits = |s: &ShearSim| {
+        let g = &s.g;
+        let arrays = [
+            &g.x, &g.y, &g.vx, &g.vy, &g.theta, &g.omega, &s.fx, &s.fy, &s.tq,
+        ];
+        arrays
+            .iter()
+            .map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    };
+    for model in [Dissipation::Cdrot, Dissipation::Cd] {
+        let mut start = ShearSim::new(params(700, 0.84, model, 1e-2));
+        start.resort_every = 100;
+        let run = |threads: &[usize]| {
+            let mut s = start.clone();
+            for &t in threads {
+                s.threads = t;
+                for _ in 0..100 {
+                    s.step();
+                }
+            }
+            s
+        };
+        for max in [Level::Avx2, Level::Avx512] {
+            if detected() < max {
+                // Missing hardware is a skip, said so, not a pass.
+                eprintln!("SKIP: this CPU has no {max:?}: its threads are not compared");
+                continue;
+            }
+            use_at_most(max);
+            let one = run(&[1, 1, 1, 1]);
+            assert!(one.coll.begun > 50 && one.coll.ended > 50);
+            assert!(
+                one.list.builds > start.list.builds + 3,
+                "rebuilt on the way"
+            );
+            assert!(
+                one.slots.selections > one.list.builds,
+                "re-selected on the way"
+            );
+            for threads in [vec![2; 4], vec![3; 4], vec![2, 1, 3, 2]] {
+                let other = run(&threads);
+                let what = format!("{model:?} {max:?} threads {threads:?}");
+                assert_eq!(
+                    other.step_threads_used(),
+                    *threads.last().unwrap(),
+                    "{what}"
+                );
+                assert!(bits(&one) == bits(&other), "{what}");
+                assert_eq!(one.list.shear, other.list.shear, "{what}");
+                assert_eq!(one.coll, other.coll, "{what}");
+                assert_eq!(one.slots.selections, other.slots.selections, "{what}");
+            }
+        }
+        use_at_most(Level::Avx512);
+    }
+    // The CLI's tables: the same bytes on one thread and on three.
+    let mut tables = Vec::new();
+    for threads in [1, 3] {
+        let out = tmpdir(&format!("threads-{threads}"));
+        let opt = ShearOptions {
+            n: 400,
+            phi: 0.84,
+            rate: 1e-2,
+            strain: 1.0,
+            quiet: true,
+            threads,
+            ..Default::default()
+        };
+        run(&out, &opt).unwrap();
+        let mut files: Vec<_> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "parquet"))
+            .collect();
+        files.sort();
+        assert!(files.len() >= 4, "{files:?}");
+        let bytes: Vec<_> = files
+            .iter()
+            .map(|p| (p.file_name().unwrap().to_owned(), std::fs::read(p).unwrap()))
+            .collect();
+        tables.push(bytes);
+    }
+    assert!(
+        tables[0] == tables[1],
+        "output tables differ between 1 and 3 threads"
+    );
+}

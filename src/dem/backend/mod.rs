@@ -21,3 +21,19 @@ mod shear_avx512;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod shear_integrate_avx2;
 pub mod simd;
+
+/// Threads a simulator runs on: `setting`, at most `cap`; or, for `setting` 0, one per
+/// core (`RAYON_NUM_THREADS` where set, as every parallel part of the program reads
+/// it), at most `auto_cap`. At least one.
+pub fn threads_for(setting: usize, auto_cap: usize, cap: usize) -> usize {
+    match setting {
+        0 => std::env::var("RAYON_NUM_THREADS")
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .filter(|&t| t > 0)
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |c| c.get()))
+            .min(auto_cap)
+            .max(1),
+        t => t.min(cap).max(1),
+    }
+}

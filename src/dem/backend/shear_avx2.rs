@@ -30,8 +30,10 @@ crate::avx2_entry_point! {
 /// The processor must have AVX2. `slots` must come from `Slots::sync` for these grains
 /// (indices < n, tables padded to a multiple of four), and `pos` and `vel` must hold n
 /// grains, as `shear_slots` (the one caller) asserts. `zeroed`: `acc` already holds
-/// zeros (for n grains; else it is refilled). `done`: see [`Done`]; its ranges must not
-/// reach the grains it is not given.
+/// zeros (for n grains; else it is refilled). `done`: see [`Done`], for the grains of
+/// `window` alone (0..n, or a thread's share, whose sums are whole only when `slots`
+/// holds every slot reaching them; what lands outside the window is never handed on).
+#[allow(clippy::too_many_arguments)]
 pub(crate) unsafe fn evaluate<const TRACK: bool>(
     pos: &[Pos],
     vel: &[Quad],
@@ -41,12 +43,15 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
+    window: std::ops::Range<usize>,
     done: Done,
 ) {
     let n = slots.n;
     debug_assert!(pp.alpha == 2.0 && hist.near.len() >= slots.len());
-    debug_assert!(pos.len() == n && vel.len() == n);
-    debug_assert!(!zeroed || acc.iter().all(|q| q.0 == [0.0; 4]));
+    debug_assert!(pos.len() == n && vel.len() == n && window.end <= n);
+    debug_assert!(
+        !zeroed || acc.len() != n || acc[window.clone()].iter().all(|q| q.0 == [0.0; 4])
+    );
     if !(zeroed && acc.len() == n) {
         acc.clear();
         acc.resize(n, Quad::default());
@@ -59,10 +64,16 @@ pub(crate) unsafe fn evaluate<const TRACK: bool>(
         // only then); the same numbers.
         let wide = crate::dem::backend::simd::level() == crate::dem::backend::simd::Level::Avx512;
         match (wide, pp.cdrot) {
-            (true, true) => slots_x8::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll, done),
-            (true, false) => slots_x8::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll, done),
-            (false, true) => slots_x4::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll, done),
-            (false, false) => slots_x4::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll, done),
+            (true, true) => slots_x8::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll, window, done),
+            (true, false) => {
+                slots_x8::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll, window, done)
+            }
+            (false, true) => {
+                slots_x4::<TRACK, true>(pos, vel, acc, slots, hist, pp, coll, window, done)
+            }
+            (false, false) => {
+                slots_x4::<TRACK, false>(pos, vel, acc, slots, hist, pp, coll, window, done)
+            }
         }
     }
 }
@@ -129,6 +140,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
+    window: std::ops::Range<usize>,
     done: Done,
 ) {
     unsafe {
@@ -141,7 +153,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
         let len = slots.len();
         let (si, sj) = (slots.i.as_ptr(), slots.j.as_ptr());
         let (inv_dij_p, dij2_p) = (slots.inv_dij.as_ptr(), slots.dij2.as_ptr());
-        let (n, sums) = (acc.len(), acc);
+        let (n, sums) = (window.end, acc);
         let vel_all = vel;
         let (pos, vel) = (pos.as_ptr(), vel.as_ptr());
         let mut acc: *mut Quad;
@@ -281,7 +293,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
         const G: usize = 16;
         let mut block = [const { std::mem::MaybeUninit::<Stage1>::uninit() }; G];
         let padded = len.next_multiple_of(4);
-        let mut complete = 0;
+        let mut complete = window.start;
         for k0 in (0..padded).step_by(4 * G) {
             acc = sums.as_mut_ptr();
             let groups = ((padded - k0) / 4).min(G);
@@ -298,7 +310,7 @@ unsafe fn slots_x4<const TRACK: bool, const CDROT: bool>(
             // Slots are in order of i (and j > i): grains below the next slot's i are done.
             let next = k0 + 4 * G;
             let limit = if next < len {
-                *si.add(next) as usize
+                (*si.add(next) as usize).min(n)
             } else {
                 n
             };

@@ -295,6 +295,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
     hist: &mut History,
     pp: &PairParams,
     coll: &mut Collisions,
+    window: std::ops::Range<usize>,
     done: crate::dem::shear::near::Done,
 ) {
     let c = Consts {
@@ -305,7 +306,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         minus_kd: _mm512_set1_pd(-pp.kd),
         one: _mm512_set1_pd(1.0),
     };
-    let (n, sums) = (acc.len(), acc);
+    let (n, sums) = (window.end, acc);
     let vel_all = vel;
     let (pos, vel) = (pos.as_ptr(), vel.as_ptr());
     let zero = _mm512_setzero_pd();
@@ -318,7 +319,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
     };
     let len = slots.len();
     let padded = len.next_multiple_of(8);
-    let mut complete = 0;
+    let mut complete = window.start;
     for k0 in (0..padded).step_by(8 * GROUPS) {
         let acc = sums.as_mut_ptr();
         let groups = ((padded - k0) / 8).min(GROUPS);
@@ -339,7 +340,7 @@ pub(crate) unsafe fn slots_x8<const TRACK: bool, const CDROT: bool>(
         // Slots are in order of i (and j > i): grains below the next slot's i are done.
         let next = k0 + 8 * GROUPS;
         let limit = if next < len {
-            slots.i[next] as usize
+            (slots.i[next] as usize).min(n)
         } else {
             n
         };

@@ -282,6 +282,34 @@ pub(crate) fn predict_packed(
         "predict_packed: slices of unequal length, or no AVX2"
     );
     let (pos, vel) = packed.reserve(n);
+    predict_packed_into(dt, rotate, state, r, inv, f0, (pos, vel), test)
+}
+
+/// As [`predict_packed`] for the grains of the slices (any range of grains: the packed
+/// state goes to `pos`, `vel`, of their length).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn predict_packed_into(
+    dt: f64,
+    rotate: bool,
+    state: Slices5,
+    r: &[f64],
+    inv: (&[f64], &[f64]),
+    f0: (&[f64], &[f64], &[f64]),
+    (pos, vel): (&mut [Pos], &mut [Quad]),
+    test: Option<StrayTest>,
+) -> Option<bool> {
+    let n = state.0.len();
+    let lens = [
+        state.1, state.2, state.3, state.4, r, inv.0, inv.1, f0.0, f0.1, f0.2,
+    ];
+    assert!(
+        std::is_x86_feature_detected!("avx2")
+            && lens.iter().all(|s| s.len() == n)
+            && pos.len() == n
+            && vel.len() == n
+            && test.is_none_or(|t| t.x_ref.len() == n && t.y_ref.len() == n),
+        "predict_packed: slices of unequal length, or no AVX2"
+    );
     // SAFETY: AVX2 present and every length n (checked above).
     unsafe { predict_x4(dt, rotate, state, r, inv, f0, pos, vel, test) }
 }

@@ -131,6 +131,54 @@ pub struct Spare {
     head: Vec<u32>,
     items: Vec<u32>,
     cell: Vec<u32>,
+    /// Threads to build on (the sheared disks' steps lend theirs): the same list.
+    pub pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+    /// Per range of grains, its partners and CSR ends (`build`'s scratch).
+    segs: Vec<(Vec<u32>, Vec<u32>)>,
+}
+
+/// Threads of a team: the workers of `pool` and the calling thread (one without).
+pub(crate) fn team_size(pool: Option<&rayon::ThreadPool>) -> usize {
+    pool.map_or(1, |p| p.current_num_threads() + 1)
+}
+
+/// `f` over each item (a range of grains, with what it writes): the first on the
+/// calling thread, the others on the workers of `pool` where there is one and more
+/// than one item (the caller works rather than sleeps, and its wake-up is saved); the
+/// results in order.
+pub(crate) fn chunked<I: Send, T: Send>(
+    pool: Option<&rayon::ThreadPool>,
+    items: Vec<I>,
+    f: impl Fn(I) -> T + Sync,
+) -> Vec<T> {
+    match pool {
+        Some(pool) if items.len() > 1 => {
+            let mut out: Vec<Option<T>> = items.iter().map(|_| None).collect();
+            let f = &f;
+            pool.in_place_scope(|s| {
+                let mut it = items.into_iter().zip(out.iter_mut());
+                let first = it.next();
+                for (item, o) in it {
+                    s.spawn(move |_| *o = Some(f(item)));
+                }
+                if let Some((item, o)) = first {
+                    *o = Some(f(item));
+                }
+            });
+            out.into_iter()
+                .map(|o| o.expect("every item ran"))
+                .collect()
+        }
+        _ => items.into_iter().map(f).collect(),
+    }
+}
+
+/// 0..n in `parts` ranges of about equal size.
+pub(crate) fn even_ranges(n: usize, parts: usize) -> Vec<std::ops::Range<usize>> {
+    let parts = parts.clamp(1, n.max(1));
+    (0..parts)
+        .map(|t| n * t / parts..n * (t + 1) / parts)
+        .collect()
 }
 
 impl PartialEq for Spare {
@@ -220,6 +268,8 @@ impl PairList {
             head,
             items,
             mut cell,
+            pool,
+            segs: mut segments,
         } = std::mem::take(&mut self.spare);
         start.clear();
         js.clear();
@@ -228,59 +278,98 @@ impl PairList {
         self.cut = cut;
         let grid = Grid::new(x, y, cut, b, (head, items), &mut cell);
         let delta = b.image();
-        let mut seg: Vec<u32> = vec![0; 64];
-        let mut cells = [(0, 0); 9];
-        for i in 0..n {
-            let count = match &grid {
-                Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
-                None => {
-                    cells[0] = (i as u32 + 1, n as u32);
-                    1
+        let skin = self.skin;
+        // Each grain's partners depend on nothing but the grid: ranges of grains are
+        // listed apart (on threads, where lent) and joined in order.
+        let ranges = even_ranges(n, team_size(pool.as_deref()));
+        // A range's partners onto `js`, the end of each grain's onto `ends` (offsets
+        // within `js`).
+        let list_range =
+            |grains: std::ops::Range<usize>, js: &mut Vec<u32>, ends: &mut Vec<u32>| {
+                let mut seg: Vec<u32> = vec![0; 64];
+                let mut cells = [(0, 0); 9];
+                for i in grains {
+                    let count = match &grid {
+                        Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
+                        None => {
+                            cells[0] = (i as u32 + 1, n as u32);
+                            1
+                        }
+                    };
+                    let ranges = &cells[..count];
+                    // Every candidate is written and kept only by advancing `m`: whether j > i
+                    // and whether it is in reach are coin flips a branch would mispredict.
+                    let mut m = 0;
+                    for &(a, b) in ranges {
+                        for q in a as usize..b as usize {
+                            let j = match &grid {
+                                Some(g) => g.items[q] as usize,
+                                None => q,
+                            };
+                            let (dx, dy) = delta.of(x[i] - x[j], y[i] - y[j]);
+                            let c = r[i] + r[j] + skin;
+                            if m == seg.len() {
+                                seg.push(0);
+                            }
+                            seg[m] = j as u32;
+                            m += ((j > i) & (dx * dx + dy * dy < c * c)) as usize;
+                        }
+                    }
+                    let seg = &mut seg[..m];
+                    seg.sort_unstable();
+                    js.extend_from_slice(seg);
+                    ends.push(js.len() as u32);
                 }
             };
-            let ranges = &cells[..count];
-            // Every candidate is written and kept only by advancing `m`: whether j > i and
-            // whether it is in reach are coin flips a branch would mispredict.
-            let mut m = 0;
-            for &(a, b) in ranges {
-                for q in a as usize..b as usize {
-                    let j = match &grid {
-                        Some(g) => g.items[q] as usize,
-                        None => q,
-                    };
-                    let (dx, dy) = delta.of(x[i] - x[j], y[i] - y[j]);
-                    let c = r[i] + r[j] + self.skin;
-                    if m == seg.len() {
-                        seg.push(0);
-                    }
-                    seg[m] = j as u32;
-                    m += ((j > i) & (dx * dx + dy * dy < c * c)) as usize;
-                }
+        if ranges.len() == 1 {
+            // One range: straight into the list (`start` holds its leading 0).
+            list_range(0..n, &mut js, &mut start);
+        } else {
+            // Each range's buffers are kept for the next build.
+            segments.resize_with(ranges.len(), Default::default);
+            let items = ranges.iter().cloned().zip(segments.iter_mut()).collect();
+            chunked(pool.as_deref(), items, |(grains, (js, ends))| {
+                js.clear();
+                ends.clear();
+                list_range(grains, js, ends);
+            });
+            for (part, ends) in &segments {
+                let base = js.len() as u32;
+                js.extend_from_slice(part);
+                start.extend(ends.iter().map(|e| base + e));
             }
-            let seg = &mut seg[..m];
-            seg.sort_unstable();
-            js.extend_from_slice(seg);
-            start.push(js.len() as u32);
         }
         // Carry the history of surviving pairs (both segments are sorted by j).
         shear.clear();
         shear.resize(js.len(), 0.0);
         if self.start.len() == n + 1 {
-            for i in 0..n {
-                let (old, new) = (
-                    self.start[i] as usize..self.start[i + 1] as usize,
-                    start[i] as usize..start[i + 1] as usize,
-                );
-                let mut k = old.start;
-                for m in new {
-                    while k < old.end && self.j[k] < js[m] {
-                        k += 1;
-                    }
-                    if k < old.end && self.j[k] == js[m] {
-                        shear[m] = self.shear[k];
+            let (old_start, old_j, old_shear) = (&self.start, &self.j, &self.shear);
+            let mut pieces = Vec::with_capacity(ranges.len());
+            let mut rest = &mut shear[..];
+            for g in &ranges {
+                let (a, b) = rest.split_at_mut((start[g.end] - start[g.start]) as usize);
+                pieces.push((g.clone(), a));
+                rest = b;
+            }
+            let (start, js) = (&start, &js);
+            chunked(pool.as_deref(), pieces, |(grains, piece)| {
+                let base = start[grains.start] as usize;
+                for i in grains {
+                    let (old, new) = (
+                        old_start[i] as usize..old_start[i + 1] as usize,
+                        start[i] as usize..start[i + 1] as usize,
+                    );
+                    let mut k = old.start;
+                    for m in new {
+                        while k < old.end && old_j[k] < js[m] {
+                            k += 1;
+                        }
+                        if k < old.end && old_j[k] == js[m] {
+                            piece[m - base] = old_shear[k];
+                        }
                     }
                 }
-            }
+            });
         }
         let (head, items) = grid.map(|g| (g.head, g.items)).unwrap_or_default();
         self.spare = Spare {
@@ -290,6 +379,8 @@ impl PairList {
             head,
             items,
             cell,
+            pool,
+            segs: segments,
         };
         self.x_ref.clear();
         self.x_ref.extend_from_slice(x);

@@ -177,6 +177,9 @@ impl ShearSim {
             kernel: Default::default(),
             packed: Default::default(),
             packed_now: Default::default(),
+            threads: 0,
+            #[cfg(target_arch = "x86_64")]
+            par: Default::default(),
         };
         Ok((sim, extra))
     }

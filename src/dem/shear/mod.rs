@@ -15,6 +15,8 @@ pub mod order;
 pub mod pairs;
 pub mod params;
 pub mod slots;
+#[cfg(target_arch = "x86_64")]
+pub mod threads;
 
 use crate::dem::base::grains::{Grains, LARGE, SMALL};
 use crate::dem::base::verlet::{Boundary, PairList};
@@ -70,6 +72,12 @@ pub struct ShearSim {
     /// The state at t + Δt packed by the corrector, while the kernel still reads the
     /// predicted one from `packed`.
     pub packed_now: Packed,
+    /// Threads a step may use (0: one per core, see `threads_for_run`). Not part of the
+    /// physics: any count gives the same numbers.
+    pub threads: usize,
+    /// The threads' tables and pool (a cache).
+    #[cfg(target_arch = "x86_64")]
+    pub par: threads::ShearThreads,
 }
 
 /// The sheared disks' force kernels: the same numbers, different speed.
@@ -151,6 +159,9 @@ impl ShearSim {
             kernel: ShearKernel::default(),
             packed: Packed::default(),
             packed_now: Packed::default(),
+            threads: 0,
+            #[cfg(target_arch = "x86_64")]
+            par: Default::default(),
         };
         s.refresh();
         s
@@ -180,6 +191,8 @@ impl ShearSim {
     /// states, not the predictor of Eq. 22).
     fn evaluate(&mut self, predicted: bool) {
         let track = !predicted;
+        #[cfg(target_arch = "x86_64")]
+        self.par.history_changed();
         let b = self.boundary();
         let ShearSim {
             g,
@@ -250,6 +263,16 @@ impl ShearSim {
         } else {
             "portable"
         }
+    }
+
+    /// Threads the steps run on: `threads_for_run()` where the steps run packed (the
+    /// harmonic law's vector kernels), else one.
+    pub fn step_threads_used(&self) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == ShearKernel::Slots && Packed::used_for(&self.p) {
+            return self.threads_for_run();
+        }
+        1
     }
 
     /// Start times (τ_e) of the contacts open now, from the pair histories (each
@@ -323,7 +346,13 @@ impl ShearSim {
         }
         #[cfg(target_arch = "x86_64")]
         if self.kernel == ShearKernel::Slots && Packed::used_for(&self.p) {
-            self.step_packed();
+            match self.threads_for_run() {
+                1 => {
+                    self.par.history_changed();
+                    self.step_packed();
+                }
+                t => self.step_threads(t),
+            }
             return;
         }
         let (dt, rotate) = (self.p.dt, self.rotate);

@@ -11,7 +11,9 @@
 //! the thin skin) and every pair with contact history, so the forces, their order of
 //! summation and the contact bookkeeping are those of the whole list.
 
-use crate::dem::base::verlet::{Boundary, PairList, strain_since, stray_limit, strays};
+use crate::dem::base::verlet::{
+    Boundary, PairList, chunked, even_ranges, strain_since, stray_limit, strays, team_size,
+};
 use crate::dem::shear::params::{Collisions, angle_bin, collision_angle};
 
 /// Extra distance beyond contact kept in the near list (d_s): the range its skin adapts
@@ -70,6 +72,32 @@ pub struct Slots {
     all_i: Vec<u32>,
     all_inv_dij: Vec<f64>,
     all_dij: Vec<f64>,
+    /// Per range of grains, the buffers of its selection (scratch).
+    selected: Vec<Selected>,
+}
+
+/// One range's selection (see `Slots::select`): its first `len` slots.
+#[derive(Debug, Clone, Default)]
+struct Selected {
+    i: Vec<u32>,
+    j: Vec<u32>,
+    inv_dij: Vec<f64>,
+    dij2: Vec<f64>,
+    hist: Vec<f64>,
+    sel: Vec<u32>,
+    len: usize,
+}
+
+impl Selected {
+    /// Room for `len` slots, each written before it is read.
+    fn resize(&mut self, len: usize) {
+        for v in [&mut self.i, &mut self.j, &mut self.sel] {
+            v.resize(len, 0);
+        }
+        for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
+            v.resize(len, 0.0);
+        }
+    }
 }
 
 /// See [`Slots::stray_test`]: positions at the last selection (d_s), the shear since
@@ -223,33 +251,99 @@ impl Slots {
             self.all_inv_dij
                 .extend(self.all_dij.iter().map(|d| 1.0 / d));
         }
+        let delta = b.image();
+        // Ranges of grains select apart (on the threads the Verlet list was lent, if
+        // any) and join in order: the same list.
+        let pool = list.spare.pool.as_deref();
+        let ranges = even_ranges(n, team_size(pool));
+        let select_range = |ks: std::ops::Range<usize>, out: &mut Selected| {
+            out.resize(ks.len());
+            // Every Verlet slot is written at m and kept by advancing m: whether it is
+            // near is a coin flip a branch would mispredict.
+            let mut m = 0;
+            for k in ks {
+                let (a, c) = (self.all_i[k] as usize, list.j[k] as usize);
+                let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
+                let dij = self.all_dij[k];
+                let reach = dij + self.skin;
+                let h = list.shear[k];
+                // Pairs with history stay, however far: their contact ends here.
+                // (Written as "not beyond" so a NaN separation stays in, as the
+                // straight loop sees it.)
+                let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
+                out.i[m] = a as u32;
+                out.j[m] = c as u32;
+                out.inv_dij[m] = self.all_inv_dij[k];
+                out.dij2[m] = dij * dij;
+                out.hist[m] = h;
+                out.sel[m] = k as u32;
+                m += keep as usize;
+            }
+            out.len = m;
+        };
+        let mut parts = std::mem::take(&mut self.selected);
+        if ranges.len() == 1 {
+            // One range: straight into the list's own arrays.
+            let mut out = Selected {
+                i: std::mem::take(&mut self.i),
+                j: std::mem::take(&mut self.j),
+                inv_dij: std::mem::take(&mut self.inv_dij),
+                dij2: std::mem::take(&mut self.dij2),
+                hist: std::mem::take(&mut self.hist),
+                sel: std::mem::take(&mut self.sel),
+                len: 0,
+            };
+            select_range(0..total, &mut out);
+            parts.clear();
+            parts.push(out);
+        } else {
+            // Each range's buffers are kept for the next selection (fresh memory is
+            // slow to touch).
+            parts.resize_with(ranges.len(), Default::default);
+            let items = ranges
+                .iter()
+                .map(|g| list.start[g.start] as usize..list.start[g.end] as usize)
+                .zip(parts.iter_mut())
+                .collect();
+            chunked(pool, items, |(ks, out)| select_range(ks, out));
+        }
+        let m: usize = parts.iter().map(|p| p.len).sum();
+        if ranges.len() == 1 {
+            let out = parts.pop().expect("one range");
+            (self.i, self.j, self.inv_dij) = (out.i, out.j, out.inv_dij);
+            (self.dij2, self.hist, self.sel) = (out.dij2, out.hist, out.sel);
+        } else {
+            for v in [&mut self.i, &mut self.j, &mut self.sel] {
+                v.clear();
+            }
+            for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
+                v.clear();
+            }
+            for p in &parts {
+                let m = p.len;
+                self.i.extend_from_slice(&p.i[..m]);
+                self.j.extend_from_slice(&p.j[..m]);
+                self.inv_dij.extend_from_slice(&p.inv_dij[..m]);
+                self.dij2.extend_from_slice(&p.dij2[..m]);
+                self.hist.extend_from_slice(&p.hist[..m]);
+                self.sel.extend_from_slice(&p.sel[..m]);
+            }
+        }
+        self.selected = parts;
+        // Padding (pairs that never touch) up to a multiple of eight; the arrays keep
+        // the Verlet list's length, rounded up to eight.
         let padded = total.next_multiple_of(8);
         for v in [&mut self.i, &mut self.j, &mut self.sel] {
+            v.truncate(m);
             v.resize(padded, 0);
         }
-        for v in [&mut self.inv_dij, &mut self.dij2, &mut self.hist] {
-            v.resize(padded, 0.0);
-        }
-        let delta = b.image();
-        // Every Verlet slot is written at m and kept by advancing m: whether it is near
-        // is a coin flip a branch would mispredict.
-        let mut m = 0;
-        for k in 0..total {
-            let (a, c) = (self.all_i[k] as usize, list.j[k] as usize);
-            let (dx, dy) = delta.of(x[a] - x[c], y[a] - y[c]);
-            let dij = self.all_dij[k];
-            let reach = dij + self.skin;
-            let h = list.shear[k];
-            // Pairs with history stay, however far: their contact ends here. (Written
-            // as "not beyond" so a NaN separation stays in, as the straight loop sees it.)
-            let keep = !(dx * dx + dy * dy >= reach * reach) | (h != 0.0);
-            self.i[m] = a as u32;
-            self.j[m] = c as u32;
-            self.inv_dij[m] = self.all_inv_dij[k];
-            self.dij2[m] = dij * dij;
-            self.hist[m] = h;
-            self.sel[m] = k as u32;
-            m += keep as usize;
+        for (v, pad) in [
+            (&mut self.inv_dij, 0.0),
+            (&mut self.dij2, -1.0),
+            (&mut self.hist, 0.0),
+        ] {
+            v.truncate(m);
+            v.resize(padded, pad);
         }
         self.len = m;
         self.start.clear();
@@ -261,12 +355,6 @@ impl Slots {
             self.start[a + 1] += self.start[a];
         }
         let padded = m.next_multiple_of(8);
-        for v in [&mut self.i, &mut self.j, &mut self.sel] {
-            v[m..padded].fill(0);
-        }
-        self.inv_dij[m..padded].fill(0.0);
-        self.dij2[m..padded].fill(-1.0);
-        self.hist[m..padded].fill(0.0);
         self.x_ref.clear();
         self.x_ref.extend_from_slice(x);
         self.y_ref.clear();
@@ -294,10 +382,77 @@ impl Slots {
                 near: &mut near,
                 sel: &sel,
                 all,
+                log: None,
             },
         );
         (self.hist, self.sel) = (near, sel);
         r
+    }
+
+    /// A thread's tables for grains `lo..hi` (the near list's CSR runs of those grains,
+    /// a contiguous range of its slots): `own`, those slots in order, and `imports`, in
+    /// order, the slots of earlier grains whose partner j lies in `lo..hi`. Evaluated
+    /// in that order, imports first, they add to each grain of the range every term it
+    /// gets, in the near list's order: the same sums bit for bit as one pass over the
+    /// list. (The import slots are also evaluated by their owner's thread: a few
+    /// duplicated pairs, against waiting.) Returns the first slot of `own` in the list.
+    pub(crate) fn split_into(
+        &self,
+        (lo, hi): (usize, usize),
+        own: &mut Slots,
+        imports: &mut Slots,
+    ) -> usize {
+        let (k0, k1) = (self.start[lo] as usize, self.start[hi] as usize);
+        own.clear_table();
+        own.extend_from(self, k0..k1);
+        own.pad(lo);
+        imports.clear_table();
+        for k in 0..k0 {
+            let j = self.j[k] as usize;
+            if (lo..hi).contains(&j) {
+                imports.extend_from(self, k..k + 1);
+            }
+        }
+        imports.pad(lo);
+        for t in [&mut *own, &mut *imports] {
+            t.n = self.n;
+        }
+        k0
+    }
+
+    fn clear_table(&mut self) {
+        self.i.clear();
+        self.j.clear();
+        self.inv_dij.clear();
+        self.dij2.clear();
+        self.hist.clear();
+    }
+
+    fn extend_from(&mut self, from: &Slots, r: std::ops::Range<usize>) {
+        self.i.extend_from_slice(&from.i[r.clone()]);
+        self.j.extend_from_slice(&from.j[r.clone()]);
+        self.inv_dij.extend_from_slice(&from.inv_dij[r.clone()]);
+        self.dij2.extend_from_slice(&from.dij2[r.clone()]);
+        self.hist.extend_from_slice(&from.hist[r]);
+    }
+
+    /// Padded to a multiple of eight with slots (g, g) that never touch (as `select`
+    /// pads, on a grain of the thread's own, so that their ±0.0 terms land there).
+    fn pad(&mut self, g: usize) {
+        self.len = self.i.len();
+        let padded = self.len.next_multiple_of(8);
+        self.i.resize(padded, g as u32);
+        self.j.resize(padded, g as u32);
+        self.inv_dij.resize(padded, 0.0);
+        self.dij2.resize(padded, -1.0);
+        self.hist.resize(padded, 0.0);
+    }
+
+    /// Copy the near list's current histories of slots `k0..` into this table's
+    /// (`split_into`'s `own`).
+    pub(crate) fn copy_history(&mut self, from: &Slots, k0: usize) {
+        let len = self.len;
+        self.hist[..len].copy_from_slice(&from.hist[k0..k0 + len]);
     }
 
     /// The pairs (i, j) of the near list, in order.
@@ -323,6 +478,32 @@ pub struct History<'a> {
     pub near: &'a mut [f64],
     sel: &'a [u32],
     all: &'a mut [f64],
+    /// A thread's evaluation: events are logged, not applied, and applied afterwards in
+    /// slot order (`Collisions` sums durations, whose rounding depends on the order).
+    log: Option<&'a mut Vec<Event>>,
+}
+
+/// A contact event a thread met (see [`History::logging`]): near slot `k` of its table,
+/// with what [`History::update`] was given.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Event {
+    pub k: usize,
+    pub touch: bool,
+    pub d: (f64, f64),
+    pub dv: (f64, f64),
+}
+
+impl<'a> History<'a> {
+    /// A history that reads `near` (a thread's copy of its slots' histories) and logs
+    /// each event into `log` instead of applying it.
+    pub(crate) fn logging(near: &'a mut [f64], log: &'a mut Vec<Event>) -> Self {
+        History {
+            near,
+            sel: &[],
+            all: &mut [],
+            log: Some(log),
+        }
+    }
 }
 
 impl History<'_> {
@@ -341,6 +522,11 @@ impl History<'_> {
     ) {
         let h = self.near[k];
         if touch != (h != 0.0) {
+            if let Some(log) = self.log.as_mut() {
+                let dv = dv();
+                log.push(Event { k, touch, d, dv });
+                return;
+            }
             let new = contact_event(h, touch, d, dv(), now, coll);
             self.near[k] = new;
             self.all[self.sel[k] as usize] = new;

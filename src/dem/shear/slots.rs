@@ -176,6 +176,7 @@ pub(crate) fn evaluate_packed<const TRACK: bool>(
             hist,
             pp,
             coll,
+            0..n,
             done,
         );
     });

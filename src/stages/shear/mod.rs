@@ -75,6 +75,10 @@ pub struct ShearOptions {
     /// stage key enters this one's), instead of random positions.
     #[serde(skip)]
     pub from_state: Option<PathBuf>,
+    /// Threads (0: one per core, at most one per 4096 disks). Not part of the physics:
+    /// any count gives the same numbers, so it is neither recorded nor keyed.
+    #[serde(skip)]
+    pub threads: usize,
 }
 
 impl Default for ShearOptions {
@@ -102,6 +106,7 @@ impl Default for ShearOptions {
             quiet: false,
             halt_after: None,
             from_state: None,
+            threads: 0,
         }
     }
 }
@@ -210,6 +215,7 @@ pub fn options_for_resume(
     // Not serialised, so not recorded: they stay as given.
     o.halt_after = opt.halt_after;
     o.from_state.clone_from(&opt.from_state);
+    o.threads = opt.threads;
     Ok((o, taken))
 }
 
@@ -296,6 +302,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         dir.start()?;
         origin.unwrap_or_else(|| ShearSim::new(p.clone()))
     };
+    sim.threads = opt.threads;
     let ramp = ramp_plan(opt, &p)?;
     let total = step0
         + match &ramp {
@@ -486,6 +493,7 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         "elapsed_s": rep.elapsed_s,
         "ns_per_particle_step": rep.elapsed_s * 1e9 / (sim.g.len() as f64 * sim.step.max(1) as f64),
         "force_kernel": sim.kernel_name(),
+        "threads_this_session": sim.step_threads_used(),
         "decisions": [
             "units d_s = m = tau_e = 1: k_e = 1, k_d = 1/Q",
             "positions unwrapped; minimum image with the Lees–Edwards offset gamma L, the image's velocity shifted by n gamma_dot L",

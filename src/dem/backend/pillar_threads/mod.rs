@@ -36,17 +36,11 @@ const REBALANCE_EVERY: u64 = 128;
 const TIME_EVERY: u64 = 16;
 
 impl PillarSim {
-    /// Threads an `advance` uses: the `threads` setting, or (0) one per core up to one
-    /// per 256 grains (fewer grains per thread cost more in waiting than they save).
+    /// Threads an `advance` uses: the `threads` setting, or (0) one per core
+    /// (`RAYON_NUM_THREADS` when set) up to one per 256 grains (fewer grains per thread cost more in waiting than they save).
     pub fn threads_for_run(&self) -> usize {
         let n = self.grains.len();
-        match self.scratch.threads {
-            0 => std::thread::available_parallelism()
-                .map_or(1, |c| c.get())
-                .min(n / 256)
-                .max(1),
-            t => t.min(n).max(1),
-        }
+        crate::dem::backend::threads_for(self.scratch.threads, n / 256, n)
     }
 
     /// Advance `steps` time steps δt (see `step`), on `threads_for_run()` threads; the

@@ -1,0 +1,462 @@
+//! The sheared disks' steps on several threads, with the same numbers bit for bit as
+//! on one (and so for any thread count).
+//!
+//! Each thread owns a contiguous range of grains (a band of rows, the grains being in
+//! cell order) and the near list's slots of those grains. A grain's force is a sum in
+//! slot order: first the terms of slots (i, g) with i < g, then its own slots. The terms
+//! from earlier threads' slots (i in an earlier band, or in the bottom band across the
+//! Lees–Edwards boundary) are *imports*: each thread evaluates those slots again itself,
+//! first, in slot order, and keeps only their j side; its own slots follow, their j
+//! side kept only for its own grains. Every grain then gets the terms it gets on one
+//! thread, in the same order, and no thread waits for another within an evaluation
+//! (the pairs evaluated twice are a few per cent at the bands' edges). Contact events
+//! are logged per thread and applied after, in slot order (the collision counts sum
+//! durations, whose rounding depends on the order). The integrator works grain by
+//! grain and splits as the grains do; the near list's re-selection and the Verlet
+//! list's rebuild stay on the calling thread.
+
+use crate::dem::backend::shear_integrate_avx2::{
+    Now, correct_packed, predict_packed_into, unpack_forces,
+};
+use crate::dem::base::verlet::{chunked, team_size};
+use crate::dem::shear::ShearSim;
+use crate::dem::shear::integrate::{Pos, Quad};
+use crate::dem::shear::near::{Event, History, Slots};
+use crate::dem::shear::pairs::PairParams;
+use crate::dem::shear::params::Collisions;
+use std::sync::Arc;
+
+/// Grains per thread below which the default thread count (`threads` = 0) adds no
+/// thread: an evaluation of fewer grains is over before a woken thread has started.
+pub const GRAINS_PER_THREAD: usize = 4096;
+
+/// The threads' tables and pool: a cache, rebuilt when missing, never part of a
+/// simulation's value.
+#[derive(Default)]
+pub struct ShearThreads {
+    pool: Option<Arc<rayon::ThreadPool>>,
+    parts: Vec<Part>,
+    /// The near list's selection (`Slots::selections`) and the split the tables were
+    /// made for.
+    split_of: Option<(u64, Vec<usize>)>,
+    /// The tables' history copies are the near list's (false after any evaluation that
+    /// did not run here, which may have changed them).
+    hist_synced: bool,
+}
+
+impl Clone for ShearThreads {
+    fn clone(&self) -> Self {
+        ShearThreads {
+            pool: self.pool.clone(),
+            ..Default::default()
+        }
+    }
+}
+
+impl PartialEq for ShearThreads {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for ShearThreads {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "ShearThreads({} parts)", self.parts.len())
+    }
+}
+
+impl ShearThreads {
+    /// Forget that the tables' histories are current (an evaluation elsewhere).
+    pub(crate) fn history_changed(&mut self) {
+        self.hist_synced = false;
+    }
+
+    /// A pool of `threads` − 1 workers: the calling thread is the team's first.
+    fn pool(&mut self, threads: usize) -> Arc<rayon::ThreadPool> {
+        match &self.pool {
+            Some(p) if team_size(Some(p)) == threads => p.clone(),
+            _ => {
+                let p = Arc::new(
+                    rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads - 1)
+                        .thread_name(|t| format!("shear-{t}"))
+                        .build()
+                        .expect("a thread pool for the sheared disks"),
+                );
+                self.pool = Some(p.clone());
+                p
+            }
+        }
+    }
+
+    /// The tables for the current selection of `slots` and split `bounds`, each made
+    /// by its own thread of `pool`.
+    fn split(&mut self, slots: &Slots, bounds: &[usize], pool: &rayon::ThreadPool) {
+        if self
+            .split_of
+            .as_ref()
+            .is_some_and(|(s, b)| *s == slots.selections && b == bounds)
+        {
+            return;
+        }
+        let moved = self.split_of.as_ref().is_none_or(|(_, b)| b != bounds);
+        self.parts.resize_with(bounds.len() - 1, Part::default);
+        let jobs: Vec<_> = self
+            .parts
+            .iter_mut()
+            .enumerate()
+            .map(|(t, p)| {
+                move || {
+                    if moved {
+                        // Sums another share left (outside its range) would be read now.
+                        p.acc.clear();
+                    }
+                    p.lo = bounds[t];
+                    p.hi = bounds[t + 1];
+                    p.k0 = slots.split_into((p.lo, p.hi), &mut p.own, &mut p.imports);
+                }
+            })
+            .collect();
+        on_threads(pool, jobs);
+        self.split_of = Some((slots.selections, bounds.to_vec()));
+        // `split_into` copied the histories.
+        self.hist_synced = true;
+    }
+}
+
+/// One thread's share: grains `lo..hi`, their slots (`own`, from the near list's slot
+/// `k0` on) and the earlier slots that reach them (`imports`), the force sums
+/// (indexed by grain; only `lo..hi` is read: what lands elsewhere is another thread's
+/// and is never read), and the contact events of an evaluation.
+#[derive(Default)]
+struct Part {
+    lo: usize,
+    hi: usize,
+    k0: usize,
+    own: Slots,
+    imports: Slots,
+    acc: Vec<Quad>,
+    log: Vec<Event>,
+    /// Never written (evaluations without tracking do not count).
+    no_coll: Collisions,
+}
+
+/// Split grains 0..n into `threads` ranges of about equal size, each boundary a
+/// multiple of eight grains (so no cache line of a per-grain array is written by two
+/// threads).
+fn bounds(n: usize, threads: usize) -> Vec<usize> {
+    (0..=threads)
+        .map(|t| {
+            if t == threads {
+                n
+            } else {
+                (n * t / threads) & !7
+            }
+        })
+        .collect()
+}
+
+/// Cut `v` at `bounds` (ascending, from 0 to `v.len()`).
+fn cut<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(bounds.len() - 1);
+    for w in bounds.windows(2) {
+        let (a, rest) = v.split_at_mut(w[1] - w[0]);
+        out.push(a);
+        v = rest;
+    }
+    out
+}
+
+/// Run each job, the first on the calling thread, the others on the workers of
+/// `pool`; their results in order.
+fn on_threads<J, T>(pool: &rayon::ThreadPool, jobs: Vec<J>) -> Vec<T>
+where
+    J: FnOnce() -> T + Send,
+    T: Send,
+{
+    chunked(Some(pool), jobs, |job| job())
+}
+
+/// Forces of one part at the packed state (`pos`, `vel`): the imports, then its own
+/// slots (with `TRACK`, their contact events logged), `done` called with the part's
+/// grains' sums as they are complete.
+///
+/// # Safety
+/// The processor has AVX2; `pos` and `vel` hold the n grains the near list the part's
+/// tables were split from was selected for.
+unsafe fn part_forces<const TRACK: bool>(
+    (pos, vel): (&[Pos], &[Quad]),
+    part: &mut Part,
+    pp: &PairParams,
+    done: crate::dem::shear::near::Done,
+) {
+    use crate::dem::backend::shear_avx2::evaluate;
+    let Part {
+        lo,
+        hi,
+        own,
+        imports,
+        acc,
+        log,
+        no_coll,
+        ..
+    } = part;
+    let (lo, hi) = (*lo, *hi);
+    // SAFETY: this function's contract; the tables hold indices < n, padded to a
+    // multiple of eight (`Slots::split_into`).
+    unsafe {
+        // The histories move out while the kernel reads the tables (as `with_history`).
+        let mut hist = std::mem::take(&mut imports.hist);
+        let mut h = History::logging(&mut hist, log);
+        let mut skip = |_: std::ops::Range<usize>, _: &mut [Quad], _: &Slots| {};
+        evaluate::<false>(
+            pos,
+            vel,
+            imports,
+            acc,
+            true,
+            &mut h,
+            pp,
+            no_coll,
+            lo..lo,
+            &mut skip,
+        );
+        imports.hist = hist;
+        let mut hist = std::mem::take(&mut own.hist);
+        let mut h = History::logging(&mut hist, log);
+        evaluate::<TRACK>(pos, vel, own, acc, true, &mut h, pp, no_coll, lo..hi, done);
+        own.hist = hist;
+    }
+}
+
+impl ShearSim {
+    /// Threads a step uses: the `threads` setting, or (0) one per core
+    /// (`RAYON_NUM_THREADS` when set) up to one per [`GRAINS_PER_THREAD`] grains. Only
+    /// the packed steps (harmonic law, AVX2) run on several; the result never depends
+    /// on it.
+    pub fn threads_for_run(&self) -> usize {
+        let n = self.g.len();
+        crate::dem::backend::threads_for(self.threads, n / GRAINS_PER_THREAD, n / 64)
+    }
+
+    /// `step_packed` on `threads` threads: the same numbers.
+    pub(super) fn step_threads(&mut self, threads: usize) {
+        let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
+        assert!(std::is_x86_feature_detected!("avx2"), "no AVX2");
+        let bounds = bounds(n, threads);
+        let pool = self.par.pool(threads);
+        // The Verlet list's rebuilds and the near list's selections, inside the syncs
+        // below, run on the same threads.
+        self.list.spare.pool = Some(pool.clone());
+        self.advance_clock();
+        let b = self.boundary();
+        let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
+
+        // Eqs. 21–22, with the near list's stray test.
+        let strayed = {
+            let (g, pr) = (&self.g, &self.pred);
+            let test = self.slots.stray_test(self.list.builds, n, b);
+            let (pos, vel) = self.packed.reserve(n);
+            let jobs: Vec<_> = cut(pos, &bounds)
+                .into_iter()
+                .zip(cut(vel, &bounds))
+                .enumerate()
+                .map(|(t, (pos, vel))| {
+                    let r = bounds[t]..bounds[t + 1];
+                    move || {
+                        let rr = || r.clone();
+                        predict_packed_into(
+                            dt,
+                            rotate,
+                            (
+                                &g.x[rr()],
+                                &g.y[rr()],
+                                &g.vx[rr()],
+                                &g.vy[rr()],
+                                &g.omega[rr()],
+                            ),
+                            &g.radius[rr()],
+                            (&pr.inv_m[rr()], &pr.inv_i[rr()]),
+                            (&pr.f0x[rr()], &pr.f0y[rr()], &pr.t0[rr()]),
+                            (pos, vel),
+                            test.map(|t| t.range(rr())),
+                        )
+                    }
+                })
+                .collect();
+            let answers = on_threads(&pool, jobs);
+            answers.iter().try_fold(false, |a, s| s.map(|s| a | s))
+        };
+        if !self.slots.current(&self.list, n, b, strayed) {
+            let pr = &mut self.pred;
+            pr.x.clear();
+            pr.y.clear();
+            pr.x.extend(self.packed.pos.iter().map(|p| p.0[0]));
+            pr.y.extend(self.packed.pos.iter().map(|p| p.0[1]));
+        }
+        let r = &self.g.radius;
+        let pr = &self.pred;
+        self.slots
+            .sync_tested(&mut self.list, r, (&pr.x, &pr.y), b, strayed);
+        self.par.split(&self.slots, &bounds, &pool);
+
+        // Forces at the predicted state, and Eqs. 23–24 range by range as each part's
+        // sums are complete; the state at t + Δt to `packed_now`.
+        let strayed = {
+            let ShearSim {
+                g,
+                pred: pr,
+                slots,
+                packed,
+                packed_now,
+                par,
+                list,
+                ..
+            } = self;
+            let pr = &*pr;
+            // The Verlet list's build after the sync above (it may have rebuilt it).
+            let test = slots.stray_test(list.builds, n, b);
+            let (now_pos, now_vel) = packed_now.reserve(n);
+            let (packed, pp) = (&*packed, &pp);
+            let r = &g.radius[..];
+            let (x, y, th) = (
+                cut(&mut g.x, &bounds),
+                cut(&mut g.y, &bounds),
+                cut(&mut g.theta, &bounds),
+            );
+            let (vx, vy, w) = (
+                cut(&mut g.vx, &bounds),
+                cut(&mut g.vy, &bounds),
+                cut(&mut g.omega, &bounds),
+            );
+            let (now_pos, now_vel) = (cut(now_pos, &bounds), cut(now_vel, &bounds));
+            let mut jobs = Vec::with_capacity(threads);
+            let per = par
+                .parts
+                .iter_mut()
+                .zip(x)
+                .zip(y)
+                .zip(th)
+                .zip(vx)
+                .zip(vy)
+                .zip(w)
+                .zip(now_pos)
+                .zip(now_vel);
+            for ((((((((part, x), y), th), vx), vy), w), np), nv) in per {
+                jobs.push(move || {
+                    let lo = part.lo;
+                    let (mut tested, mut far) = (true, false);
+                    let mut correct = |range: std::ops::Range<usize>,
+                                       f1: &mut [Quad],
+                                       _: &Slots| {
+                        let test = test.map(|t| t.range(range.clone()));
+                        tested &= test.is_some();
+                        let l = range.start - lo..range.end - lo;
+                        let now = Now {
+                            x: &mut x[l.clone()],
+                            y: &mut y[l.clone()],
+                            theta: &mut th[l.clone()],
+                            vx: &mut vx[l.clone()],
+                            vy: &mut vy[l.clone()],
+                            w: &mut w[l.clone()],
+                            r: &r[range.clone()],
+                            f0: (
+                                &pr.f0x[range.clone()],
+                                &pr.f0y[range.clone()],
+                                &pr.t0[range.clone()],
+                            ),
+                        };
+                        let inv = (&pr.inv_m[range.clone()], &pr.inv_i[range.clone()]);
+                        let out = (&mut np[l.clone()], &mut nv[l]);
+                        far |= correct_packed(dt, rotate, inv, now, f1, out, test) == Some(true);
+                    };
+                    // SAFETY: AVX2 present (asserted above); `packed` holds the n
+                    // predicted grains the near list was just made valid for.
+                    unsafe {
+                        part_forces::<false>((&packed.pos, &packed.vel), part, pp, &mut correct)
+                    };
+                    (tested, far)
+                });
+            }
+            let answers = on_threads(&pool, jobs);
+            let tested = answers.iter().all(|a| a.0);
+            tested.then(|| answers.iter().any(|a| a.1))
+        };
+        let g = &self.g;
+        self.slots
+            .sync_tested(&mut self.list, &g.radius, (&g.x, &g.y), b, strayed);
+        self.par.split(&self.slots, &bounds, &pool);
+
+        // Forces at t + Δt (f_0 of the next step) into the arrays, part by part, the
+        // contact events logged.
+        {
+            let ShearSim {
+                slots,
+                packed_now,
+                par,
+                fx,
+                fy,
+                tq,
+                ..
+            } = self;
+            let synced = std::mem::replace(&mut par.hist_synced, true);
+            let (slots, packed_now, pp) = (&*slots, &*packed_now, &pp);
+            let (fx, fy, tq) = (cut(fx, &bounds), cut(fy, &bounds), cut(tq, &bounds));
+            let jobs: Vec<_> = par
+                .parts
+                .iter_mut()
+                .zip(fx)
+                .zip(fy)
+                .zip(tq)
+                .map(|(((part, fx), fy), tq)| {
+                    move || {
+                        if !synced {
+                            part.own.copy_history(slots, part.k0);
+                        }
+                        let lo = part.lo;
+                        let mut unpack = |range: std::ops::Range<usize>,
+                                          f: &mut [Quad],
+                                          _: &Slots| {
+                            let l = range.start - lo..range.end - lo;
+                            unpack_forces(f, (&mut fx[l.clone()], &mut fy[l.clone()], &mut tq[l]));
+                        };
+                        let state = (&packed_now.pos[..], &packed_now.vel[..]);
+                        // SAFETY: AVX2 present; `packed_now` holds the n grains at
+                        // t + Δt, which the near list was just made valid for.
+                        unsafe { part_forces::<true>(state, part, pp, &mut unpack) };
+                    }
+                })
+                .collect();
+            on_threads(&pool, jobs);
+        }
+        self.list.spare.pool = None;
+        // The events, in slot order: part by part, each part's in its order.
+        let ShearSim {
+            slots,
+            list,
+            par,
+            coll,
+            ..
+        } = self;
+        let now = pp.now;
+        slots.with_history(&mut list.shear, |_, h| {
+            for part in &mut par.parts {
+                for e in part.log.drain(..) {
+                    let k = part.k0 + e.k;
+                    h.update(k, e.touch, e.d, || e.dv, now, coll);
+                    part.own.hist[e.k] = h.near[k];
+                }
+            }
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn bounds_cover_the_grains_in_multiples_of_eight() {
+        let b = super::bounds(1000, 3);
+        assert_eq!(b, vec![0, 328, 664, 1000]);
+        assert!(b.windows(2).all(|w| w[0] < w[1]));
+    }
+}
