@@ -209,7 +209,16 @@ mod option_drift {
                 command: &["simulate", "shear"],
                 kind: Kind::Shear,
                 // A ramp is a stage kind of its own; --from starts from a ramp's state.
-                cli_only: run_and(&["halt_after", "from", "ramp", "kappa", "rate_end", "window"]),
+                // Threads say how it runs (a pipeline's run side by side, one core each).
+                cli_only: run_and(&[
+                    "threads",
+                    "halt_after",
+                    "from",
+                    "ramp",
+                    "kappa",
+                    "rate_end",
+                    "window",
+                ]),
                 pipeline_only: &[],
                 renamed: &[],
                 default_differs: &[],

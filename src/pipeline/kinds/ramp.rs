@@ -124,6 +124,10 @@ impl StageKind for Ramp {
             let p: RampParams = typed(&s.name, &s.params)?;
             let mut o = p.options();
             o.quiet = q;
+            // A pipeline's sheared-disk stages run side by side (`--jobs`, a sweep's
+            // points), one core each: two single-threaded runs beat one run on two
+            // threads. The thread count changes no number.
+            o.threads = 1;
             if p.from.is_some() {
                 o.from_state = Some(ctx.input(s, "from", "state")?);
             }

@@ -47,6 +47,10 @@ impl StageKind for Shear {
         let q = ctx.quiet;
             let mut o: stages::shear::ShearOptions = typed(&s.name, &s.params)?;
             o.quiet = q;
+            // A pipeline's sheared-disk stages run side by side (`--jobs`, a sweep's
+            // points), one core each: two single-threaded runs beat one run on two
+            // threads. The thread count changes no number.
+            o.threads = 1;
             let summary = resumable(out, ctx.dir, &mut o)?;
             let mean = |k: &str| summary.get(k).and_then(|v| v.get("mean")).cloned();
             Ok(Produced {
