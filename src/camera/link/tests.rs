@@ -377,33 +377,3 @@ fn bad_parameters_and_positions_are_refused_by_name() {
     assert!(empty.particle.is_empty());
     assert_eq!(empty.report, LinkReport::default());
 }
-
-/// `cargo test --release --lib camera::link::tests::timing -- --ignored --nocapture`:
-/// the time to link 40 frames of 1000 grains (best of 5).
-#[test]
-#[ignore]
-fn timing() {
-    let feats = movie(40, 0.5, 1);
-    for (r, limit) in [(8.0, DEFAULT_SUBNET_LIMIT), (12.0, DEFAULT_SUBNET_LIMIT)] {
-        let opt = LinkOptions {
-            memory: 3,
-            subnet_limit: limit,
-            ..LinkOptions::new(r)
-        };
-        let mut best = f64::INFINITY;
-        let mut rep = None;
-        for _ in 0..5 {
-            let t0 = std::time::Instant::now();
-            let out = link(&feats, &opt).unwrap();
-            best = best.min(t0.elapsed().as_secs_f64());
-            rep = Some(out.report);
-        }
-        eprintln!(
-            "{} features, search_range {r}: {:.2} ms on {} threads; {:?}",
-            feats.len(),
-            best * 1e3,
-            rayon::current_num_threads(),
-            rep.unwrap()
-        );
-    }
-}
