@@ -4,53 +4,12 @@
 use super::parse::{RawStage, Source};
 use super::schema::{Kind, PipelineSchema};
 use crate::error::Result;
-use serde::{Deserialize, Serialize};
+
 use serde_json::Value as Json;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// One side of a report: the stages of a branch by role.
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-pub struct Dataset {
-    pub label: String,
-    pub tracks: Option<String>,
-    pub kinematics: Option<String>,
-    pub fit: Option<String>,
-    /// The simulate stage whose stress-strain and forces tables to plot.
-    pub stress: Option<String>,
-    /// The ingest stage whose force sensor's stress-strain to plot (when it has one).
-    #[serde(default)]
-    pub force: Option<String>,
-    /// A sheared-disk run (`shear` stage) of the branch.
-    #[serde(default)]
-    pub shear: Option<String>,
-    /// A sheared-disk grid (`sweep` stage) of the branch.
-    #[serde(default)]
-    pub sweep: Option<String>,
-    /// The branch's strain-rate ramps (`ramp` stages), in file order: a ramp up and a
-    /// ramp down draw one hysteresis loop (Fig. 31).
-    #[serde(default)]
-    pub ramps: Vec<String>,
-    /// A parameter study of the branch (a stage with `vary`).
-    #[serde(default)]
-    pub grid: Option<String>,
-}
-
-/// A validated stage, ready to run.
-#[derive(Debug, Clone)]
-pub struct Stage {
-    pub name: String,
-    pub kind: Kind,
-    pub branch: Option<String>,
-    pub line: usize,
-    /// Every key with its value (defaults filled, references as full stage names).
-    pub params: Json,
-    /// Upstream stages by key (`input`, `a`, `datasets.experiment.fit`, ...).
-    pub upstream: BTreeMap<String, String>,
-    pub datasets: Vec<Dataset>,
-    /// Input files by key, absolute.
-    pub files: BTreeMap<String, PathBuf>,
-}
+pub use super::kinds::{Dataset, Stage};
 
 pub fn build(
     src: &Source,

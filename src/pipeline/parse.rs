@@ -261,3 +261,9 @@ pub fn apply_overrides(
     }
     Ok(())
 }
+
+impl super::kinds::Locate for Source {
+    fn locate(&self, path: &str, msg: String) -> Error {
+        self.err(path, msg)
+    }
+}

@@ -4,8 +4,7 @@
 //! reuses its finished points, and under Slurm they run as any stages do); the declared
 //! stage becomes a `grid` that gathers them.
 
-use super::graph::Stage;
-use super::kinds::Kind;
+use super::kinds::{Kind, Stage};
 use super::parse::Source;
 use super::schema::{self, PipelineSchema};
 use crate::error::Result;

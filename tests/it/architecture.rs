@@ -565,3 +565,40 @@ fn the_report_renders_and_never_computes_another_stage() {
     );
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// No file imports one that imports it back, inside any folder of `src/` that wires or
+/// computes (issue 33), as `../shared/tools/import_cycles.py` reads them. A cycle the
+/// registry's kinds once made (each kind naming `graph::Stage` and `parse::Source`,
+/// which reach the kinds again) fails here.
+#[test]
+fn no_import_cycle_inside_the_wiring_or_the_core() {
+    let tool = Path::new(ROOT).join("../shared/tools/import_cycles.py");
+    if !tool.is_file() {
+        crate::common::cannot_check("../shared/tools/import_cycles.py is not here");
+        return;
+    }
+    for folder in [
+        "pipeline",
+        "io",
+        "stages",
+        "dem",
+        "cli",
+        "camera",
+        "fit",
+        "structure",
+    ] {
+        let o = std::process::Command::new("python3")
+            .arg(&tool)
+            .arg("src")
+            .arg(folder)
+            .current_dir(ROOT)
+            .output()
+            .expect("python3 runs");
+        let text =
+            String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+        assert!(
+            o.status.success() && text.contains("ok: 0 import cycles"),
+            "src/{folder}:\n{text}"
+        );
+    }
+}

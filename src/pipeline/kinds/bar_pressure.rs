@@ -6,9 +6,9 @@
 use super::{Kind, StageKind};
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::{parse_pair, typed};
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::{parse_pair, typed};
+use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -47,7 +47,7 @@ impl StageKind for BarPressure {
     }
 
     /// The force snapshots are a pillar simulation's: `input` names a simulate stage.
-    fn check_references(&self, src: &Source, st: &Stage, all: &[Stage]) -> Result<()> {
+    fn check_references(&self, src: &dyn Locate, st: &Stage, all: &[Stage]) -> Result<()> {
         let Some(up) = st.upstream.get("input") else {
             return Ok(());
         };

@@ -4,9 +4,9 @@
 use super::StageKind;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::typed;
+use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -28,7 +28,7 @@ impl StageKind for Grid {
         super::round_trip::<GridParams>(given)
     }
 
-    fn check(&self, src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         if st.upstream.keys().any(|k| k.starts_with("point:")) {
             Ok(Vec::new())
         } else {

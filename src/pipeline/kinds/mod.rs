@@ -10,12 +10,93 @@
 //! `data_schema/pipeline.schema.json` (the schema test names what is missing).
 
 use super::exec::{Ctx, Produced};
-use super::graph::Stage;
-use super::parse::Source;
-use crate::error::Result;
-use serde::{Serialize, de::DeserializeOwned};
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize, de::DeserializeOwned};
 use serde_json::Value as Json;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+/// Where a key sits in the pipeline file, for errors that name file, line and key
+/// (`parse::Source` is one).
+pub trait Locate {
+    /// An error about the key at dotted `path`.
+    fn locate(&self, path: &str, msg: String) -> Error;
+}
+
+impl dyn Locate + '_ {
+    pub fn err(&self, path: &str, msg: impl std::fmt::Display) -> Error {
+        self.locate(path, msg.to_string())
+    }
+}
+
+/// One side of a report: the stages of a branch by role.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Dataset {
+    pub label: String,
+    pub tracks: Option<String>,
+    pub kinematics: Option<String>,
+    pub fit: Option<String>,
+    /// The simulate stage whose stress-strain and forces tables to plot.
+    pub stress: Option<String>,
+    /// The ingest stage whose force sensor's stress-strain to plot (when it has one).
+    #[serde(default)]
+    pub force: Option<String>,
+    /// A sheared-disk run (`shear` stage) of the branch.
+    #[serde(default)]
+    pub shear: Option<String>,
+    /// A sheared-disk grid (`sweep` stage) of the branch.
+    #[serde(default)]
+    pub sweep: Option<String>,
+    /// The branch's strain-rate ramps (`ramp` stages), in file order: a ramp up and a
+    /// ramp down draw one hysteresis loop (Fig. 31).
+    #[serde(default)]
+    pub ramps: Vec<String>,
+    /// A parameter study of the branch (a stage with `vary`).
+    #[serde(default)]
+    pub grid: Option<String>,
+}
+
+/// A validated stage, ready to run.
+#[derive(Debug, Clone)]
+pub struct Stage {
+    pub name: String,
+    pub kind: Kind,
+    pub branch: Option<String>,
+    pub line: usize,
+    /// Every key with its value (defaults filled, references as full stage names).
+    pub params: Json,
+    /// Upstream stages by key (`input`, `a`, `datasets.experiment.fit`, ...).
+    pub upstream: BTreeMap<String, String>,
+    pub datasets: Vec<Dataset>,
+    /// Input files by key, absolute.
+    pub files: BTreeMap<String, PathBuf>,
+}
+
+/// Typed parameters back from resolved JSON (always succeeds for resolved values).
+pub fn typed<T: DeserializeOwned>(stage: &str, params: &Json) -> Result<T> {
+    let mut p = params.clone();
+    if let Some(o) = p.as_object_mut() {
+        o.remove("kind");
+    }
+    serde_json::from_value(p).map_err(|e| Error::param(stage, e.to_string()))
+}
+
+/// `A,B` as two numbers (`--origin-px 165.98,850`, `--strain 0.1,0.2`).
+pub fn parse_pair(s: &str) -> std::result::Result<(f64, f64), String> {
+    let v: Vec<&str> = s.split(',').collect();
+    if v.len() != 2 {
+        return Err(format!("expected two numbers A,B, got '{s}'"));
+    }
+    let a = v[0]
+        .trim()
+        .parse::<f64>()
+        .map_err(|e| format!("'{}': {e}", v[0]))?;
+    let b = v[1]
+        .trim()
+        .parse::<f64>()
+        .map_err(|e| format!("'{}': {e}", v[1]))?;
+    Ok((a, b))
+}
 
 /// What a stage kind does, beyond the keys the schema file describes.
 pub trait StageKind: Sync {
@@ -25,12 +106,12 @@ pub trait StageKind: Sync {
 
     /// Checks at load beyond the schema's, reported at the stage or its key; returns the
     /// stages this one expands into (a sweep's grid points), which run before it.
-    fn check(&self, _src: &Source, _st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, _src: &dyn Locate, _st: &mut Stage) -> Result<Vec<Stage>> {
         Ok(Vec::new())
     }
 
     /// Checks against the stages it refers to, once every stage is built.
-    fn check_references(&self, _src: &Source, _st: &Stage, _all: &[Stage]) -> Result<()> {
+    fn check_references(&self, _src: &dyn Locate, _st: &Stage, _all: &[Stage]) -> Result<()> {
         Ok(())
     }
 
@@ -79,7 +160,7 @@ pub(crate) fn round_trip<T: Serialize + DeserializeOwned>(
 }
 
 /// The stage's parameters as the kind's typed struct, or the schema error at its line.
-pub(crate) fn typed_at<T: DeserializeOwned>(src: &Source, st: &Stage) -> Result<T> {
+pub(crate) fn typed_at<T: DeserializeOwned>(src: &dyn Locate, st: &Stage) -> Result<T> {
     serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))
 }
 

@@ -6,8 +6,8 @@
 use super::StageKind;
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
+use super::Stage;
+use super::typed;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};

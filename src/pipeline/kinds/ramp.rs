@@ -6,9 +6,9 @@ use crate::stages::shear::ShearOptions;
 
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::typed;
+use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -95,9 +95,6 @@ impl RampParams {
     }
 }
 
-/// Options of `ShearOptions` that only a ramp reads: a `shear` stage is a steady run,
-/// a ramp is a `ramp` stage.
-pub const RAMP_ONLY: [&str; 4] = ["ramp", "kappa", "rate_end", "window"];
 
 pub struct Ramp;
 
@@ -106,12 +103,12 @@ impl StageKind for Ramp {
         super::round_trip::<RampParams>(given)
     }
 
-    fn check(&self, src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         check_ramp(src, st)?;
         Ok(Vec::new())
     }
 
-    fn check_references(&self, src: &Source, st: &Stage, all: &[Stage]) -> Result<()> {
+    fn check_references(&self, src: &dyn Locate, st: &Stage, all: &[Stage]) -> Result<()> {
         check_source(src, st, all)
     }
 
@@ -147,7 +144,7 @@ impl StageKind for Ramp {
 /// A ramp's options as the run will check them, at load: the physics at the stage,
 /// the ramp's own faults at the key (its direction against `rate` and `rate_end`, κ̃,
 /// a `dt` that does not divide τ_e).
-fn check_ramp(src: &Source, st: &Stage) -> Result<()> {
+fn check_ramp(src: &dyn Locate, st: &Stage) -> Result<()> {
     let p: RampParams =
         serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))?;
     let o = p.options();
@@ -160,7 +157,7 @@ fn check_ramp(src: &Source, st: &Stage) -> Result<()> {
 
 /// A ramp that starts `from` another's final state needs the same disks: N, φ, Q, model
 /// and Δt as the ramp it continues (its rate may differ: velocities are rescaled).
-fn check_source(src: &Source, s: &Stage, stages: &[Stage]) -> Result<()> {
+fn check_source(src: &dyn Locate, s: &Stage, stages: &[Stage]) -> Result<()> {
     {
         let Some(up) = s.upstream.get("from") else {
             return Ok(());

@@ -5,9 +5,9 @@ use crate::camera::render::{Camera, Profile};
 use crate::stages::render::{ImageFormat, RenderOptions};
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::typed;
+use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -204,7 +204,7 @@ impl StageKind for Render {
         super::round_trip::<RenderParams>(given)
     }
 
-    fn check(&self, src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         let p: RenderParams = super::typed_at(src, st)?;
         match p.problem() {
             Some((key, m)) => Err(src.err(&format!("{}.{key}", st.name), m)),

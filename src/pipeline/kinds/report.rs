@@ -4,9 +4,9 @@
 use super::StageKind;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::typed;
+use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -45,7 +45,7 @@ impl StageKind for Report {
     }
 
     /// Two or more pillar runs: their size scan, a stage of its own the report reads.
-    fn check(&self, _src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, _src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         Ok(super::sizes::for_report(st)?.into_iter().collect())
     }
 

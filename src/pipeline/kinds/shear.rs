@@ -2,20 +2,23 @@
 //! simulate stage.
 
 use super::StageKind;
-use super::ramp::RAMP_ONLY;
 use super::simulate::{SIMULATE_RUN_ONLY, drop_keys};
 use crate::pipeline::exec::{move_files, work_dir};
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::typed;
+use super::Locate;
 use crate::stages;
 use serde_json::{Value as Json, json};
 use std::collections::BTreeMap;
 use std::path::Path;
 
 
+
+/// Options of `ShearOptions` that only a ramp reads: a `shear` stage is a steady run,
+/// a ramp is a `ramp` stage.
+pub const RAMP_ONLY: [&str; 4] = ["ramp", "kappa", "rate_end", "window"];
 
 pub struct Shear;
 
@@ -27,7 +30,7 @@ impl StageKind for Shear {
         Ok(v)
     }
 
-    fn check(&self, src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         let o: stages::shear::ShearOptions = super::typed_at(src, st)?;
         stages::shear::params_of(&o).map_err(|m| src.err(&st.name, m))?;
         Ok(Vec::new())

@@ -7,8 +7,8 @@
 use super::StageKind;
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
+use super::Stage;
+use super::typed;
 use crate::stages;
 use crate::structure::ShearLineOptions;
 use serde::{Deserialize, Serialize};

@@ -6,9 +6,9 @@
 use super::{Kind, StageKind};
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use crate::pipeline::graph::{Dataset, Stage};
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::{Dataset, Stage};
+use super::typed;
+use super::Locate;
 use crate::stages;
 use crate::stages::datasets::DatasetInputs;
 use crate::stages::size_analysis::{ANALYSIS, TABLES};
@@ -35,7 +35,7 @@ impl StageKind for Sizes {
         super::round_trip::<SizesParams>(given)
     }
 
-    fn check(&self, _src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, _src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         keep_roles(st);
         Ok(Vec::new())
     }

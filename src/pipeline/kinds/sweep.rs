@@ -6,9 +6,9 @@ use crate::stages::shear::ShearOptions;
 use super::Kind;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::typed;
+use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -105,7 +105,7 @@ impl StageKind for Sweep {
         super::round_trip::<SweepParams>(given)
     }
 
-    fn check(&self, src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         sweep_points(src, st)
     }
 
@@ -159,7 +159,7 @@ pub fn point_name(sweep: &str, (phi, q, rate): (f64, f64, f64)) -> String {
 /// same cache key: a grown grid, or a shear stage elsewhere, reuses finished runs, and
 /// under Slurm the points form one job array. The sweep stage itself only gathers their
 /// summaries (its upstream `point:…` keys).
-fn sweep_points(src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+fn sweep_points(src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
     let p: SweepParams =
         serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))?;
     for (key, v) in [("phi", &p.phi), ("q", &p.q), ("rate", &p.rate)] {
@@ -183,7 +183,7 @@ fn sweep_points(src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
             )
         })?;
         let given = serde_json::to_value(o).expect("json");
-        let params = crate::pipeline::params::resolve(Kind::Shear, given)
+        let params = Kind::Shear.def().resolve(given)
             .map_err(|m| src.err(&st.name, format!("grid point {point:?}: {m}")))?;
         let name = point_name(&st.name, point);
         st.upstream.insert(

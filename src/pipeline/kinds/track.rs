@@ -5,9 +5,9 @@ use super::StageKind;
 use crate::camera::{LinkOptions, LocateParams};
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use crate::pipeline::graph::Stage;
-use crate::pipeline::params::typed;
-use crate::pipeline::parse::Source;
+use super::Stage;
+use super::typed;
+use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -123,7 +123,7 @@ impl StageKind for Track {
         super::round_trip::<TrackParams>(given)
     }
 
-    fn check(&self, src: &Source, st: &mut Stage) -> Result<Vec<Stage>> {
+    fn check(&self, src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
         let p: TrackParams = super::typed_at(src, st)?;
         if let Some((key, m)) = p.problem() {
             return Err(src.err(&format!("{}.{key}", st.name), m));
@@ -177,7 +177,7 @@ impl StageKind for Track {
 
 /// A track stage reads a render stage's frames (`input`) or a folder (`frames`); a
 /// folder without a render's `camera.json` needs the scale and unit to convert pixels.
-fn check_track_source(src: &Source, st: &Stage, p: &TrackParams) -> Result<()> {
+fn check_track_source(src: &dyn Locate, st: &Stage, p: &TrackParams) -> Result<()> {
     let Some(folder) = st.files.get("frames") else {
         if p.input.is_none() {
             return Err(src.err(
