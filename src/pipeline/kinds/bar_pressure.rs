@@ -3,12 +3,12 @@
 //! the force snapshots in a strain window. The command `pillar-pipe bar-pressure`
 //! flattens the same options.
 
+use super::Locate;
+use super::Stage;
 use super::{Kind, StageKind};
+use super::{parse_pair, typed};
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use super::Stage;
-use super::{parse_pair, typed};
-use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -66,12 +66,8 @@ impl StageKind for BarPressure {
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         let p: BarPressureParams = typed(&s.name, &s.params)?;
         let run = ctx.upstream(s, "input")?.dir.clone();
-        let (profile, snapshots) = stages::bar_pressure::run(
-            &run,
-            p.strain,
-            p.bins,
-            &out.join("bar_pressure.parquet"),
-        )?;
+        let (profile, snapshots) =
+            stages::bar_pressure::run(&run, p.strain, p.bins, &out.join("bar_pressure.parquet"))?;
         Ok(Produced {
             outputs: outputs(&[("bar_pressure", "bar_pressure.parquet")]),
             metrics: json!({"snapshots": snapshots, "width": profile.width, "force": profile.force, "contacts": profile.contacts}),

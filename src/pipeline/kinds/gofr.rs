@@ -2,11 +2,11 @@
 //! around large grains (li-granular-pillars Fig. 2); r over the large-grain diameter D.
 //! The command `pillar-pipe gofr` flattens the same options.
 
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use super::Stage;
-use super::typed;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};

@@ -1,12 +1,12 @@
 //! `grid`: a parameter study's points gathered (`stages::grid`). Made by `vary` on a
 //! stage (`pipeline/vary.rs`), never written by hand: its upstream are the points.
 
+use super::Locate;
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use super::Stage;
-use super::typed;
-use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -67,7 +67,10 @@ impl StageKind for Grid {
         }
         let r = stages::grid::run(&p.of, &keys, &points, out)?;
         Ok(Produced {
-            outputs: outputs(&[("grid", stages::grid::TABLE), ("record", stages::grid::RECORD)]),
+            outputs: outputs(&[
+                ("grid", stages::grid::TABLE),
+                ("record", stages::grid::RECORD),
+            ]),
             metrics: json!({"points": r.points, "of": r.of, "missing": r.missing.len()}),
             summary: json!({"keys": r.keys, "missing": r.missing}),
         })

@@ -1,14 +1,14 @@
 //! `ingest`: a track file (trackpy, LAMMPS, canonical) to canonical tracks, with the
 //! experiment's force sensor beside it when given (`force`, read as `ingest-force` does).
 
+use super::Stage;
 use super::StageKind;
-use crate::stages::ingest::{Format, IngestOptions};
-use clap::ValueEnum;
+use super::typed;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use super::Stage;
-use super::typed;
 use crate::stages;
+use crate::stages::ingest::{Format, IngestOptions};
+use clap::ValueEnum;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
 use std::path::{Path, PathBuf};
@@ -76,43 +76,43 @@ impl StageKind for Ingest {
     }
 
     fn execute(&self, s: &Stage, _ctx: &Ctx, out: &Path) -> Result<Produced> {
-            let p: IngestParams = typed(&s.name, &s.params)?;
-            let r = stages::ingest::run(
-                &s.files["input"],
-                &out.join("tracks.parquet"),
-                &p.options()?,
+        let p: IngestParams = typed(&s.name, &s.params)?;
+        let r = stages::ingest::run(
+            &s.files["input"],
+            &out.join("tracks.parquet"),
+            &p.options()?,
+        )?;
+        let mut files = vec![("tracks", "tracks.parquet")];
+        let mut metrics =
+            json!({"n": r.summary.particles_per_frame_max, "frames": r.summary.frames});
+        // The experiment's force sensor (Fig. 4a), read as `ingest-force` does.
+        if let Some(force) = s.files.get("force") {
+            // W per frame from the tracks just written, unless the sensor's settings
+            // give one W.
+            let opt = stages::force::ForceOptions {
+                unit: p.unit.clone(),
+                bar_speed: p.bar_speed,
+                tracks: Some(out.join("tracks.parquet")),
+                width_over_tracks: true,
+                ..Default::default()
+            };
+            let f = stages::force::run(
+                force,
+                &out.join("bar_forces.parquet"),
+                &out.join("stress_strain.parquet"),
+                &opt,
             )?;
-            let mut files = vec![("tracks", "tracks.parquet")];
-            let mut metrics =
-                json!({"n": r.summary.particles_per_frame_max, "frames": r.summary.frames});
-            // The experiment's force sensor (Fig. 4a), read as `ingest-force` does.
-            if let Some(force) = s.files.get("force") {
-                // W per frame from the tracks just written, unless the sensor's settings
-                // give one W.
-                let opt = stages::force::ForceOptions {
-                    unit: p.unit.clone(),
-                    bar_speed: p.bar_speed,
-                    tracks: Some(out.join("tracks.parquet")),
-                    width_over_tracks: true,
-                    ..Default::default()
-                };
-                let f = stages::force::run(
-                    force,
-                    &out.join("bar_forces.parquet"),
-                    &out.join("stress_strain.parquet"),
-                    &opt,
-                )?;
-                files.extend([
-                    ("bar_forces", "bar_forces.parquet"),
-                    ("stress_strain", "stress_strain.parquet"),
-                ]);
-                metrics["force_rows"] = json!(f.rows);
-                metrics["max_stress_reduced"] = json!(f.max_stress_reduced);
-            }
-            Ok(Produced {
-                outputs: outputs(&files),
-                metrics,
-                summary: sum(&r),
-            })
+            files.extend([
+                ("bar_forces", "bar_forces.parquet"),
+                ("stress_strain", "stress_strain.parquet"),
+            ]);
+            metrics["force_rows"] = json!(f.rows);
+            metrics["max_stress_reduced"] = json!(f.max_stress_reduced);
+        }
+        Ok(Produced {
+            outputs: outputs(&files),
+            metrics,
+            summary: sum(&r),
+        })
     }
 }

@@ -1,15 +1,15 @@
 //! `kinematics`: per-particle velocities, best-fit J, D²min, η^s and J2 within R_c
 //! (li-granular-pillars Eqs. 13–18) from a stage's tracks.
 
+use super::Stage;
 use super::StageKind;
+use super::typed;
+use crate::error::{Error, Result};
 use crate::kinematics::Convention;
+use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
+use crate::stages;
 use crate::stages::kinematics::{KinematicsOptions, LagSpec};
 use clap::ValueEnum;
-use crate::error::{Error, Result};
-use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use super::Stage;
-use super::typed;
-use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
 use std::path::Path;
@@ -68,14 +68,13 @@ impl StageKind for Kinematics {
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         let q = ctx.quiet;
-            let p: KinematicsParams = typed(&s.name, &s.params)?;
-            let tracks = ctx.input(s, "input", "tracks")?;
-            let r =
-                stages::kinematics::run(&tracks, &out.join("kinematics.parquet"), &p.options(q)?)?;
-            Ok(Produced {
-                outputs: outputs(&[("kinematics", "kinematics.parquet")]),
-                metrics: json!({"frame_pairs": r.frame_pairs, "rows": r.rows}),
-                summary: sum(&r),
-            })
+        let p: KinematicsParams = typed(&s.name, &s.params)?;
+        let tracks = ctx.input(s, "input", "tracks")?;
+        let r = stages::kinematics::run(&tracks, &out.join("kinematics.parquet"), &p.options(q)?)?;
+        Ok(Produced {
+            outputs: outputs(&[("kinematics", "kinematics.parquet")]),
+            metrics: json!({"frame_pairs": r.frame_pairs, "rows": r.rows}),
+            summary: sum(&r),
+        })
     }
 }

@@ -3,11 +3,11 @@
 //! another pillar's outline rescaled the same way. The command `pillar-pipe outline`
 //! flattens the same options.
 
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use super::Stage;
-use super::typed;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};

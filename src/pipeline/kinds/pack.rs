@@ -3,12 +3,12 @@
 //! (`packing_stage`) start from the one cached packing, so a parameter study compares
 //! runs of the same grains and packs once.
 
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::dem::pillar::pack::Growth;
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use super::Stage;
-use super::typed;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};

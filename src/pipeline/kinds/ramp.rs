@@ -4,11 +4,11 @@
 use super::StageKind;
 use crate::stages::shear::ShearOptions;
 
-use crate::error::Result;
-use crate::pipeline::exec::{Ctx, Produced};
+use super::Locate;
 use super::Stage;
 use super::typed;
-use super::Locate;
+use crate::error::Result;
+use crate::pipeline::exec::{Ctx, Produced};
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -95,7 +95,6 @@ impl RampParams {
     }
 }
 
-
 pub struct Ramp;
 
 impl StageKind for Ramp {
@@ -118,26 +117,26 @@ impl StageKind for Ramp {
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         let q = ctx.quiet;
-            let p: RampParams = typed(&s.name, &s.params)?;
-            let mut o = p.options();
-            o.quiet = q;
-            // A pipeline's sheared-disk stages run side by side (`--jobs`, a sweep's
-            // points), one core each: two single-threaded runs beat one run on two
-            // threads. The thread count changes no number.
-            o.threads = 1;
-            if p.from.is_some() {
-                o.from_state = Some(ctx.input(s, "from", "state")?);
-            }
-            let summary = super::shear::resumable(out, ctx.dir, &mut o)?;
-            Ok(Produced {
-                outputs: super::shear::tables_in(out)?,
-                metrics: json!({
-                    "n": p.n, "phi": p.phi, "q": p.q, "model": p.model, "ramp": p.ramp,
-                    "kappa_tilde": p.kappa, "rate_start": p.rate, "rate_end": summary.get("rate_end"),
-                    "windows": summary.get("windows"), "strain": summary.get("strain"),
-                }),
-                summary: json!({"summary": "summary.json"}),
-            })
+        let p: RampParams = typed(&s.name, &s.params)?;
+        let mut o = p.options();
+        o.quiet = q;
+        // A pipeline's sheared-disk stages run side by side (`--jobs`, a sweep's
+        // points), one core each: two single-threaded runs beat one run on two
+        // threads. The thread count changes no number.
+        o.threads = 1;
+        if p.from.is_some() {
+            o.from_state = Some(ctx.input(s, "from", "state")?);
+        }
+        let summary = super::shear::resumable(out, ctx.dir, &mut o)?;
+        Ok(Produced {
+            outputs: super::shear::tables_in(out)?,
+            metrics: json!({
+                "n": p.n, "phi": p.phi, "q": p.q, "model": p.model, "ramp": p.ramp,
+                "kappa_tilde": p.kappa, "rate_start": p.rate, "rate_end": summary.get("rate_end"),
+                "windows": summary.get("windows"), "strain": summary.get("strain"),
+            }),
+            summary: json!({"summary": "summary.json"}),
+        })
     }
 }
 

@@ -1,14 +1,14 @@
 //! `render`: the camera emulator, a stage's tracks to frames (`pillar-pipe render`).
 
+use super::Locate;
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::camera::render::{Camera, Profile};
-use crate::stages::render::{ImageFormat, RenderOptions};
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use super::Stage;
-use super::typed;
-use super::Locate;
 use crate::stages;
+use crate::stages::render::{ImageFormat, RenderOptions};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
 use std::path::Path;
@@ -214,14 +214,14 @@ impl StageKind for Render {
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         let q = ctx.quiet;
-            let p: RenderParams = typed(&s.name, &s.params)?;
-            // A pillar run's tracks: render finds its bars beside them.
-            let tracks = ctx.input(s, "input", "tracks")?;
-            let r = stages::render::run(&tracks, &out.join("frames"), &p.options(false, q))?;
-            Ok(Produced {
-                outputs: outputs(&[("frames", "frames")]),
-                metrics: json!({"frames": r.frames, "width": r.width, "height": r.height, "grains": r.grains, "bars": r.bars}),
-                summary: sum(&r),
-            })
+        let p: RenderParams = typed(&s.name, &s.params)?;
+        // A pillar run's tracks: render finds its bars beside them.
+        let tracks = ctx.input(s, "input", "tracks")?;
+        let r = stages::render::run(&tracks, &out.join("frames"), &p.options(false, q))?;
+        Ok(Produced {
+            outputs: outputs(&[("frames", "frames")]),
+            metrics: json!({"frames": r.frames, "width": r.width, "height": r.height, "grains": r.grains, "bars": r.bars}),
+            summary: sum(&r),
+        })
     }
 }

@@ -1,12 +1,12 @@
 //! `report`: the branches' data sets side by side (`report.html`, figures), with the
 //! provenance of every stage it depends on.
 
+use super::Locate;
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use super::Stage;
-use super::typed;
-use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -54,37 +54,37 @@ impl StageKind for Report {
     }
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
-            let p: ReportParams = typed(&s.name, &s.params)?;
-            let datasets = s
-                .datasets
-                .iter()
-                .map(|d| super::sizes::dataset_inputs(d, ctx))
-                .collect();
-            let opt = stages::report::ReportOptions {
-                title: p.title.unwrap_or_else(|| ctx.pipeline.title.clone()),
-                datasets,
-                map_stages: p.map_stages,
-                provenance: provenance(s, ctx),
-                sizes: ctx.input(s, "sizes", "analysis").ok(),
-            };
-            let r = stages::report::run(out, &opt)?;
-            let mut outs = outputs(&[("html", "report.html"), ("figures", "figures")]);
-            // The sweeps' classification tables and the size scan's tables, copied into
-            // the run beside the report.
-            for e in std::fs::read_dir(out)
-                .map_err(|e| Error::io(out, e))?
-                .flatten()
-            {
-                let name = e.file_name().to_string_lossy().into_owned();
-                if name.starts_with("classification_") || name.starts_with("size_scan") {
-                    outs.insert(name.replace('.', "_"), name);
-                }
+        let p: ReportParams = typed(&s.name, &s.params)?;
+        let datasets = s
+            .datasets
+            .iter()
+            .map(|d| super::sizes::dataset_inputs(d, ctx))
+            .collect();
+        let opt = stages::report::ReportOptions {
+            title: p.title.unwrap_or_else(|| ctx.pipeline.title.clone()),
+            datasets,
+            map_stages: p.map_stages,
+            provenance: provenance(s, ctx),
+            sizes: ctx.input(s, "sizes", "analysis").ok(),
+        };
+        let r = stages::report::run(out, &opt)?;
+        let mut outs = outputs(&[("html", "report.html"), ("figures", "figures")]);
+        // The sweeps' classification tables and the size scan's tables, copied into
+        // the run beside the report.
+        for e in std::fs::read_dir(out)
+            .map_err(|e| Error::io(out, e))?
+            .flatten()
+        {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with("classification_") || name.starts_with("size_scan") {
+                outs.insert(name.replace('.', "_"), name);
             }
-            Ok(Produced {
-                outputs: outs,
-                metrics: json!({"figures": r.figures.len()}),
-                summary: json!({"sections": r.sections}),
-            })
+        }
+        Ok(Produced {
+            outputs: outs,
+            metrics: json!({"figures": r.figures.len()}),
+            summary: json!({"sections": r.sections}),
+        })
     }
 }
 

@@ -1,20 +1,18 @@
 //! `shear`: one steady sheared-disk run (vagberg-sheared-disks), resumable like a
 //! simulate stage.
 
+use super::Locate;
+use super::Stage;
 use super::StageKind;
 use super::simulate::{SIMULATE_RUN_ONLY, drop_keys};
-use crate::pipeline::exec::{move_files, work_dir};
+use super::typed;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced};
-use super::Stage;
-use super::typed;
-use super::Locate;
+use crate::pipeline::exec::{move_files, work_dir};
 use crate::stages;
 use serde_json::{Value as Json, json};
 use std::collections::BTreeMap;
 use std::path::Path;
-
-
 
 /// Options of `ShearOptions` that only a ramp reads: a `shear` stage is a steady run,
 /// a ramp is a `ramp` stage.
@@ -48,22 +46,22 @@ impl StageKind for Shear {
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         let q = ctx.quiet;
-            let mut o: stages::shear::ShearOptions = typed(&s.name, &s.params)?;
-            o.quiet = q;
-            // A pipeline's sheared-disk stages run side by side (`--jobs`, a sweep's
-            // points), one core each: two single-threaded runs beat one run on two
-            // threads. The thread count changes no number.
-            o.threads = 1;
-            let summary = resumable(out, ctx.dir, &mut o)?;
-            let mean = |k: &str| summary.get(k).and_then(|v| v.get("mean")).cloned();
-            Ok(Produced {
-                outputs: tables_in(out)?,
-                metrics: json!({
-                    "n": o.n, "phi": o.phi, "q": o.q, "rate": o.rate, "model": o.model,
-                    "p": mean("p"), "z": mean("z"), "mu": mean("mu"),
-                }),
-                summary: json!({"summary": "summary.json"}),
-            })
+        let mut o: stages::shear::ShearOptions = typed(&s.name, &s.params)?;
+        o.quiet = q;
+        // A pipeline's sheared-disk stages run side by side (`--jobs`, a sweep's
+        // points), one core each: two single-threaded runs beat one run on two
+        // threads. The thread count changes no number.
+        o.threads = 1;
+        let summary = resumable(out, ctx.dir, &mut o)?;
+        let mean = |k: &str| summary.get(k).and_then(|v| v.get("mean")).cloned();
+        Ok(Produced {
+            outputs: tables_in(out)?,
+            metrics: json!({
+                "n": o.n, "phi": o.phi, "q": o.q, "rate": o.rate, "model": o.model,
+                "p": mean("p"), "z": mean("z"), "mu": mean("mu"),
+            }),
+            summary: json!({"summary": "summary.json"}),
+        })
     }
 }
 

@@ -4,11 +4,11 @@
 //! (docs/shear-lines.md). The command `pillar-pipe shear-lines` flattens the same
 //! options.
 
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use super::Stage;
-use super::typed;
 use crate::stages;
 use crate::structure::ShearLineOptions;
 use serde::{Deserialize, Serialize};

@@ -1,18 +1,16 @@
 //! `simulate`: the pillar DEM (li-granular-pillars Sec. II), resumable: a killed
 //! pipeline continues from the run's last checkpoint.
 
+use super::Stage;
 use super::StageKind;
-use crate::pipeline::exec::{move_files, work_dir};
+use super::typed;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, sum};
-use super::Stage;
-use super::typed;
+use crate::pipeline::exec::{move_files, work_dir};
 use crate::stages;
 use serde_json::{Value as Json, json};
 use std::collections::BTreeMap;
 use std::path::Path;
-
-
 
 /// How a run behaves, not what it computes: `--quiet`, and resuming (a pipeline stage
 /// always starts in a fresh directory).
@@ -47,35 +45,35 @@ impl StageKind for Simulate {
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         let q = ctx.quiet;
-            let mut o: stages::simulate::SimulateOptions = typed(&s.name, &s.params)?;
-            o.packing = match &o.packing_stage {
-                Some(_) => Some(ctx.input(s, "packing_stage", "tracks")?),
-                None => s.files.get("packing").cloned(),
-            };
-            o.quiet = q;
-            let r = simulate_resumable(out, ctx.dir, &mut o)?;
-            let rel: BTreeMap<String, String> = r
-                .tables
-                .iter()
-                .map(|(k, p)| {
-                    let p = p
-                        .file_name()
-                        .map(std::path::PathBuf::from)
-                        .unwrap_or_else(|| p.clone());
-                    (k.clone(), p.display().to_string())
-                })
-                .collect();
-            if !rel.contains_key("tracks") {
-                return Err(Error::Other(format!(
-                    "simulate reported no tracks table (tables: {:?})",
-                    rel.keys().collect::<Vec<_>>()
-                )));
-            }
-            Ok(Produced {
-                outputs: rel,
-                metrics: json!({"n": r.n, "frames": r.frames, "steps": r.steps, "mean_flow_stress": r.mean_flow_stress}),
-                summary: sum(&r),
+        let mut o: stages::simulate::SimulateOptions = typed(&s.name, &s.params)?;
+        o.packing = match &o.packing_stage {
+            Some(_) => Some(ctx.input(s, "packing_stage", "tracks")?),
+            None => s.files.get("packing").cloned(),
+        };
+        o.quiet = q;
+        let r = simulate_resumable(out, ctx.dir, &mut o)?;
+        let rel: BTreeMap<String, String> = r
+            .tables
+            .iter()
+            .map(|(k, p)| {
+                let p = p
+                    .file_name()
+                    .map(std::path::PathBuf::from)
+                    .unwrap_or_else(|| p.clone());
+                (k.clone(), p.display().to_string())
             })
+            .collect();
+        if !rel.contains_key("tracks") {
+            return Err(Error::Other(format!(
+                "simulate reported no tracks table (tables: {:?})",
+                rel.keys().collect::<Vec<_>>()
+            )));
+        }
+        Ok(Produced {
+            outputs: rel,
+            metrics: json!({"n": r.n, "frames": r.frames, "steps": r.steps, "mean_flow_stress": r.mean_flow_stress}),
+            summary: sum(&r),
+        })
     }
 }
 

@@ -3,12 +3,12 @@
 //! `stages::size_analysis`. A report of two or more pillar runs gets one of its own
 //! (`<report>:sizes`, see `kinds/report.rs`); a pipeline may also name one itself.
 
+use super::Locate;
+use super::typed;
+use super::{Dataset, Stage};
 use super::{Kind, StageKind};
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use super::{Dataset, Stage};
-use super::typed;
-use super::Locate;
 use crate::stages;
 use crate::stages::datasets::DatasetInputs;
 use crate::stages::size_analysis::{ANALYSIS, TABLES};

@@ -1,15 +1,15 @@
 //! `sweep`: a grid of sheared-disk runs; each grid point is a `shear` stage of its own
 //! (the same cache entry as a hand-written one), the sweep gathers their summaries.
 
-use super::StageKind;
-use crate::stages::shear::ShearOptions;
 use super::Kind;
+use super::Locate;
+use super::Stage;
+use super::StageKind;
+use super::typed;
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs};
-use super::Stage;
-use super::typed;
-use super::Locate;
 use crate::stages;
+use crate::stages::shear::ShearOptions;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
 use std::collections::BTreeMap;
@@ -114,38 +114,38 @@ impl StageKind for Sweep {
     }
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
-            let p: SweepParams = typed(&s.name, &s.params)?;
-            let grid = p.grid();
-            let mut summaries = Vec::new();
-            let mut dirs = Vec::new();
-            for &point in &grid {
-                let name = point_name(&s.name, point);
-                let done = ctx
-                    .done
-                    .get(&name)
-                    .ok_or_else(|| Error::Other(format!("{name} has not run")))?;
-                dirs.push((point, done.dir.clone()));
-                let f = done.dir.join("summary.json");
-                let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
-                summaries.push(
-                    serde_json::from_str(&text)
-                        .map_err(|e| Error::input(f.display(), e.to_string()))?,
-                );
-            }
-            let points: Vec<_> = grid.iter().copied().zip(summaries).collect();
-            let base = p.point(grid[0]);
-            let r = stages::sweep::write_outputs(out, &grid, &points, &base)?;
-            stages::sweep::write_contacts(out, &dirs)?;
-            Ok(Produced {
-                outputs: outputs(&[
-                    ("sweep", stages::sweep::TABLE),
-                    ("grid", stages::sweep::GRID),
-                    ("angles", stages::sweep::ANGLES),
-                    ("contacts", stages::sweep::CONTACTS),
-                ]),
-                metrics: json!({"points": r.runs, "model": p.model, "n": p.n}),
-                summary: json!({"points": r.runs}),
-            })
+        let p: SweepParams = typed(&s.name, &s.params)?;
+        let grid = p.grid();
+        let mut summaries = Vec::new();
+        let mut dirs = Vec::new();
+        for &point in &grid {
+            let name = point_name(&s.name, point);
+            let done = ctx
+                .done
+                .get(&name)
+                .ok_or_else(|| Error::Other(format!("{name} has not run")))?;
+            dirs.push((point, done.dir.clone()));
+            let f = done.dir.join("summary.json");
+            let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
+            summaries.push(
+                serde_json::from_str(&text)
+                    .map_err(|e| Error::input(f.display(), e.to_string()))?,
+            );
+        }
+        let points: Vec<_> = grid.iter().copied().zip(summaries).collect();
+        let base = p.point(grid[0]);
+        let r = stages::sweep::write_outputs(out, &grid, &points, &base)?;
+        stages::sweep::write_contacts(out, &dirs)?;
+        Ok(Produced {
+            outputs: outputs(&[
+                ("sweep", stages::sweep::TABLE),
+                ("grid", stages::sweep::GRID),
+                ("angles", stages::sweep::ANGLES),
+                ("contacts", stages::sweep::CONTACTS),
+            ]),
+            metrics: json!({"points": r.runs, "model": p.model, "n": p.n}),
+            summary: json!({"points": r.runs}),
+        })
     }
 }
 
@@ -183,7 +183,9 @@ fn sweep_points(src: &dyn Locate, st: &mut Stage) -> Result<Vec<Stage>> {
             )
         })?;
         let given = serde_json::to_value(o).expect("json");
-        let params = Kind::Shear.def().resolve(given)
+        let params = Kind::Shear
+            .def()
+            .resolve(given)
             .map_err(|m| src.err(&st.name, format!("grid point {point:?}: {m}")))?;
         let name = point_name(&st.name, point);
         st.upstream.insert(

@@ -1,13 +1,13 @@
 //! `track`: locate and link on frames (a render stage's or a folder), then the linked
 //! table to canonical tracks (`pillar-pipe track`, then `ingest`).
 
+use super::Locate;
+use super::Stage;
 use super::StageKind;
+use super::typed;
 use crate::camera::{LinkOptions, LocateParams};
 use crate::error::{Error, Result};
 use crate::pipeline::exec::{Ctx, Produced, outputs, sum};
-use super::Stage;
-use super::typed;
-use super::Locate;
 use crate::stages;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value as Json, json};
@@ -134,44 +134,44 @@ impl StageKind for Track {
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {
         let q = ctx.quiet;
-            let p: TrackParams = typed(&s.name, &s.params)?;
-            let frames = match s.files.get("frames") {
-                Some(folder) => folder.clone(),
-                None => ctx.input(s, "input", "frames")?,
-            };
-            let linked = out.join("linked.csv");
-            let r = stages::track::run(
-                std::slice::from_ref(&frames),
-                &linked,
-                &p.locate(),
-                &p.link(),
-                q,
-            )?;
-            // The render's pixel mapping, the keys given here over it.
-            let mut o = if frames.join("camera.json").is_file() {
-                stages::track::camera_ingest_options(&frames)?
-            } else {
-                stages::ingest::IngestOptions {
-                    format: Some(stages::ingest::Format::Trackpy),
-                    ..Default::default()
-                }
-            };
-            o.px_per_unit = p.px_per_unit.or(o.px_per_unit);
-            o.origin_px = p.origin_px.map(|v| (v[0], v[1])).or(o.origin_px);
-            o.unit = p.unit.clone().or(o.unit);
-            o.frame_time = p.frame_time.or(o.frame_time);
-            o.radii = p.radii.map(|v| (v[0], v[1])).or(o.radii);
-            o.bar_speed = p.bar_speed.or(o.bar_speed);
-            let i = stages::ingest::run(&linked, &out.join("tracks.parquet"), &o)?;
-            Ok(Produced {
-                outputs: outputs(&[("tracks", "tracks.parquet"), ("linked", "linked.csv")]),
-                metrics: json!({
-                    "features": r.link.features, "trajectories": r.link.trajectories,
-                    "links": r.link.links, "ended": r.link.ended,
-                    "n": i.summary.particles_per_frame_max, "frames": i.summary.frames,
-                }),
-                summary: json!({"track": sum(&r), "ingest": sum(&i)}),
-            })
+        let p: TrackParams = typed(&s.name, &s.params)?;
+        let frames = match s.files.get("frames") {
+            Some(folder) => folder.clone(),
+            None => ctx.input(s, "input", "frames")?,
+        };
+        let linked = out.join("linked.csv");
+        let r = stages::track::run(
+            std::slice::from_ref(&frames),
+            &linked,
+            &p.locate(),
+            &p.link(),
+            q,
+        )?;
+        // The render's pixel mapping, the keys given here over it.
+        let mut o = if frames.join("camera.json").is_file() {
+            stages::track::camera_ingest_options(&frames)?
+        } else {
+            stages::ingest::IngestOptions {
+                format: Some(stages::ingest::Format::Trackpy),
+                ..Default::default()
+            }
+        };
+        o.px_per_unit = p.px_per_unit.or(o.px_per_unit);
+        o.origin_px = p.origin_px.map(|v| (v[0], v[1])).or(o.origin_px);
+        o.unit = p.unit.clone().or(o.unit);
+        o.frame_time = p.frame_time.or(o.frame_time);
+        o.radii = p.radii.map(|v| (v[0], v[1])).or(o.radii);
+        o.bar_speed = p.bar_speed.or(o.bar_speed);
+        let i = stages::ingest::run(&linked, &out.join("tracks.parquet"), &o)?;
+        Ok(Produced {
+            outputs: outputs(&[("tracks", "tracks.parquet"), ("linked", "linked.csv")]),
+            metrics: json!({
+                "features": r.link.features, "trajectories": r.link.trajectories,
+                "links": r.link.links, "ended": r.link.ended,
+                "n": i.summary.particles_per_frame_max, "frames": i.summary.frames,
+            }),
+            summary: json!({"track": sum(&r), "ingest": sum(&i)}),
+        })
     }
 }
 
