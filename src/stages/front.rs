@@ -71,7 +71,8 @@ fn quantiles(mut v: Vec<f64>) -> [f64; 3] {
     [0.5, 0.25, 0.75].map(|p| crate::stats::quantile_sorted(&v, p))
 }
 
-pub fn run(input: &Path, output: &Path, opt: &FrontOptions) -> Result<FrontReport> {
+/// The fronts of the kinematics table at `input`, written nowhere.
+pub fn fronts(input: &Path, opt: &FrontOptions) -> Result<FrontReport> {
     if !(opt.moving > 0.0 && opt.moving < 1.0) {
         return Err(Error::param(
             "moving",
@@ -140,6 +141,14 @@ pub fn run(input: &Path, output: &Path, opt: &FrontOptions) -> Result<FrontRepor
         misplaced: quantiles(fronts.iter().map(|f| f.2.misplaced).collect())[0],
         fronts,
     };
+    Ok(rep)
+}
+
+/// [`fronts`], written to `output` one row per pair and side, with the sidecar.
+pub fn run(input: &Path, output: &Path, opt: &FrontOptions) -> Result<FrontReport> {
+    let rep = fronts(input, opt)?;
+    let file = rep.input.clone();
+    let d = rep.d_large;
     // One row per pair and side.
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 9];
     for (a, b, f) in &rep.fronts {

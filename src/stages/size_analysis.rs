@@ -56,6 +56,22 @@ pub struct SizeAnalysis {
     pub outlines: Vec<OutlinesAt>,
     /// g(r) of each run (scan order), then of each experiment.
     pub gofr: Vec<GofrCurve>,
+    /// The moving/resting front of each scan row with a kinematics stage (Fig. 5a).
+    pub fronts: Vec<RunFront>,
+}
+
+/// One run's front between moving and resting grains over its frame pairs
+/// (`stages::front` with its defaults).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunFront {
+    pub row: usize,
+    pub pairs: usize,
+    /// Median and quartiles of the sides' angles to the bar, degrees.
+    pub angle_deg: [f64; 3],
+    /// Median rms of the slab boundaries about their lines, in D.
+    pub rms_d: f64,
+    /// Median fraction of grains on the wrong side.
+    pub misplaced: f64,
 }
 
 /// One run's transient shear lines (`structure::shear_lines` with its defaults).
@@ -111,6 +127,7 @@ pub fn analyse(datasets: &[DatasetInputs]) -> Result<Option<SizeAnalysis>> {
                 lines: Vec::new(),
                 outlines: Vec::new(),
                 gofr: Vec::new(),
+                fronts: Vec::new(),
             }));
         }
     };
@@ -125,6 +142,7 @@ pub fn analyse(datasets: &[DatasetInputs]) -> Result<Option<SizeAnalysis>> {
         .map(|r| format!("{} (N = {})", label(&r.run), r.n))
         .collect();
     let lines = shear_lines(datasets, &scan)?;
+    let fronts = fronts(datasets, &scan)?;
     // Each run's tracks, read once for its outlines and its g(r).
     let tracks = scan
         .rows
@@ -143,7 +161,31 @@ pub fn analyse(datasets: &[DatasetInputs]) -> Result<Option<SizeAnalysis>> {
         lines,
         outlines,
         gofr,
+        fronts,
     }))
+}
+
+/// Fig. 5a: the front of every frame pair of each run's kinematics.
+fn fronts(datasets: &[DatasetInputs], scan: &SizeScan) -> Result<Vec<RunFront>> {
+    let mut out = Vec::new();
+    for (row, r) in scan.rows.iter().enumerate() {
+        let Some(kin) = datasets
+            .iter()
+            .find(|d| d.pillar_run().as_deref() == Some(r.run.as_path()))
+            .and_then(|d| d.kinematics.clone())
+        else {
+            continue;
+        };
+        let f = crate::stages::front::fronts(&kin, &Default::default())?;
+        out.push(RunFront {
+            row,
+            pairs: f.pairs,
+            angle_deg: f.angle_deg,
+            rms_d: f.rms_d,
+            misplaced: f.misplaced,
+        });
+    }
+    Ok(out)
 }
 
 /// The analyses of `datasets` written into `out` (the tables and `ANALYSIS`), or None

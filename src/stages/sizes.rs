@@ -102,6 +102,8 @@ pub struct Tolerances {
     pub kappa: f64,
     /// Relative spread of χ at each strain of `CHI_AT`.
     pub chi: f64,
+    /// Largest distance of a run's median front angle from 45° (Fig. 5a), degrees.
+    pub front_deg: f64,
 }
 
 pub const TOLERANCES: Tolerances = Tolerances {
@@ -109,6 +111,7 @@ pub const TOLERANCES: Tolerances = Tolerances {
     sigma_y_over_w0: 0.10,
     kappa: 0.03,
     chi: 0.05,
+    front_deg: 10.0,
 };
 
 impl ScanChecks {

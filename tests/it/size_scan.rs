@@ -50,6 +50,8 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "Stress–strain with the yield point (Fig. 4)",
         "Fig. 11",
         "shear-line width between 1.5 and 3 D",
+        "the moving/resting front at about 45° at every size",
+        "angle to the bar, median [quartiles]",
     ] {
         assert!(html.contains(needle), "report lacks {needle}");
     }
