@@ -62,7 +62,7 @@ pub fn expand(
             ));
         }
         let toml::Value::Array(list) = v else {
-            unreachable!("the schema checked an array");
+            return Err(src.err(&format!("{at}.{k}"), "expected an array of values"));
         };
         let mut values = Vec::new();
         for (i, x) in list.iter().enumerate() {
@@ -102,7 +102,8 @@ pub fn expand(
                     }
                     given[table][entry] = v;
                 }
-                _ => unreachable!("checked above"),
+                // Paths of one or two parts only pass the type check above.
+                _ => return Err(src.err(&at, format!("'{}' is not a key", path.join(".")))),
             }
         }
         let params = st

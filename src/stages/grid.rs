@@ -33,6 +33,9 @@ pub struct GridRecord {
     pub columns: Vec<String>,
     /// (point, why a measure is missing), e.g. a run that stopped before ε = 0.2.
     pub missing: Vec<(usize, String)>,
+    /// Units of the pillar measures (the varied keys and metrics keep their stage's).
+    #[serde(default)]
+    pub units: std::collections::BTreeMap<String, String>,
 }
 
 /// The measures of a pillar run the report draws (li-granular-pillars Secs. III, V).
@@ -100,6 +103,21 @@ pub fn run(of: &str, keys: &[String], points: &[Point], out: &Path) -> Result<Gr
         points: points.len(),
         columns: names[1 + keys.len()..].to_vec(),
         missing,
+        units: if pillar {
+            PILLAR_COLUMNS
+                .iter()
+                .map(|c| {
+                    let u = match *c {
+                        "kappa_mean" => "1 (P_g-s / P_in)",
+                        c if c.starts_with("eps_y") => "strain",
+                        _ => "m g mu / D",
+                    };
+                    (c.to_string(), u.to_string())
+                })
+                .collect()
+        } else {
+            Default::default()
+        },
     };
     let text = serde_json::to_string_pretty(&record).expect("json");
     let table = out.join(TABLE);

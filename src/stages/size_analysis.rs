@@ -169,11 +169,7 @@ pub fn analyse(datasets: &[DatasetInputs]) -> Result<Option<SizeAnalysis>> {
 fn fronts(datasets: &[DatasetInputs], scan: &SizeScan) -> Result<Vec<RunFront>> {
     let mut out = Vec::new();
     for (row, r) in scan.rows.iter().enumerate() {
-        let Some(kin) = datasets
-            .iter()
-            .find(|d| d.pillar_run().as_deref() == Some(r.run.as_path()))
-            .and_then(|d| d.kinematics.clone())
-        else {
+        let Some(kin) = kinematics_of(datasets, &r.run) else {
             continue;
         };
         let f = crate::stages::front::fronts(&kin, &Default::default())?;
@@ -227,11 +223,7 @@ pub fn read(path: &Path) -> Result<SizeAnalysis> {
 fn shear_lines(datasets: &[DatasetInputs], scan: &SizeScan) -> Result<Vec<RunLines>> {
     let mut out = Vec::new();
     for (row, r) in scan.rows.iter().enumerate() {
-        let Some(kin) = datasets
-            .iter()
-            .find(|d| d.pillar_run().as_deref() == Some(r.run.as_path()))
-            .and_then(|d| d.kinematics.clone())
-        else {
+        let Some(kin) = kinematics_of(datasets, &r.run) else {
             continue;
         };
         let by_frame = crate::stages::shear_lines::every_pair(&kin, &Default::default())?;
@@ -254,6 +246,14 @@ fn shear_lines(datasets: &[DatasetInputs], scan: &SizeScan) -> Result<Vec<RunLin
         });
     }
     Ok(out)
+}
+
+/// The kinematics table of the data set whose pillar run is `run`.
+fn kinematics_of(datasets: &[DatasetInputs], run: &Path) -> Option<PathBuf> {
+    datasets
+        .iter()
+        .find(|d| d.pillar_run().as_deref() == Some(run))
+        .and_then(|d| d.kinematics.clone())
 }
 
 /// The frame of a run nearest strain `eps` (within 0.01), from its stress table.

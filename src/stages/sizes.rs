@@ -132,7 +132,8 @@ impl ScanChecks {
     }
 }
 
-fn spread(v: &[f64]) -> f64 {
+/// (max − min) / mean: the relative spread of a claim's values across runs.
+pub fn spread(v: &[f64]) -> f64 {
     let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
         (a.0.min(x), a.1.max(x))
     });

@@ -4,7 +4,26 @@
 
 use crate::common::{cli, tmpdir};
 use crate::interrupt::{finish, signal, spawn};
+use std::path::Path;
 use std::time::{Duration, Instant};
+
+/// `ingest F -o OUT` of a pixel table at 1 px per cm and 1 s per frame, with `more`.
+fn ingest_px(f: &Path, out: &Path, more: &[&str]) -> (bool, String) {
+    let mut args = vec![
+        "ingest",
+        f.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--px-per-unit",
+        "1",
+        "--unit",
+        "cm",
+        "--frame-time",
+        "1",
+    ];
+    args.extend_from_slice(more);
+    cli(&args)
+}
 
 /// A CSV header naming a column twice made polars panic (fuzz seed 1, case 7603); it is
 /// refused at line 1, naming the column.
@@ -36,18 +55,7 @@ fn a_coordinate_past_1e12_is_refused_naming_line_column_and_value() {
     )
     .unwrap();
     let out = d.join("o.parquet");
-    let (ok, text) = cli(&[
-        "ingest",
-        f.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--px-per-unit",
-        "1",
-        "--unit",
-        "cm",
-        "--frame-time",
-        "1",
-    ]);
+    let (ok, text) = ingest_px(&f, &out, &[]);
     assert!(!ok, "{text}");
     assert!(
         text.contains("line 2") && text.contains("'y'") && text.contains("2e13"),
@@ -68,21 +76,7 @@ fn every_trajectory_detached_is_an_error_not_an_empty_table() {
     )
     .unwrap();
     let out = d.join("o.parquet");
-    let args = [
-        "ingest",
-        f.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--px-per-unit",
-        "1",
-        "--unit",
-        "cm",
-        "--frame-time",
-        "1",
-        "--radii",
-        "1,1.4",
-    ];
-    let (ok, text) = cli(&args);
+    let (ok, text) = ingest_px(&f, &out, &["--radii", "1,1.4"]);
     assert!(!ok, "{text}");
     assert!(
         text.contains("all 3 trajectories") && text.contains("--keep-detached"),
@@ -90,9 +84,7 @@ fn every_trajectory_detached_is_an_error_not_an_empty_table() {
     );
     assert!(!out.exists());
     // As the message says, --keep-detached keeps them.
-    let mut keep = args.to_vec();
-    keep.push("--keep-detached");
-    let (ok, text) = cli(&keep);
+    let (ok, text) = ingest_px(&f, &out, &["--radii", "1,1.4", "--keep-detached"]);
     assert!(ok, "{text}");
     assert!(out.exists());
 }

@@ -465,15 +465,7 @@ strain = 0.005
     std::fs::write(&file, &text).unwrap();
     run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
     let m = latest(&runs);
-    let dir_of = |name: &str| {
-        let st = m["stages"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|s| s["name"] == name)
-            .unwrap_or_else(|| panic!("no stage {name}: {m}"));
-        runs.join(st["dir"].as_str().unwrap())
-    };
+    let dir_of = |name: &str| crate::common::stage_dir(&m, &runs, name);
     let packing = dir_of("experiment.ingest").join("tracks.parquet");
     assert!(packing.is_file(), "{m}");
     let cli_run = d.join("cli");
@@ -545,15 +537,7 @@ fn a_pack_stage_is_packed_once_and_shared_by_the_simulations_that_name_it() {
     let mut got = computed(&m);
     got.sort();
     assert_eq!(got, ["pack", "soft.simulate", "stiff.simulate"]);
-    let dir_of = |name: &str| {
-        let st = m["stages"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|s| s["name"] == name)
-            .unwrap_or_else(|| panic!("no stage {name}: {m}"));
-        runs.join(st["dir"].as_str().unwrap())
-    };
+    let dir_of = |name: &str| crate::common::stage_dir(&m, &runs, name);
     let packing = dir_of("pack").join("tracks.parquet");
     let cli_pack = d.join("pk.parquet");
     let (ok, text) = run(&[
@@ -624,16 +608,10 @@ fn vary_makes_a_parameter_study_of_cached_points_and_a_report_section() {
             "report"
         ]
     );
-    let dir_of = |name: &str| {
-        let st = m["stages"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|s| s["name"] == name)
-            .unwrap_or_else(|| panic!("no stage {name}: {m}"));
-        runs.join(st["dir"].as_str().unwrap())
-    };
+    let dir_of = |name: &str| crate::common::stage_dir(&m, &runs, name);
     let t = read_table(&dir_of("kn.simulate").join("grid.csv"), &[]).unwrap();
+    let rec = std::fs::read_to_string(dir_of("kn.simulate").join("grid.json")).unwrap();
+    assert!(rec.contains("\"sigma_y\": \"m g mu / D\""), "units: {rec}");
     assert_eq!(t.f64("set.k_n").unwrap(), vec![1000.0, 3000.0]);
     for c in ["sigma_mean", "kappa_mean", "steps"] {
         let v = t.f64(c).unwrap();

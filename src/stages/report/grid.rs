@@ -20,16 +20,13 @@ const CLAIMED: [&str; 2] = ["k_n", "mu_g"];
 pub const SIGMA_SPREAD: f64 = 0.10;
 pub const SIGMA_Y_SPREAD_KN: f64 = 0.20;
 
-/// (max − min) / mean of the finite values; NaN for fewer than two.
+/// `sizes::spread` of the finite values; NaN for fewer than two.
 fn spread(v: &[f64]) -> f64 {
     let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     if f.len() < 2 {
         return f64::NAN;
     }
-    let (lo, hi) = f.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
-        (a.0.min(x), a.1.max(x))
-    });
-    (hi - lo) / (f.iter().sum::<f64>() / f.len() as f64)
+    crate::stages::sizes::spread(&f)
 }
 
 /// The checks for the varied key `key` on points sorted by x: (claim, judged by,

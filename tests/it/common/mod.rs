@@ -99,6 +99,17 @@ pub fn latest(runs: &Path) -> Value {
     serde_json::from_str(&text.unwrap()).unwrap()
 }
 
+/// The cache folder of stage `name` in the run manifest `m` under `runs`.
+pub fn stage_dir(m: &Value, runs: &Path, name: &str) -> PathBuf {
+    let st = m["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["name"] == name)
+        .unwrap_or_else(|| panic!("no stage {name}: {m}"));
+    runs.join(st["dir"].as_str().unwrap())
+}
+
 /// Names of the stages a run computed (not taken from the cache).
 pub fn computed(m: &Value) -> Vec<String> {
     m["stages"]
