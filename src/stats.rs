@@ -217,3 +217,12 @@ mod survival_tests {
         assert!(survival_mean(&[0], &[0.0], &[0], &e[..2]).mean.is_nan());
     }
 }
+
+/// (max − min) / mean: how far apart values that should agree are, relative to their
+/// size (the size scan's and the parameter studies' independence checks).
+pub fn relative_spread(v: &[f64]) -> f64 {
+    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
+        (a.0.min(x), a.1.max(x))
+    });
+    (hi - lo) / (v.iter().sum::<f64>() / v.len() as f64)
+}

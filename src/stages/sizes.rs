@@ -132,12 +132,9 @@ impl ScanChecks {
     }
 }
 
-/// (max − min) / mean: the relative spread of a claim's values across runs.
-pub fn spread(v: &[f64]) -> f64 {
-    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
-        (a.0.min(x), a.1.max(x))
-    });
-    (hi - lo) / (v.iter().sum::<f64>() / v.len() as f64)
+/// The relative spread of a claim's values across runs (`stats::relative_spread`).
+fn spread(v: &[f64]) -> f64 {
+    crate::stats::relative_spread(v)
 }
 
 /// χ at strain `at` by linear interpolation between frames (NaN beyond the run).

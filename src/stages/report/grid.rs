@@ -20,13 +20,13 @@ const CLAIMED: [&str; 2] = ["k_n", "mu_g"];
 pub const SIGMA_SPREAD: f64 = 0.10;
 pub const SIGMA_Y_SPREAD_KN: f64 = 0.20;
 
-/// `sizes::spread` of the finite values; NaN for fewer than two.
+/// `stats::relative_spread` of the finite values; NaN for fewer than two.
 fn spread(v: &[f64]) -> f64 {
     let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     if f.len() < 2 {
         return f64::NAN;
     }
-    crate::stages::sizes::spread(&f)
+    crate::stats::relative_spread(&f)
 }
 
 /// The checks for the varied key `key` on points sorted by x: (claim, judged by,
