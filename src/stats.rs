@@ -226,3 +226,99 @@ pub fn relative_spread(v: &[f64]) -> f64 {
     });
     (hi - lo) / (v.iter().sum::<f64>() / v.len() as f64)
 }
+
+/// Student's t at 97.5 % for `dof` degrees of freedom (two-sided 95 % intervals), from
+/// the table for small counts (NaN for none).
+pub fn t_95(dof: usize) -> f64 {
+    match dof {
+        0 => f64::NAN,
+        1 => 12.71,
+        2 => 4.30,
+        3 => 3.18,
+        4 => 2.78,
+        5 => 2.57,
+        6..=9 => 2.36,
+        _ => 2.1,
+    }
+}
+
+/// The exponent b of y = a x^b by least squares on ln y against ln x, with its 95 %
+/// interval (NaN with two points: a line through two points has no scatter to judge).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PowerLaw {
+    pub exponent: f64,
+    pub interval: [f64; 2],
+}
+
+/// [`PowerLaw`] of the points with x, y > 0 and finite; None with fewer than two such
+/// points or one x.
+pub fn power_law(x: &[f64], y: &[f64]) -> Option<PowerLaw> {
+    let p: Vec<(f64, f64)> = x
+        .iter()
+        .zip(y)
+        .filter(|(a, b)| **a > 0.0 && **b > 0.0 && a.is_finite() && b.is_finite())
+        .map(|(a, b)| (a.ln(), b.ln()))
+        .collect();
+    let n = p.len();
+    if n < 2 {
+        return None;
+    }
+    let xm = p.iter().map(|q| q.0).sum::<f64>() / n as f64;
+    let ym = p.iter().map(|q| q.1).sum::<f64>() / n as f64;
+    let sxx: f64 = p.iter().map(|q| (q.0 - xm).powi(2)).sum();
+    if !(sxx > 0.0) {
+        return None;
+    }
+    let b = p.iter().map(|q| (q.0 - xm) * (q.1 - ym)).sum::<f64>() / sxx;
+    let half = if n > 2 {
+        let ssr: f64 = p.iter().map(|q| (q.1 - ym - b * (q.0 - xm)).powi(2)).sum();
+        t_95(n - 2) * (ssr / (n - 2) as f64 / sxx).sqrt()
+    } else {
+        f64::NAN
+    };
+    Some(PowerLaw {
+        exponent: b,
+        interval: [b - half, b + half],
+    })
+}
+
+#[cfg(test)]
+mod power_law_tests {
+    use super::*;
+
+    #[test]
+    fn exact_power_laws_give_their_exponent_and_no_width() {
+        let x = [1.0, 2.0, 4.0, 8.0];
+        let y: Vec<f64> = x.iter().map(|v: &f64| 3.0 * v.powi(2)).collect();
+        let p = power_law(&x, &y).unwrap();
+        assert!((p.exponent - 2.0).abs() < 1e-12);
+        assert!((p.interval[1] - p.interval[0]).abs() < 1e-9);
+        // Two points: the exponent, no interval.
+        let two = power_law(&x[..2], &y[..2]).unwrap();
+        assert!((two.exponent - 2.0).abs() < 1e-12 && two.interval[0].is_nan());
+        assert!(power_law(&[1.0, 1.0], &[2.0, 3.0]).is_none());
+        assert!(power_law(&[1.0, -2.0], &[2.0, 3.0]).is_none());
+    }
+
+    /// Scatter about y = x: the interval covers 1 and has the width of the t-interval
+    /// worked out by hand: ln y = ln x ± 0.1 alternately at x = 1, e, e², e³.
+    #[test]
+    fn the_interval_is_students() {
+        let x: Vec<f64> = (0..4).map(|k| (k as f64).exp()).collect();
+        let y: Vec<f64> = (0..4)
+            .map(|k| (k as f64 + if k % 2 == 0 { 0.1 } else { -0.1 }).exp())
+            .collect();
+        let p = power_law(&x, &y).unwrap();
+        // x̄ = 1.5, Sxx = 5; Sxy = Σ (k − 1.5)(k + e_k − ȳ) = 5 + Σ (k − 1.5) e_k = 5 − 0.2.
+        let b = 4.8 / 5.0;
+        assert!((p.exponent - b).abs() < 1e-12);
+        let resid: f64 = (0..4)
+            .map(|k| {
+                let e = if k % 2 == 0 { 0.1 } else { -0.1 };
+                (k as f64 + e - 1.5 - b * (k as f64 - 1.5)).powi(2)
+            })
+            .sum();
+        let half = 4.30 * (resid / 2.0 / 5.0).sqrt();
+        assert!((p.interval[1] - b - half).abs() < 1e-12, "{p:?}");
+    }
+}

@@ -250,6 +250,22 @@ pub fn sizes(args: SizesArgs) -> Result<()> {
             c.kappa_spread,
             verdict(c.kappa_holds())
         );
+        for (what, law, want, holds) in [
+            ("P_in vs W0", c.p_in_exponent, 2.0, c.p_in_holds()),
+            ("P_g-s vs N", c.p_gs_exponent, 1.0, c.p_gs_holds()),
+        ] {
+            match (law, holds) {
+                (Some(p), Some(ok)) => println!(
+                    "check       exponent of {what} = {want} within {}: {:.3} [{:.3}, {:.3}] ({})",
+                    tol.exponent,
+                    p.exponent,
+                    p.interval[0],
+                    p.interval[1],
+                    verdict(ok)
+                ),
+                _ => println!("check       exponent of {what}: not measurable"),
+            }
+        }
         for (k, at) in pillar_pipe::stages::sizes::CHI_AT.iter().enumerate() {
             println!(
                 "check       W/W0 at eps = {at} equal across sizes within {:.0} %: spread {:.1} % ({})",
@@ -335,5 +351,59 @@ pub fn front(args: FrontArgs) -> Result<()> {
         .with_context(|| format!("front of {}", args.kinematics.display()))?;
     println!("{rep}");
     println!("wrote       {}", args.output.display());
+    Ok(())
+}
+
+/// Transient shear lines (li-granular-pillars Sec. V): the lines of every frame pair of
+/// a `kinematics` table (its smallest lag, pairs end to end), linked across consecutive
+/// pairs when they share at least MIN_OVERLAP of the smaller line's grains. Prints the
+/// lifetime distribution (in frame pairs and in the table's time unit), lines and births
+/// per pair, and how many line grains are in a line again in the next pair against
+/// chance; writes one row per line with its `track` and the track's lifetime
+/// `track_pairs` (widths and lengths in D). Method: docs/shear-lines.md.
+#[derive(Args)]
+pub struct ShearLineTracksArgs {
+    /// A `kinematics` table (frame, frame_end, particle, x, y, j2).
+    pub kinematics: PathBuf,
+    /// Output table (.csv or .parquet); default <stem>.shear_line_tracks.csv beside it.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Least shared fraction (0-1] of the smaller line's grains that links two lines.
+    #[arg(long, default_value_t = pillar_pipe::structure::line_tracks::LinkOptions::default().min_overlap)]
+    pub min_overlap: f64,
+    /// Detection options, as `shear-lines` (its --frame and --lag-frames do not apply).
+    #[command(flatten)]
+    pub params: ShearLinesParams,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn shear_line_tracks(args: ShearLineTracksArgs) -> Result<()> {
+    use pillar_pipe::stages::line_tracks as lt;
+    let p = &args.params;
+    if p.frame.is_some() || p.lag_frames.is_some() {
+        anyhow::bail!(
+            "--frame and --lag-frames pick one pair for `shear-lines`; `shear-line-tracks` links every pair at the table's smallest lag"
+        );
+    }
+    let output = args
+        .output
+        .unwrap_or_else(|| lt::default_output(&args.kinematics));
+    let opt = lt::TracksOptions {
+        diameter: p.diameter,
+        detect: p.options().detect,
+        link: pillar_pipe::structure::line_tracks::LinkOptions {
+            min_overlap: args.min_overlap,
+        },
+    };
+    let rep = lt::run(&args.kinematics, &output, &opt)
+        .with_context(|| format!("shear-line tracks of {}", args.kinematics.display()))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rep)?);
+    } else {
+        println!("{rep}");
+        println!("wrote       {}", output.display());
+    }
     Ok(())
 }

@@ -48,6 +48,7 @@ pub mod export;
 pub mod fit;
 pub mod gofr;
 pub mod grid;
+pub mod line_tracks;
 pub mod link;
 pub mod pack;
 pub mod quickstart;

@@ -11,7 +11,7 @@ use crate::io::{sha256_file, sidecar_path, write_with_sidecar};
 use crate::structure::{ShearLine, ShearLineOptions, ShearLines, shear_lines};
 use polars::prelude::*;
 use serde::Serialize;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 /// Columns the detection reads from the kinematics table.
@@ -208,29 +208,6 @@ pub(crate) fn diameter(
     }
 }
 
-/// The lines of every frame pair of the kinematics table at `input` (D from its
-/// sidecar), by start frame in frame order: the distributions of Fig. 11 over a run.
-pub fn every_pair(input: &Path, detect: &ShearLineOptions) -> Result<Vec<(i64, Vec<ShearLine>)>> {
-    let t = read_kinematics(input)?;
-    let meta: Option<serde_json::Value> = std::fs::read_to_string(sidecar_path(input))
-        .ok()
-        .and_then(|s| serde_json::from_str(&s).ok());
-    let d = diameter(input, &t.file, meta.as_ref(), None)?;
-    let (frame, frame_end) = (t.i64("frame")?, t.i64("frame_end")?);
-    let (x, y, j2) = (t.f64("x")?, t.f64("y")?, t.f64_or_nan("j2")?);
-    let mut rows: BTreeMap<(i64, i64), Vec<usize>> = BTreeMap::new();
-    for i in 0..frame.len() {
-        rows.entry((frame[i], frame_end[i])).or_default().push(i);
-    }
-    let mut out = Vec::new();
-    for (&(start, _), r) in &rows {
-        let pos: Vec<Vec2> = r.iter().map(|&i| Vec2::new(x[i], y[i])).collect();
-        let j: Vec<f64> = r.iter().map(|&i| j2[i]).collect();
-        out.push((start, shear_lines(&pos, &j, d, detect)?.lines));
-    }
-    Ok(out)
-}
-
 /// The error for a pair that is not in the table, naming the pairs that are.
 fn no_pair(file: &str, opt: &ShearLinesOptions, pairs: &BTreeSet<(i64, i64)>) -> Error {
     let asked = match (opt.frame, opt.lag_frames) {
@@ -261,22 +238,34 @@ fn no_pair(file: &str, opt: &ShearLinesOptions, pairs: &BTreeSet<(i64, i64)>) ->
 
 /// One row per line, in the schema's column order.
 fn lines_dataframe(rep: &ShearLinesReport) -> Result<DataFrame> {
-    let l = &rep.result.lines;
-    let n = l.len();
-    let f = |g: fn(&crate::structure::ShearLine) -> f64| -> Vec<f64> { l.iter().map(g).collect() };
+    let rows: Vec<(i64, i64, &ShearLine)> = rep
+        .result
+        .lines
+        .iter()
+        .map(|l| (rep.frame, rep.frame_end, l))
+        .collect();
+    lines_table(&rows)
+}
+
+/// One row per (frame, frame_end, line), in the schema's column order.
+pub(crate) fn lines_table(rows: &[(i64, i64, &ShearLine)]) -> Result<DataFrame> {
+    let n = rows.len();
+    let f = |g: fn(&ShearLine) -> f64| -> Vec<f64> { rows.iter().map(|r| g(r.2)).collect() };
+    let i =
+        |g: fn(&ShearLine) -> usize| -> Vec<i64> { rows.iter().map(|r| g(r.2) as i64).collect() };
     DataFrame::new(
         n,
         vec![
-            Column::new("frame".into(), vec![rep.frame; n]),
-            Column::new("frame_end".into(), vec![rep.frame_end; n]),
             Column::new(
-                "line".into(),
-                l.iter().map(|l| l.id as i64).collect::<Vec<i64>>(),
+                "frame".into(),
+                rows.iter().map(|r| r.0).collect::<Vec<i64>>(),
             ),
             Column::new(
-                "n_grains".into(),
-                l.iter().map(|l| l.n_grains as i64).collect::<Vec<i64>>(),
+                "frame_end".into(),
+                rows.iter().map(|r| r.1).collect::<Vec<i64>>(),
             ),
+            Column::new("line".into(), i(|l| l.id)),
+            Column::new("n_grains".into(), i(|l| l.n_grains)),
             Column::new("x".into(), f(|l| l.x)),
             Column::new("y".into(), f(|l| l.y)),
             Column::new("angle_deg".into(), f(|l| l.angle_deg)),

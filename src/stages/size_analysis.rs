@@ -15,6 +15,7 @@ use crate::io::read_tracks;
 use crate::io::table::read_table;
 use crate::stages::datasets::DatasetInputs;
 use crate::stages::sizes::{CHI_AT, SizeOutputs, SizeScan};
+use crate::structure::line_tracks::TrackSummary;
 use crate::structure::{ShearLine, shape_distance};
 use crate::tracks::Tracks;
 use serde::{Deserialize, Serialize};
@@ -84,6 +85,10 @@ pub struct RunLines {
     /// The frame pair (its start frame) the J2 map shows, and its longest line away
     /// from the bar layer: the pair with such a line starting nearest ε = `MAP_STRAIN`.
     pub shown: Option<(i64, ShearLine)>,
+    /// The lines linked across consecutive pairs (`structure::line_tracks`).
+    pub tracks: TrackSummary,
+    /// Median strain between consecutive pairs' starts (a lifetime of one pair).
+    pub strain_per_pair: f64,
 }
 
 /// The runs' outlines at one strain, lengths over each run's W0 (closed polygons), and
@@ -226,7 +231,14 @@ fn shear_lines(datasets: &[DatasetInputs], scan: &SizeScan) -> Result<Vec<RunLin
         let Some(kin) = kinematics_of(datasets, &r.run) else {
             continue;
         };
-        let by_frame = crate::stages::shear_lines::every_pair(&kin, &Default::default())?;
+        let tracked = crate::stages::line_tracks::analyse(&kin, &Default::default())?;
+        let by_frame: Vec<(i64, Vec<ShearLine>)> = tracked
+            .pairs
+            .iter()
+            .map(|p| p.0)
+            .zip(tracked.lines)
+            .collect();
+        let strain_per_pair = strain_per_pair(&r.run, &tracked.pairs)?;
         let is_bulk = |l: &&ShearLine| l.angle_deg < BAR_LAYER_DEG;
         let target = frame_at_strain(&r.run, MAP_STRAIN)?;
         let shown = by_frame
@@ -243,6 +255,8 @@ fn shear_lines(datasets: &[DatasetInputs], scan: &SizeScan) -> Result<Vec<RunLin
             row,
             lines: by_frame.into_iter().flat_map(|(_, ls)| ls).collect(),
             shown,
+            tracks: tracked.tracks.summary,
+            strain_per_pair,
         });
     }
     Ok(out)
@@ -254,6 +268,22 @@ fn kinematics_of(datasets: &[DatasetInputs], run: &Path) -> Option<PathBuf> {
         .iter()
         .find(|d| d.pillar_run().as_deref() == Some(run))
         .and_then(|d| d.kinematics.clone())
+}
+
+/// The median strain between consecutive pairs' start frames, from the run's stress
+/// table (NaN with fewer than two pairs).
+fn strain_per_pair(run: &Path, pairs: &[(i64, i64, f64)]) -> Result<f64> {
+    let t = read_table(
+        &run.join("stress_strain.parquet"),
+        &[("frame", Expect::Int), ("strain", Expect::Float)],
+    )?;
+    let strain: std::collections::HashMap<i64, f64> =
+        t.i64("frame")?.into_iter().zip(t.f64("strain")?).collect();
+    let mut d: Vec<f64> = pairs
+        .windows(2)
+        .filter_map(|w| Some(strain.get(&w[1].0)? - strain.get(&w[0].0)?))
+        .collect();
+    Ok(crate::stats::median_select(&mut d))
 }
 
 /// The frame of a run nearest strain `eps` (within 0.01), from its stress table.

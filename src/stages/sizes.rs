@@ -28,6 +28,10 @@ pub struct SizeRow {
     pub sigma_err: f64,
     /// ⟨κ⟩ over the window.
     pub kappa: f64,
+    /// ⟨P_in⟩ and ⟨P_g-s⟩ over the window (Eqs. 20, 21) in units of m g μ v_c: the
+    /// frames' F_bar/(m g μ) = σ W/(m g μ), and κ times it.
+    pub p_in: f64,
+    pub p_gs: f64,
     /// χ = W/W0 at ε = 0.1 and 0.2 (W: the `width` column, 2 D band at the top bar).
     pub chi: [f64; 2],
     /// The mean bar pressure profile over `bar_pressure::WINDOW` (p in m g μ/D), or why
@@ -91,6 +95,10 @@ pub struct ScanChecks {
     pub sigma_y_over_w0_spread: Option<f64>,
     pub chi_spread: [f64; 2],
     pub kappa_spread: f64,
+    /// Exponents of ⟨P_in⟩ against W0 (Eq. 20: P_in ∝ W0²) and of ⟨P_g-s⟩ against N
+    /// (Sec. V: P_g-s = κ P_in ∝ N); None where the powers are not positive.
+    pub p_in_exponent: Option<crate::stats::PowerLaw>,
+    pub p_gs_exponent: Option<crate::stats::PowerLaw>,
 }
 
 /// The tolerance each claim is judged by (the issue's), the one place they are stated.
@@ -104,6 +112,10 @@ pub struct Tolerances {
     pub chi: f64,
     /// Largest distance of a run's median front angle from 45° (Fig. 5a), degrees.
     pub front_deg: f64,
+    /// Largest distance of the powers' exponents from the paper's 2 (P_in against W0)
+    /// and 1 (P_g-s against N). From σ/W0 equal within 10 % over a factor 2 in W0, the
+    /// exponent of P_in = σ W v_c may be off by ln 1.1/ln 2 ≈ 0.14 with χ equal too.
+    pub exponent: f64,
 }
 
 pub const TOLERANCES: Tolerances = Tolerances {
@@ -112,6 +124,7 @@ pub const TOLERANCES: Tolerances = Tolerances {
     kappa: 0.03,
     chi: 0.05,
     front_deg: 10.0,
+    exponent: 0.2,
 };
 
 impl ScanChecks {
@@ -125,6 +138,16 @@ impl ScanChecks {
     }
     pub fn kappa_holds(&self) -> bool {
         self.kappa_spread <= TOLERANCES.kappa
+    }
+    /// P_in ∝ W0² within the tolerance (None: not measurable).
+    pub fn p_in_holds(&self) -> Option<bool> {
+        self.p_in_exponent
+            .map(|p| (p.exponent - 2.0).abs() <= TOLERANCES.exponent)
+    }
+    /// P_g-s ∝ N within the tolerance (None: not measurable).
+    pub fn p_gs_holds(&self) -> Option<bool> {
+        self.p_gs_exponent
+            .map(|p| (p.exponent - 1.0).abs() <= TOLERANCES.exponent)
     }
     /// At the `k`-th strain of `CHI_AT`.
     pub fn chi_holds(&self, k: usize) -> bool {
@@ -188,6 +211,8 @@ pub fn row(dir: &Path) -> Result<SizeRow> {
             ("width", Expect::Float),
         ],
     )?;
+    // D in the width column's unit (cm), from the manifest's H0 in cm and in D.
+    let d_cm = num(&m["h0_cm"], "h0_cm")? / h0;
     let (eps, sig, kap, width) = (
         t.f64("strain")?,
         t.f64_or_nan("stress_reduced")?,
@@ -224,6 +249,8 @@ pub fn row(dir: &Path) -> Result<SizeRow> {
         .copied()
         .filter(|&k| kap[k].is_finite())
         .collect();
+    let p_in: Vec<f64> = (0..eps.len()).map(|k| sig[k] * width[k] / d_cm).collect();
+    let p_gs: Vec<f64> = (0..eps.len()).map(|k| kap[k] * p_in[k]).collect();
     Ok(SizeRow {
         run: dir.to_path_buf(),
         n,
@@ -235,6 +262,12 @@ pub fn row(dir: &Path) -> Result<SizeRow> {
             f64::NAN
         } else {
             mean(&kappa_idx, &kap)
+        },
+        p_in: mean(&idx, &p_in),
+        p_gs: if kappa_idx.is_empty() {
+            f64::NAN
+        } else {
+            mean(&kappa_idx, &p_gs)
         },
         chi: CHI_AT.map(|at| interpolate(&eps, &chi, at)),
         pressure: super::bar_pressure::run_profile(
@@ -262,15 +295,7 @@ pub fn fit_through_origin(x: &[f64], y: &[f64], err: &[f64]) -> Option<SizeFit> 
     let dof = (x.len() - 1) as f64;
     let chi2: f64 = (0..x.len()).map(|k| w[k] * (y[k] - c * x[k]).powi(2)).sum();
     let se = (chi2 / dof / sxx).sqrt().max((1.0 / sxx).sqrt());
-    let t = match x.len() - 1 {
-        1 => 12.71,
-        2 => 4.30,
-        3 => 3.18,
-        4 => 2.78,
-        5 => 2.57,
-        6..=9 => 2.36,
-        _ => 2.1,
-    };
+    let t = crate::stats::t_95(x.len() - 1);
     Some(SizeFit {
         c,
         c_interval: [c - t * se, c + t * se],
@@ -332,6 +357,8 @@ fn checks(rows: &[SizeRow]) -> Option<ScanChecks> {
             k.iter().copied().fold(f64::NEG_INFINITY, f64::max)
                 - k.iter().copied().fold(f64::INFINITY, f64::min)
         },
+        p_in_exponent: crate::stats::power_law(&col(&|r| r.w0_over_d), &col(&|r| r.p_in)),
+        p_gs_exponent: crate::stats::power_law(&col(&|r| r.n as f64), &col(&|r| r.p_gs)),
     })
 }
 
@@ -351,6 +378,8 @@ pub fn write(scan: &SizeScan, out: &SizeOutputs) -> Result<()> {
             Column::new("sigma_mean".into(), col(&|r| r.sigma)),
             Column::new("sigma_err".into(), col(&|r| r.sigma_err)),
             Column::new("kappa_mean".into(), col(&|r| r.kappa)),
+            Column::new("p_in_mean".into(), col(&|r| r.p_in)),
+            Column::new("p_gs_mean".into(), col(&|r| r.p_gs)),
             Column::new("chi_at_0_1".into(), col(&|r| r.chi[0])),
             Column::new("chi_at_0_2".into(), col(&|r| r.chi[1])),
             Column::new("p_centre".into(), col(&|r| r.p_centre())),
@@ -449,6 +478,8 @@ mod tests {
             sigma: 0.7 * w0,
             sigma_err: 0.1,
             kappa: 0.7,
+            p_in: 0.7 * w0 * 1.5 * w0,
+            p_gs: 0.7 * 0.7 * w0 * 1.5 * w0,
             chi: [1.4, 1.8],
             pressure: Err(String::new()),
             yielding: match sigma_y {
@@ -481,6 +512,22 @@ mod tests {
             [0.02, 0.01, 0.03, 6.0, 5.0, 7.0]
         );
         assert!(row(10.0, None).yield_columns().iter().all(|v| v.is_nan()));
+        // The powers: P_in = σ W ∝ W0² and, with n ∝ W0², P_g-s ∝ N.
+        let mut rows: Vec<SizeRow> = [10.0, 20.0, 40.0].map(|w| row(w, None)).to_vec();
+        for r in &mut rows {
+            r.n = (10.0 * r.w0_over_d * r.w0_over_d) as usize;
+        }
+        let c = checks(&rows).unwrap();
+        assert!((c.p_in_exponent.unwrap().exponent - 2.0).abs() < 1e-12);
+        assert!((c.p_gs_exponent.unwrap().exponent - 1.0).abs() < 1e-12);
+        assert_eq!((c.p_in_holds(), c.p_gs_holds()), (Some(true), Some(true)));
+        // A flow stress independent of size gives P_in ∝ W0 and fails the check.
+        for r in &mut rows {
+            r.p_in /= r.w0_over_d;
+            r.p_gs /= r.w0_over_d;
+        }
+        let c = checks(&rows).unwrap();
+        assert_eq!((c.p_in_holds(), c.p_gs_holds()), (Some(false), Some(false)));
     }
 
     #[test]

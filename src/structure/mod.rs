@@ -24,6 +24,7 @@ mod shear_lines;
 pub mod yielding;
 
 pub use outline::{Outline, shape_distance};
+pub use shear_lines::tracks as line_tracks;
 pub use shear_lines::{ShearLine, ShearLineOptions, ShearLineSummary, ShearLines, shear_lines};
 
 use crate::error::{Error, Result};

@@ -56,7 +56,7 @@ fn a_slip_band_is_one_line_at_its_angle() {
     let t = read_table(&out, &[]).unwrap();
     assert_eq!(
         t.columns(),
-        pillar_pipe::schema::load("shear_lines").names()
+        pillar_pipe::schema::load("shear_lines").required()
     );
     let (angle, dir_deg, width) = (
         t.f64("angle_deg").unwrap(),
@@ -99,4 +99,131 @@ fn a_slip_band_is_one_line_at_its_angle() {
         !ok && text.contains("bare.csv") && text.contains("j2"),
         "{text}"
     );
+}
+
+/// Six frames of the packing of [`slip_band_tracks`] with 0.002 D of tracking noise
+/// per axis in each, where band A (45° through the centre) slips in pairs 0, 1 and 2,
+/// band B (135°, 12 D to one side) in pair 3 and band C (135°, 12 D to the other) in
+/// pair 4, each 2 D wide with γ = 0.1.
+fn three_band_tracks(dir: &Path) -> PathBuf {
+    let p = bidisperse_packing(2500, 1.0, 0.1, 11);
+    let n = p.pos.len();
+    let c = p.pos.iter().fold(Vec2::ZERO, |s, &q| s + q) * (1.0 / n as f64);
+    let s = 0.5f64.sqrt();
+    let (u45, u135) = (Vec2::new(s, s), Vec2::new(-s, s));
+    let bands = [
+        (u45, 0.0),
+        (u45, 0.0),
+        (u45, 0.0),
+        (u135, 12.0),
+        (u135, -12.0),
+    ];
+    let mut rng = pillar_pipe::rng::Rng::new(13);
+    let mut t = pillar_pipe::tracks::Tracks {
+        meta: two_frame_tracks(&p, Mat2::IDENTITY, 0.0, 0).meta,
+        ..Default::default()
+    };
+    let (mut species, mut time) = (Vec::new(), Vec::new());
+    let mut cur = p.pos.clone();
+    for k in 0..=bands.len() {
+        if k > 0 {
+            let (u, offset) = bands[k - 1];
+            for (i, q) in p.pos.iter().enumerate() {
+                let across = (*q - c).cross(u) - offset;
+                cur[i] = cur[i] + u * (0.1 * across.clamp(-1.0, 1.0));
+            }
+        }
+        for (i, q) in cur.iter().enumerate() {
+            t.frame.push(k as i64);
+            t.particle.push(i as i64);
+            t.x.push(q.x + 0.002 * rng.normal());
+            t.y.push(q.y + 0.002 * rng.normal());
+            t.radius.push(p.radius[i]);
+            species.push(p.species[i]);
+            time.push(k as f64);
+        }
+    }
+    t.species = Some(species);
+    t.time = Some(time);
+    let path = dir.join("bands.tracks.parquet");
+    write_tracks(&t, &path).unwrap();
+    path
+}
+
+/// `shear-line-tracks`: band A lives three pairs (censored: alive at the first), B one
+/// (uncensored), C one (censored: alive at the last); the table's `track` ties A's rows.
+#[test]
+fn line_tracks_follow_a_persistent_band_and_see_new_ones_born() {
+    let dir = tmpdir("line-tracks");
+    let tracks = three_band_tracks(&dir);
+    let kin = dir.join("bands.kinematics.parquet");
+    let (ok, text) = run(&[
+        "kinematics",
+        tracks.to_str().unwrap(),
+        "--lag",
+        "1",
+        "--quiet",
+        "-o",
+        kin.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let (ok, text) = run(&["shear-line-tracks", kin.to_str().unwrap(), "--json"]);
+    assert!(ok, "{text}");
+    let rep: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let s = &rep["summary"];
+    assert_eq!(rep["pairs"], 5, "{text}");
+    assert_eq!(
+        (s["lines"].as_u64(), s["tracks"].as_u64()),
+        (Some(5), Some(3)),
+        "{text}"
+    );
+    assert_eq!(s["censored"], 2, "{text}");
+    assert_eq!(s["lifetime_counts"], serde_json::json!([1]), "{text}");
+    // Lines of pairs 0–3 (those with a next pair): A, A, A, B; continued: A twice.
+    assert_eq!(s["continued_fraction"], 0.5, "{text}");
+    // B and C born in pairs 1–4.
+    assert_eq!(s["births_per_pair"], 0.5, "{text}");
+    let out = dir.join("bands.shear_line_tracks.csv");
+    let t = read_table(&out, &[]).unwrap();
+    let schema = pillar_pipe::schema::load("shear_lines");
+    assert_eq!(
+        t.columns(),
+        schema.names(),
+        "the schema names the track columns"
+    );
+    let (track, life, frame) = (
+        t.i64("track").unwrap(),
+        t.i64("track_pairs").unwrap(),
+        t.i64("frame").unwrap(),
+    );
+    assert_eq!(frame, [0, 1, 2, 3, 4]);
+    assert_eq!(track[0], track[1]);
+    assert_eq!(track[1], track[2]);
+    assert!(track[3] != track[2] && track[4] != track[3]);
+    assert_eq!(life, [3, 3, 3, 1, 1]);
+
+    // Bad input: an overlap outside (0, 1], and --frame, named.
+    let (ok, text) = run(&[
+        "shear-line-tracks",
+        kin.to_str().unwrap(),
+        "--min-overlap",
+        "0",
+    ]);
+    assert!(!ok && text.contains("min-overlap"), "{text}");
+    let (ok, text) = run(&["shear-line-tracks", kin.to_str().unwrap(), "--frame", "1"]);
+    assert!(!ok && text.contains("--frame"), "{text}");
+    // A kinematics table without particle ids: the file and the column.
+    let bare = dir.join("bare.csv");
+    std::fs::write(&bare, "frame,frame_end,x,y,j2\n0,1,0.0,0.0,1.0\n").unwrap();
+    let (ok, text) = run(&[
+        "shear-line-tracks",
+        bare.to_str().unwrap(),
+        "--diameter",
+        "1",
+    ]);
+    assert!(
+        !ok && text.contains("bare.csv") && text.contains("particle"),
+        "{text}"
+    );
+    assert!(!text.contains("panicked"), "{text}");
 }

@@ -13,6 +13,7 @@ pub mod render;
 mod sections;
 pub mod shear;
 mod sizes;
+mod transient;
 
 use crate::error::{Error, Result};
 use crate::io::atomic_write_str;

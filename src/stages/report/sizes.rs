@@ -73,6 +73,7 @@ pub fn size_section(
     f.blocks.push(checks_table(scan));
     curves(&mut f, scan, names)?;
     shear_lines(&mut f, opt, scan, names, &a.lines)?;
+    super::transient::section(&mut f, scan, names, &a.lines)?;
     outlines(&mut f, names, &a.outlines)?;
     gofr(&mut f, &a.gofr)?;
     fronts(&mut f, names, &a.fronts);
@@ -183,6 +184,27 @@ fn checks_table(scan: &SizeScan) -> Block {
             format!("{:.3}", c.kappa_spread),
             verdict(c.kappa_holds()),
         ]);
+        for (claim, law, want, holds) in [
+            (
+                "input power P_in ∝ W0² (Eq. 20)",
+                c.p_in_exponent,
+                2.0,
+                c.p_in_holds(),
+            ),
+            (
+                "substrate dissipation P_g-s = κ P_in ∝ N (Eq. 21)",
+                c.p_gs_exponent,
+                1.0,
+                c.p_gs_holds(),
+            ),
+        ] {
+            rows.push(vec![
+                claim.into(),
+                format!("exponent {want} ± {}", tol.exponent),
+                law.map_or_else(|| "not measurable".into(), power_text),
+                holds.map_or_else(|| "—".into(), verdict),
+            ]);
+        }
         for (k, at) in CHI_AT.iter().enumerate() {
             rows.push(vec![
                 format!("W/W0 at ε = {at} independent of size (self-similar shape)"),
@@ -197,6 +219,18 @@ fn checks_table(scan: &SizeScan) -> Block {
             .map(String::from)
             .to_vec(),
         rows,
+    }
+}
+
+/// An exponent with its 95 % interval where there is one (three runs or more).
+fn power_text(p: crate::stats::PowerLaw) -> String {
+    if p.interval[0].is_finite() {
+        format!(
+            "{:.2} [{:.2}, {:.2}] (95 %)",
+            p.exponent, p.interval[0], p.interval[1]
+        )
+    } else {
+        format!("{:.2} (two runs: no interval)", p.exponent)
     }
 }
 

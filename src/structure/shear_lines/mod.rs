@@ -41,6 +41,8 @@
 //! apart. Limits: lines crossing at less than about 30° are one cluster; a curved line is
 //! measured as its chord (its width grows with the sagitta).
 
+pub mod tracks;
+
 use crate::error::{Error, Result};
 use crate::geom::Vec2;
 use crate::neighbors::{CellList, Cutoff};
@@ -104,6 +106,11 @@ pub struct ShearLine {
     /// Mean J2 of its grains (1/time) and that over J2_ref.
     pub j2_mean: f64,
     pub j2_contrast: f64,
+    /// Its grains: indices into the positions given to [`shear_lines()`], ascending.
+    /// Not stored with a line (a cached analysis keeps the measures only); the linking
+    /// of lines across frame pairs ([`tracks`]) maps them to particle ids.
+    #[serde(skip)]
+    pub members: Vec<usize>,
 }
 
 /// What the detection saw besides the lines.
@@ -177,6 +184,8 @@ pub fn shear_lines(pos: &[Vec2], j2: &[f64], d: f64, opt: &ShearLineOptions) -> 
         let (width, length) = (a.width() / d, a.length() / d);
         if a.elongation() >= opt.min_elongation && length >= opt.min_length_over_d {
             let j2_mean = c.iter().map(|&k| j2[high[k]]).sum::<f64>() / c.len() as f64;
+            let mut members: Vec<usize> = c.iter().map(|&k| high[k]).collect();
+            members.sort_unstable();
             lines.push(ShearLine {
                 id: 0,
                 n_grains: c.len(),
@@ -189,6 +198,7 @@ pub fn shear_lines(pos: &[Vec2], j2: &[f64], d: f64, opt: &ShearLineOptions) -> 
                 elongation: a.elongation(),
                 j2_mean,
                 j2_contrast: j2_mean / j2_ref,
+                members,
             });
         } else {
             compact += 1;
