@@ -20,6 +20,13 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
+    // Output piped into `head` and the like: stop quietly when the reader goes away, as
+    // Unix tools do, instead of panicking in `println!` on EPIPE (Rust ignores SIGPIPE by
+    // default). Nothing here writes into a pipe it opened, so no other write can raise it.
+    // SAFETY: as above; SIG_DFL installs no handler code.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = cli::Cli::parse();
     if let Err(e) = cli::dispatch(cli.cmd) {
         if let Some(signal) = interrupted(&e) {

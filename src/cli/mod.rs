@@ -85,6 +85,7 @@ pub enum Cmd {
     Front(structure::FrontArgs),
     Sizes(structure::SizesArgs),
     BarPressure(structure::BarPressureArgs),
+    EdgeStress(structure::EdgeStressArgs),
     Synth(export::SynthArgs),
 }
 
@@ -119,6 +120,7 @@ pub fn dispatch(cmd: Cmd) -> Result<()> {
         Cmd::Front(a) => structure::front(a),
         Cmd::Sizes(a) => structure::sizes(a),
         Cmd::BarPressure(a) => structure::bar_pressure(a),
+        Cmd::EdgeStress(a) => structure::edge_stress(a),
         Cmd::Synth(a) => export::synth(a),
     }
 }

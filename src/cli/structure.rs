@@ -256,15 +256,29 @@ pub fn sizes(args: SizesArgs) -> Result<()> {
         ] {
             match (law, holds) {
                 (Some(p), Some(ok)) => println!(
-                    "check       exponent of {what} = {want} within {}: {:.3} [{:.3}, {:.3}] ({})",
+                    "check       exponent of {what} = {want} within {}: {:.3} {} ({})",
                     tol.exponent,
                     p.exponent,
-                    p.interval[0],
-                    p.interval[1],
+                    if p.interval[0].is_finite() {
+                        format!("[{:.3}, {:.3}] (95 %)", p.interval[0], p.interval[1])
+                    } else {
+                        "(two runs: no interval)".into()
+                    },
                     verdict(ok)
                 ),
                 _ => println!("check       exponent of {what}: not measurable"),
             }
+        }
+        match (c.edge_rate_spread, c.edge_rate_holds()) {
+            (Some(s), Some(ok)) => println!(
+                "check       edge stress rate equal across sizes within {:.0} %: spread {:.1} % ({})",
+                100.0 * tol.edge_rate,
+                100.0 * s,
+                verdict(ok)
+            ),
+            _ => println!(
+                "check       edge stress rate: not measurable (a run has no force snapshot at 0.1 <= eps <= 0.2)"
+            ),
         }
         for (k, at) in pillar_pipe::stages::sizes::CHI_AT.iter().enumerate() {
             println!(
@@ -405,5 +419,41 @@ pub fn shear_line_tracks(args: ShearLineTracksArgs) -> Result<()> {
         println!("{rep}");
         println!("wrote       {}", output.display());
     }
+    Ok(())
+}
+
+/// Local stress against distance from the lateral edges of a `simulate pillar` run
+/// (li-granular-pillars Sec. V): each grain's p = sum of its normal contact forces /
+/// (2 pi R), in m g mu/D, binned by its distance d (in D, 1 D bins) to the nearer edge of
+/// the pillar at its height, grains within 2 D of the bars left out, pooled over the
+/// force snapshots in the strain window; and the rate dp/dd over d <= 6 D (m g mu/D per
+/// D). Method: docs/size-scan.md.
+#[derive(Args)]
+pub struct EdgeStressArgs {
+    /// A `simulate pillar` output directory (stress_strain, forces, tracks).
+    pub run: PathBuf,
+    /// Strain window LO,HI of the snapshots pooled (engineering strain).
+    #[arg(long, value_parser = pillar_pipe::pipeline::params::parse_pair, default_value = "0.1,0.2")]
+    pub strain: (f64, f64),
+    /// d_over_d, p, grains table (CSV or Parquet by extension).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+pub fn edge_stress(args: EdgeStressArgs) -> Result<()> {
+    let p = pillar_pipe::stages::edge_stress::run(&args.run, args.strain, &args.output)
+        .with_context(|| format!("edge stress of {}", args.run.display()))?;
+    println!(
+        "edge stress {} snapshots at {} <= eps <= {}: rate dp/dd = {:.3} m g mu/D per D over d <= {} D",
+        p.snapshots,
+        args.strain.0,
+        args.strain.1,
+        p.rate,
+        pillar_pipe::structure::edge_stress::FIT_D
+    );
+    for ((d, v), g) in p.d_over_d.iter().zip(&p.p).zip(&p.grains) {
+        println!("  d = {d:5.1} D   p = {v:.3} m g mu/D   ({g} grains)");
+    }
+    println!("wrote       {}", args.output.display());
     Ok(())
 }

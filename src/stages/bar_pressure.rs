@@ -4,6 +4,7 @@
 //! p in m g μ/D against x/W (see `structure::pressure` for the construction).
 
 use crate::error::{Error, Result};
+use crate::geom::Vec2;
 use crate::io::csvdiag::Expect;
 use crate::io::table::{read_table, write_table};
 use crate::io::{sha256_file, write_with_sidecar};
@@ -19,13 +20,19 @@ pub const WINDOW: (f64, f64) = (0.1, 0.2);
 /// Bins across the interface.
 pub const BINS: usize = 10;
 
-/// A run's mean profile over its snapshots in `window`, p in m g μ/D, and how many
-/// snapshots it averages.
-pub fn run_profile(
-    dir: &Path,
-    window: (f64, f64),
-    bins: usize,
-) -> Result<(PressureProfile, usize)> {
+/// One force snapshot of a run: the grains' centres and radii in D and one column of
+/// the forces table, by grain.
+pub struct Snapshot {
+    pub frame: i64,
+    pub pos: Vec<Vec2>,
+    pub radius: Vec<f64>,
+    pub value: Vec<f64>,
+}
+
+/// The force snapshots of the run in `dir` whose strain lies in `window`, with the
+/// forces table's `column` (a float column of `data_schema/forces.schema.json`), and
+/// the largest strain the run reached (for the caller's "none in the window" error).
+pub fn snapshots(dir: &Path, window: (f64, f64), column: &str) -> Result<(Vec<Snapshot>, f64)> {
     let ss_path = dir.join("stress_strain.parquet");
     let ss = read_table(
         &ss_path,
@@ -46,27 +53,29 @@ pub fn run_profile(
         &[
             ("frame", Expect::Int),
             ("particle", Expect::Int),
-            ("f_bar_reduced", Expect::Float),
+            (column, Expect::Float),
         ],
     )
     .map_err(|e| match e {
         Error::Io { .. } => e,
         other => Error::input(
             f_path.display(),
-            format!("{other} (runs before the bar force was recorded per grain lack f_bar_reduced: simulate again)"),
+            format!(
+                "{other} (runs made before the forces table had {column} lack it: simulate again)"
+            ),
         ),
     })?;
-    let (ff, fp, fb) = (
+    let (ff, fp, fv) = (
         forces.i64("frame")?,
         forces.i64("particle")?,
-        forces.f64("f_bar_reduced")?,
+        forces.f64(column)?,
     );
     let (tracks, _) = crate::io::read_tracks(&dir.join("tracks.parquet"))?;
     let d = tracks
         .large_diameter()
         .ok_or_else(|| Error::input(dir.join("tracks.parquet").display(), "no grain radii"))?;
     let ranges: HashMap<i64, std::ops::Range<usize>> = tracks.frame_ranges().into_iter().collect();
-    let mut profiles = Vec::new();
+    let mut out = Vec::new();
     let mut s = 0;
     while s < ff.len() {
         let frame = ff[s];
@@ -75,26 +84,46 @@ pub fn run_profile(
             .get(&frame)
             .is_some_and(|&eps| eps >= window.0 && eps <= window.1);
         if let (true, Some(r)) = (in_window, ranges.get(&frame)) {
-            // Grain positions of this frame, by id, in D.
             let at: HashMap<i64, usize> = r.clone().map(|i| (tracks.particle[i], i)).collect();
-            let (mut x, mut rad, mut f) = (Vec::new(), Vec::new(), Vec::new());
+            let mut snap = Snapshot {
+                frame,
+                pos: Vec::new(),
+                radius: Vec::new(),
+                value: Vec::new(),
+            };
             for k in s..e {
                 if let Some(&i) = at.get(&fp[k]) {
-                    x.push(tracks.x[i] / d);
-                    rad.push(tracks.radius[i] / d);
-                    f.push(fb[k]);
+                    snap.pos.push(Vec2::new(tracks.x[i] / d, tracks.y[i] / d));
+                    snap.radius.push(tracks.radius[i] / d);
+                    snap.value.push(fv[k]);
                 }
             }
-            if let Some(p) = bar_pressure(&x, &rad, &f, bins) {
-                profiles.push(p);
-            }
+            out.push(snap);
         }
         s = e;
     }
+    Ok((out, reached))
+}
+
+/// A run's mean profile over its snapshots in `window`, p in m g μ/D, and how many
+/// snapshots it averages.
+pub fn run_profile(
+    dir: &Path,
+    window: (f64, f64),
+    bins: usize,
+) -> Result<(PressureProfile, usize)> {
+    let (snaps, reached) = snapshots(dir, window, "f_bar_reduced")?;
+    let profiles: Vec<PressureProfile> = snaps
+        .iter()
+        .filter_map(|s| {
+            let x: Vec<f64> = s.pos.iter().map(|p| p.x).collect();
+            bar_pressure(&x, &s.radius, &s.value, bins)
+        })
+        .collect();
     let n = profiles.len();
     let mean = mean_profile(&profiles).ok_or_else(|| {
         Error::input(
-            f_path.display(),
+            dir.join("forces.parquet").display(),
             format!(
                 "no force snapshot with the bar in contact at {} ≤ ε ≤ {} (the run reached ε = {reached:.3}; snapshots every --forces-every frames)",
                 window.0, window.1

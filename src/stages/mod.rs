@@ -44,6 +44,7 @@ pub fn hide_progress_on_this_thread() {
 pub mod bar_pressure;
 pub mod compare;
 pub mod datasets;
+pub mod edge_stress;
 pub mod export;
 pub mod fit;
 pub mod gofr;

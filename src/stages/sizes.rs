@@ -37,6 +37,9 @@ pub struct SizeRow {
     /// The mean bar pressure profile over `bar_pressure::WINDOW` (p in m g μ/D), or why
     /// there is none.
     pub pressure: std::result::Result<(crate::structure::pressure::PressureProfile, usize), String>,
+    /// Local stress against distance from the lateral edges over the bar pressure's
+    /// window (`structure::edge_stress`, p in m g μ/D, d in D), or why there is none.
+    pub edge: std::result::Result<crate::structure::edge_stress::EdgeProfile, String>,
     /// The yield point of σ(ε) over 0 ≤ ε ≤ `WINDOW.1` (σ_y in m g μ/D), or why none.
     pub yielding: crate::structure::yielding::Yield,
     /// Frames of the run: ε, σ (m g μ/D), κ, χ.
@@ -99,6 +102,10 @@ pub struct ScanChecks {
     /// (Sec. V: P_g-s = κ P_in ∝ N); None where the powers are not positive.
     pub p_in_exponent: Option<crate::stats::PowerLaw>,
     pub p_gs_exponent: Option<crate::stats::PowerLaw>,
+    /// Relative spread of the rates at which the local stress rises from the lateral
+    /// edges (Sec. V: "very close for different-sized pillars"); None where a run has
+    /// no force snapshots in the window.
+    pub edge_rate_spread: Option<f64>,
 }
 
 /// The tolerance each claim is judged by (the issue's), the one place they are stated.
@@ -116,6 +123,8 @@ pub struct Tolerances {
     /// and 1 (P_g-s against N). From σ/W0 equal within 10 % over a factor 2 in W0, the
     /// exponent of P_in = σ W v_c may be off by ln 1.1/ln 2 ≈ 0.14 with χ equal too.
     pub exponent: f64,
+    /// Relative spread of the edge stress's rate of rise.
+    pub edge_rate: f64,
 }
 
 pub const TOLERANCES: Tolerances = Tolerances {
@@ -125,6 +134,7 @@ pub const TOLERANCES: Tolerances = Tolerances {
     chi: 0.05,
     front_deg: 10.0,
     exponent: 0.2,
+    edge_rate: 0.15,
 };
 
 impl ScanChecks {
@@ -148,6 +158,10 @@ impl ScanChecks {
     pub fn p_gs_holds(&self) -> Option<bool> {
         self.p_gs_exponent
             .map(|p| (p.exponent - 1.0).abs() <= TOLERANCES.exponent)
+    }
+    /// The edge stress rises at one rate at every size (None: not measurable).
+    pub fn edge_rate_holds(&self) -> Option<bool> {
+        self.edge_rate_spread.map(|s| s <= TOLERANCES.edge_rate)
     }
     /// At the `k`-th strain of `CHI_AT`.
     pub fn chi_holds(&self, k: usize) -> bool {
@@ -276,6 +290,8 @@ pub fn row(dir: &Path) -> Result<SizeRow> {
             super::bar_pressure::BINS,
         )
         .map_err(|e| e.to_string()),
+        edge: super::edge_stress::run_profile(dir, super::bar_pressure::WINDOW)
+            .map_err(|e| e.to_string()),
         yielding,
         curves: [eps, sig, kap, chi],
     })
@@ -359,6 +375,17 @@ fn checks(rows: &[SizeRow]) -> Option<ScanChecks> {
         },
         p_in_exponent: crate::stats::power_law(&col(&|r| r.w0_over_d), &col(&|r| r.p_in)),
         p_gs_exponent: crate::stats::power_law(&col(&|r| r.n as f64), &col(&|r| r.p_gs)),
+        edge_rate_spread: rows
+            .iter()
+            .map(|r| {
+                r.edge
+                    .as_ref()
+                    .ok()
+                    .map(|e| e.rate)
+                    .filter(|v| v.is_finite())
+            })
+            .collect::<Option<Vec<f64>>>()
+            .map(|v| spread(&v)),
     })
 }
 
@@ -380,6 +407,10 @@ pub fn write(scan: &SizeScan, out: &SizeOutputs) -> Result<()> {
             Column::new("kappa_mean".into(), col(&|r| r.kappa)),
             Column::new("p_in_mean".into(), col(&|r| r.p_in)),
             Column::new("p_gs_mean".into(), col(&|r| r.p_gs)),
+            Column::new(
+                "edge_rate".into(),
+                col(&|r| r.edge.as_ref().map_or(f64::NAN, |e| e.rate)),
+            ),
             Column::new("chi_at_0_1".into(), col(&|r| r.chi[0])),
             Column::new("chi_at_0_2".into(), col(&|r| r.chi[1])),
             Column::new("p_centre".into(), col(&|r| r.p_centre())),
@@ -482,6 +513,7 @@ mod tests {
             p_gs: 0.7 * 0.7 * w0 * 1.5 * w0,
             chi: [1.4, 1.8],
             pressure: Err(String::new()),
+            edge: Err(String::new()),
             yielding: match sigma_y {
                 Some(s) => Yield::Reached(YieldPoint {
                     eps_y: 0.02,

@@ -16,6 +16,7 @@
 //! g_c(r) = ⟨number of grains in [r, r + dr) around a centre of species c⟩ / (ρ 2π r dr),
 //! with ρ the density of all grains: it tends to 1 at large r for any species mix.
 
+pub mod edge_stress;
 pub mod front;
 mod outline;
 mod pair_counts;

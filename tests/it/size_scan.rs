@@ -52,6 +52,14 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "shear-line width between 1.5 and 3 D",
         "the moving/resting front at about 45° at every size",
         "angle to the bar, median [quartiles]",
+        // Issue 36 item 5 and Eqs. 20-21: the newer claims, each with a verdict.
+        "input power P_in ∝ W0² (Eq. 20)",
+        "substrate dissipation P_g-s = κ P_in ∝ N (Eq. 21)",
+        "local stress rises from the lateral edges at the same rate",
+        "Local stress against distance from the edge (Sec. V)",
+        "Check — the lines are transient (Sec. V)",
+        "Check — bigger pillars have more lines",
+        "line grains in a line again next pair",
     ] {
         assert!(html.contains(needle), "report lacks {needle}");
     }
@@ -68,6 +76,7 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         "sizes_line_angles",
         "sizes_line_widths",
         "sizes_j2_lines",
+        "sizes_edge_stress",
     ] {
         for ext in ["png", "svg"] {
             let p = run_dir.join("figures").join(format!("{fig}.{ext}"));
@@ -90,6 +99,10 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
     let (n, sigma) = (t.i64("n").unwrap(), t.f64("sigma_mean").unwrap());
     assert_eq!(n, vec![120, 360]);
     assert!(sigma[1] > 1.4 * sigma[0], "{sigma:?}");
+    // The powers grow with the size, and the edge stress rises into the interior.
+    let (p_in, edge) = (t.f64("p_in_mean").unwrap(), t.f64("edge_rate").unwrap());
+    assert!(p_in[1] > 2.0 * p_in[0], "{p_in:?}");
+    assert!(edge.iter().all(|r| *r > 0.0), "{edge:?}");
     // Nothing is computed again.
     run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
     let again = latest(&runs);

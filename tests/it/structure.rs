@@ -464,3 +464,76 @@ fn front_finds_a_planted_45_degree_front_and_refuses_bad_input() {
     ]);
     assert!(!ok && o.contains("moving"), "{o}");
 }
+
+/// `edge-stress` on a short pillar: a sidecar naming the run's three tables, a profile
+/// that rises from the edge (the paper's "larger local stress in the interior"), bad
+/// windows named; and its printout piped into a reader that stops at once ends the
+/// command quietly (SIGPIPE), not with a panic.
+#[test]
+fn edge_stress_rises_from_the_edges_and_refuses_bad_windows() {
+    let d = tmpdir("edge-stress");
+    let sim = short_pillar(&d);
+    let out = d.join("e.csv");
+    let (ok, text) = run(&[
+        "edge-stress",
+        sim.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let inputs = ["stress_strain.parquet", "forces.parquet", "tracks.parquet"].map(|f| sim.join(f));
+    let v = sidecar_naming(&out, &inputs.each_ref().map(|p| p.as_path()));
+    assert_eq!(v["table"], "edge_stress");
+    assert!(v["rate"].as_f64().unwrap() > 0.0, "{v}");
+    let t = pillar_pipe::io::table::read_table(&out, &[]).unwrap();
+    let p = t.f64("p").unwrap();
+    assert_eq!(t.columns(), ["d_over_d", "p", "grains"]);
+    assert!(p[0] < p[2], "the edge bin is below the interior: {p:?}");
+
+    let (ok, text) = run(&[
+        "edge-stress",
+        sim.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--strain",
+        "0.5,0.6",
+    ]);
+    assert!(
+        !ok && text.contains("forces.parquet") && text.contains("reached"),
+        "{text}"
+    );
+    let (ok, text) = run(&[
+        "edge-stress",
+        sim.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--strain",
+        "0.2,0.1",
+    ]);
+    assert!(!ok && text.contains("strain"), "{text}");
+    let (ok, text) = run(&[
+        "edge-stress",
+        d.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("stress_strain.parquet"), "{text}");
+    assert!(!text.contains("panicked"), "{text}");
+
+    // The reader is gone before the command prints.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pillar-pipe"))
+        .args([
+            "edge-stress",
+            sim.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let res = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&res.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+}
