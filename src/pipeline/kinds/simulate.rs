@@ -29,7 +29,10 @@ pub struct Simulate;
 
 impl StageKind for Simulate {
     fn resolve(&self, given: Json) -> std::result::Result<Json, String> {
-        let mut v = super::round_trip::<stages::simulate::SimulateOptions>(given)?;
+        let mut o: stages::simulate::SimulateOptions =
+            serde_json::from_value(given).map_err(|e| e.to_string())?;
+        o.canonicalise();
+        let mut v = serde_json::to_value(o).expect("json");
         drop_keys(&mut v, &SIMULATE_RUN_ONLY);
         Ok(v)
     }

@@ -158,6 +158,43 @@ mod tests {
         assert_eq!(normal_k(p.grain_law().unwrap()), p.k_n);
     }
 
+    /// Issue 36: a `set` that only repeats the preset's values is the preset's run: the
+    /// same parameters and label, and (through `resolve`) the same pipeline cache key.
+    #[test]
+    fn setting_a_preset_value_is_the_preset() {
+        let fast = |set: &[(&str, f64)]| SimulateOptions {
+            preset: "fast".into(),
+            ..with(set)
+        };
+        let plain = fast(&[]).params().unwrap();
+        let same = fast(&[("k_n", plain.k_n), ("mu_g", plain.mu_g)]);
+        assert_eq!(same.params().unwrap(), plain);
+        assert_eq!(same.params().unwrap().preset, "fast");
+        let mut c = same.clone();
+        c.canonicalise();
+        assert!(c.set.is_empty(), "{:?}", c.set);
+        // A different value stays, and labels the run as custom.
+        let other = fast(&[("k_n", plain.k_n), ("mu_g", 0.3)]);
+        let mut c = other.clone();
+        c.canonicalise();
+        assert_eq!(c.set.keys().collect::<Vec<_>>(), ["mu_g"]);
+        assert_eq!(other.params().unwrap().preset, "fast+custom");
+        use crate::pipeline::kinds::StageKind;
+        let kind = crate::pipeline::kinds::simulate::Simulate;
+        let resolve = |set: serde_json::Value| {
+            kind.resolve(serde_json::json!({"preset": "fast", "set": set}))
+                .unwrap()
+        };
+        assert_eq!(
+            resolve(serde_json::json!({"k_n": plain.k_n})),
+            resolve(serde_json::json!({}))
+        );
+        assert_ne!(
+            resolve(serde_json::json!({"mu_g": 0.3})),
+            resolve(serde_json::json!({}))
+        );
+    }
+
     #[test]
     fn k_n_and_the_material_together_or_half_a_material_are_refused_by_name() {
         let err = |set: &[(&str, f64)]| with(set).params().unwrap_err().to_string();
@@ -192,6 +229,24 @@ impl SimulateOptions {
     }
 
     /// The preset with overrides applied, validated.
+    /// Drops the `set` entries equal to the preset's own value (material keys, which
+    /// stand for a k_n together, are kept, and so is k_n beside them), so that a run asking for the default is the
+    /// default run: the same parameters, label and pipeline cache entry. An unknown
+    /// preset is left for [`Self::params`] to refuse.
+    pub fn canonicalise(&mut self) {
+        let Some(base) = PillarParams::preset(&self.preset) else {
+            return;
+        };
+        let v = serde_json::to_value(&base).expect("params serialise");
+        // k_n beside a material is a conflict `params` names; it is not a default then.
+        let material = MATERIAL_KEYS.iter().any(|m| self.set.contains_key(*m));
+        self.set.retain(|k, x| {
+            MATERIAL_KEYS.contains(&k.as_str())
+                || (material && k == "k_n")
+                || v.get(k).and_then(|d| d.as_f64()) != Some(*x)
+        });
+    }
+
     pub fn params(&self) -> Result<PillarParams> {
         let base = PillarParams::preset(&self.preset).ok_or_else(|| {
             Error::param(
@@ -204,7 +259,9 @@ impl SimulateOptions {
         })?;
         let mut v = serde_json::to_value(&base).expect("params serialise");
         v["normal_law"] = serde_json::json!(self.normal_law);
-        let set = with_k_n_from_material(&self.set)?;
+        let mut canonical = self.clone();
+        canonical.canonicalise();
+        let set = with_k_n_from_material(&canonical.set)?;
         for (k, x) in &set {
             if k == "preset" || k == "normal_law" || v.get(k).is_none() {
                 let known: Vec<&String> = v
