@@ -56,7 +56,8 @@ pub fn run(of: &str, keys: &[String], points: &[Point], out: &Path) -> Result<Gr
     let mut metric_names: Vec<String> = Vec::new();
     for p in points {
         for (k, v) in p.metrics.as_object().into_iter().flatten() {
-            if v.is_number() && !metric_names.contains(k) {
+            // A metric named as a varied key (a shear stage's `phi`) is that key's value.
+            if v.is_number() && !metric_names.contains(k) && !keys.contains(k) {
                 metric_names.push(k.clone());
             }
         }

@@ -685,3 +685,50 @@ fn report_of_two_sizes_overlays_r_v() {
         "brackets"
     );
 }
+
+/// Issue 36, one sweep mechanism: a `shear` stage with `vary` over φ and γ̇ is the same
+/// study as a `sweep` of those points. Its points are the sweep's cache entries (computed
+/// once), its grid writes the sweep's table with the same numbers, and the report draws
+/// it as a sweep (the flow curves), not as a pillar parameter study.
+#[test]
+fn a_shear_stage_with_vary_is_a_sweep() {
+    let d = tmpdir("shear-vary");
+    let runs = d.join("runs");
+    let file = d.join("v.toml");
+    std::fs::write(
+        &file,
+        "[pipeline]\nname = \"vary-sweep\"\n\n[flow.sweep]\nphi = [0.78, 0.84]\nq = [1]\nrate = [1e-2, 3e-2]\n\
+         n = 32\nstrain = 0.3\nsample_every = 2\n\n[study.shear]\nn = 32\nstrain = 0.3\nsample_every = 2\n\
+         vary = { phi = [0.78, 0.78, 0.84, 0.84], rate = [1e-2, 3e-2, 1e-2, 3e-2] }\n\n\
+         [report]\ndatasets = [\"study\"]\n",
+    )
+    .unwrap();
+    run_ok(&["run", file.to_str().unwrap(), "--quiet"], &runs);
+    let m = latest(&runs);
+    let done = computed(&m);
+    let shear_runs = done.iter().filter(|s| s.contains(":phi=")).count();
+    assert_eq!(shear_runs, 4, "each point computed once for both: {done:?}");
+    let dir_of = |name: &str| {
+        let s = m["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name)
+            .unwrap_or_else(|| panic!("no stage {name} in {m}"));
+        runs.join(s["dir"].as_str().unwrap())
+    };
+    let (sweep, grid) = (dir_of("flow.sweep"), dir_of("study.shear"));
+    let read =
+        |p: &Path| pillar_pipe::io::table::read_table(&p.join("sweep.parquet"), &[]).unwrap();
+    let (a, b) = (read(&sweep), read(&grid));
+    assert_eq!(a.columns(), b.columns());
+    for c in ["phi", "rate", "p", "z", "mu"] {
+        assert_eq!(a.f64(c).unwrap(), b.f64(c).unwrap(), "{c}");
+    }
+    assert!(grid.join("grid.csv").is_file());
+    let html =
+        std::fs::read_to_string(runs.join(m["run_id"].as_str().unwrap()).join("report.html"))
+            .unwrap();
+    assert!(html.contains("Flow curves"), "drawn as a sweep");
+    assert!(!html.contains("Parameter study"), "not as a pillar study");
+}

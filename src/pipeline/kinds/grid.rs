@@ -23,6 +23,43 @@ pub struct GridParams {
 
 pub struct Grid;
 
+/// The keys of a sheared-disk sweep's grid: a study of `shear` points varying only
+/// these is a sweep, and its grid also writes the sweep's tables (`stages::sweep`), so
+/// the report draws it as one (one mechanism: `sweep` is the φ × Q × γ̇ product of this).
+const SWEEP_KEYS: [&str; 3] = ["phi", "q", "rate"];
+
+/// The sweep tables of a grid of `shear` points, from each point's summary and its
+/// resolved (φ, Q, γ̇), in the points' order.
+fn sheared_disk_tables(s: &Stage, ctx: &Ctx, out: &Path) -> Result<()> {
+    let mut points = Vec::new();
+    let mut dirs = Vec::new();
+    let mut base = None;
+    for name in s
+        .upstream
+        .iter()
+        .filter(|(k, _)| k.starts_with("point:"))
+        .map(|(_, n)| n)
+    {
+        let done = ctx
+            .done
+            .get(name)
+            .ok_or_else(|| Error::Other(format!("{name} has not run")))?;
+        let o: stages::shear::ShearOptions = typed(name, &done.record.params)?;
+        let at = (o.phi, o.q, o.rate);
+        let f = done.dir.join("summary.json");
+        let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
+        let summary: Json =
+            serde_json::from_str(&text).map_err(|e| Error::input(f.display(), e.to_string()))?;
+        points.push((at, summary));
+        dirs.push((at, done.dir.clone()));
+        base.get_or_insert(o);
+    }
+    let grid: Vec<(f64, f64, f64)> = points.iter().map(|p| p.0).collect();
+    let base = base.ok_or_else(|| Error::Other(format!("{}: a grid without points", s.name)))?;
+    stages::sweep::write_outputs(out, &grid, &points, &base)?;
+    stages::sweep::write_contacts(out, &dirs)
+}
+
 impl StageKind for Grid {
     fn resolve(&self, given: Json) -> std::result::Result<Json, String> {
         super::round_trip::<GridParams>(given)
@@ -66,11 +103,21 @@ impl StageKind for Grid {
             });
         }
         let r = stages::grid::run(&p.of, &keys, &points, out)?;
+        let mut made = vec![
+            ("grid", stages::grid::TABLE),
+            ("record", stages::grid::RECORD),
+        ];
+        if p.of == "shear" && keys.iter().all(|k| SWEEP_KEYS.contains(&k.as_str())) {
+            sheared_disk_tables(s, ctx, out)?;
+            made.extend([
+                ("sweep", stages::sweep::TABLE),
+                ("sweep_grid", stages::sweep::GRID),
+                ("angles", stages::sweep::ANGLES),
+                ("contacts", stages::sweep::CONTACTS),
+            ]);
+        }
         Ok(Produced {
-            outputs: outputs(&[
-                ("grid", stages::grid::TABLE),
-                ("record", stages::grid::RECORD),
-            ]),
+            outputs: outputs(&made),
             metrics: json!({"points": r.points, "of": r.of, "missing": r.missing.len()}),
             summary: json!({"keys": r.keys, "missing": r.missing}),
         })

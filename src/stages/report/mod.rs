@@ -188,8 +188,20 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
     }
 
     // Parameter studies (a stage with `vary`), each against its key.
+    // A study of sheared-disk runs over φ, Q or γ̇ is drawn as a sweep, below.
+    let sweep_of = |d: &DatasetInputs| {
+        d.sweep.clone().or_else(|| {
+            d.grid
+                .clone()
+                .filter(|g| g.join(crate::stages::sweep::TABLE).is_file())
+        })
+    };
     for d in &opt.datasets {
-        if let Some(dir) = &d.grid {
+        if let Some(dir) = d
+            .grid
+            .as_ref()
+            .filter(|g| !g.join(crate::stages::sweep::TABLE).is_file())
+        {
             sections.push(grid::grid_section(&d.label, dir, &figdir, &mut figures)?);
         }
     }
@@ -201,7 +213,7 @@ pub fn run(out_dir: &Path, opt: &ReportOptions) -> Result<ReportOutput> {
         if let Some(dir) = &d.shear {
             sections.push(shear::shear_section(&d.label, dir, &figdir, &mut figures)?);
         }
-        if let Some(dir) = &d.sweep {
+        if let Some(dir) = &sweep_of(d) {
             let data = shear::read_sweep(dir)?;
             sections.push(shear::sweep_section(
                 &d.label,
