@@ -1052,19 +1052,20 @@ fn p_theta_90_is_small_in_a_dilute_gas_and_peaks_in_dense_damped_flow() {
 }
 
 /// CDn (normal dissipation only) is Bagnoldian, p ∝ γ̇², where CD at the same φ and Q
-/// is not (vagberg-sheared-disks Sec. II, citing the CDn papers); it runs the reference
-/// loop, which the manifest says.
+/// is not (vagberg-sheared-disks Sec. II, citing the CDn papers), and at a Q ten times
+/// larger too ("for all values of φ and Q"); it runs the reference loop, which the
+/// manifest says.
 #[test]
 fn cdn_is_bagnoldian_where_cd_is_not() {
-    let slope = |model: Dissipation| {
+    let slope = |model: Dissipation, phi: f64, q: f64| {
         let p: Vec<f64> = [1e-3, 1e-4]
             .iter()
             .map(|&rate| {
                 let out = tmpdir("cdn");
                 let opt = ShearOptions {
                     n: 256,
-                    phi: 0.82,
-                    q: 1.0,
+                    phi,
+                    q,
                     rate,
                     model,
                     strain: 1.0,
@@ -1081,9 +1082,14 @@ fn cdn_is_bagnoldian_where_cd_is_not() {
             .collect();
         (p[0] / p[1]).log10()
     };
-    let (cdn, cd) = (slope(Dissipation::Cdn), slope(Dissipation::Cd));
+    let (cdn, cd) = (
+        slope(Dissipation::Cdn, 0.82, 1.0),
+        slope(Dissipation::Cd, 0.82, 1.0),
+    );
     assert!((cdn - 2.0).abs() < 0.2, "CDn: d ln p / d ln γ̇ = {cdn}");
     assert!(cd < 1.5, "CD: d ln p / d ln γ̇ = {cd}");
+    let high_q = slope(Dissipation::Cdn, 0.80, 10.0);
+    assert!((high_q - 2.0).abs() < 0.25, "CDn at Q = 10: {high_q}");
 }
 
 /// A checkpoint from before the collision angle of Eq. 27 (50 bins of r_ij's direction)

@@ -10,6 +10,7 @@
 
 pub mod angles;
 pub mod appendix_a;
+mod cdn;
 pub mod classify;
 pub mod coexistence;
 pub mod contour;
@@ -514,6 +515,9 @@ pub fn sweep_section(
     // Classification.
     let c = classify(&data.rows);
     write_classification(out_dir, label, &c)?;
+    if data.model == "cdn" {
+        f.blocks.push(Block::Paragraph(cdn::check(&c)));
+    }
     let classes = ["Newtonian", "Bagnoldian", "undecided"]
         .map(String::from)
         .to_vec();
