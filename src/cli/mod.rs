@@ -345,6 +345,17 @@ mod option_drift {
                 )],
             },
             Pair {
+                command: &["edge-stress"],
+                kind: Kind::EdgeStress,
+                cli_only: run_and(&[]),
+                pipeline_only: &[],
+                renamed: &[("run", "input")],
+                default_differs: &[(
+                    "input",
+                    "positional: a run folder on the command line, a stage in a pipeline",
+                )],
+            },
+            Pair {
                 command: &["compare"],
                 kind: Kind::Compare,
                 cli_only: run_and(&[]),

@@ -432,22 +432,22 @@ pub fn shear_line_tracks(args: ShearLineTracksArgs) -> Result<()> {
 pub struct EdgeStressArgs {
     /// A `simulate pillar` output directory (stress_strain, forces, tracks).
     pub run: PathBuf,
-    /// Strain window LO,HI of the snapshots pooled (engineering strain).
-    #[arg(long, value_parser = pillar_pipe::pipeline::params::parse_pair, default_value = "0.1,0.2")]
-    pub strain: (f64, f64),
+    #[command(flatten)]
+    pub params: pillar_pipe::pipeline::kinds::edge_stress::EdgeStressParams,
     /// d_over_d, p, grains table (CSV or Parquet by extension).
     #[arg(short, long)]
     pub output: PathBuf,
 }
 
 pub fn edge_stress(args: EdgeStressArgs) -> Result<()> {
-    let p = pillar_pipe::stages::edge_stress::run(&args.run, args.strain, &args.output)
+    let strain = args.params.strain;
+    let p = pillar_pipe::stages::edge_stress::run(&args.run, strain, &args.output)
         .with_context(|| format!("edge stress of {}", args.run.display()))?;
     println!(
         "edge stress {} snapshots at {} <= eps <= {}: rate dp/dd = {:.3} m g mu/D per D over d <= {} D",
         p.snapshots,
-        args.strain.0,
-        args.strain.1,
+        strain.0,
+        strain.1,
         p.rate,
         pillar_pipe::structure::edge_stress::FIT_D
     );

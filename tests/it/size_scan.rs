@@ -155,7 +155,7 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
     std::fs::write(
         &analyses,
         format!(
-            "[pipeline]\nroot = '{ROOT}'\n\n{}{}[small.gofr]\ninput = \"small.simulate\"\nbins = 40\n\n[small.outline]\ninput = \"small.simulate\"\nagainst = \"large.simulate\"\n\n[small.shear_lines]\ninput = \"small.kinematics\"\n\n[small.bar_pressure]\ninput = \"small.simulate\"\n",
+            "[pipeline]\nroot = '{ROOT}'\n\n{}{}[small.gofr]\ninput = \"small.simulate\"\nbins = 40\n\n[small.outline]\ninput = \"small.simulate\"\nagainst = \"large.simulate\"\n\n[small.shear_lines]\ninput = \"small.kinematics\"\n\n[small.bar_pressure]\ninput = \"small.simulate\"\n\n[small.edge_stress]\ninput = \"small.simulate\"\n",
             branch("small", 120),
             branch("large", 360)
         ),
@@ -169,6 +169,7 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
         got,
         [
             "small.bar_pressure",
+            "small.edge_stress",
             "small.gofr",
             "small.outline",
             "small.shear_lines"
@@ -238,6 +239,15 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
             ],
             "small.bar_pressure",
         ),
+        (
+            vec![
+                "edge-stress".to_string(),
+                sim.display().to_string(),
+                "-o".into(),
+                out("edge_stress.parquet"),
+            ],
+            "small.edge_stress",
+        ),
     ] {
         let a: Vec<&str> = args.iter().map(String::as_str).collect();
         let (ok, o) = cli(&a);
@@ -269,14 +279,15 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
     std::fs::write(
         &wrong,
         format!(
-            "[pipeline]\nroot = '{ROOT}'\n\n[experiment.ingest]\ninput = \"data/sample/tracks.csv\"\n\n[experiment.bar_pressure]\ninput = \"experiment.ingest\"\n"
+            "[pipeline]\nroot = '{ROOT}'\n\n[experiment.ingest]\ninput = \"data/sample/tracks.csv\"\n\n[experiment.bar_pressure]\ninput = \"experiment.ingest\"\n\n[experiment.edge_stress]\ninput = \"experiment.ingest\"\n"
         ),
     )
     .unwrap();
     let (ok, _, e) = pp(&["run", wrong.to_str().unwrap(), "--quiet"], &runs);
     assert!(!ok);
     assert!(
-        e.contains("experiment.bar_pressure.input") && e.contains("simulate stage"),
+        (e.contains("experiment.bar_pressure.input") || e.contains("experiment.edge_stress.input"))
+            && e.contains("simulate stage"),
         "{e}"
     );
     // A report with one pillar run has no size-scan section.

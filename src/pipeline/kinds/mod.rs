@@ -168,6 +168,7 @@ pub(crate) fn typed_at<T: DeserializeOwned>(src: &dyn Locate, st: &Stage) -> Res
 // The kinds' modules are declared here, not by `registry!`, so rustfmt sees them.
 pub mod bar_pressure;
 pub mod compare;
+pub mod edge_stress;
 pub mod fit;
 pub mod gofr;
 pub mod grid;
@@ -242,6 +243,8 @@ registry! {
     ShearLines => shear_lines;
     /// Contact pressure along the bar (li-granular-pillars Fig. 10c).
     BarPressure => bar_pressure;
+    /// Local stress against distance from the lateral edges (li-granular-pillars Sec. V).
+    EdgeStress => edge_stress;
     /// A jammed packing (li-granular-pillars Sec. II.A) simulate stages share.
     Pack => pack;
     /// A parameter study's points gathered (made by `vary` on a stage).
