@@ -334,6 +334,17 @@ mod option_drift {
                 )],
             },
             Pair {
+                command: &["shear-line-tracks"],
+                kind: Kind::ShearLineTracks,
+                cli_only: run_and(&[]),
+                pipeline_only: &[],
+                renamed: &[("kinematics", "input")],
+                default_differs: &[(
+                    "input",
+                    "positional: a path on the command line, a stage in a pipeline",
+                )],
+            },
+            Pair {
                 command: &["bar-pressure"],
                 kind: Kind::BarPressure,
                 cli_only: run_and(&[]),

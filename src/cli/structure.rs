@@ -382,12 +382,8 @@ pub struct ShearLineTracksArgs {
     /// Output table (.csv or .parquet); default <stem>.shear_line_tracks.csv beside it.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Least shared fraction (0-1] of the smaller line's grains that links two lines.
-    #[arg(long, default_value_t = pillar_pipe::structure::line_tracks::LinkOptions::default().min_overlap)]
-    pub min_overlap: f64,
-    /// Detection options, as `shear-lines` (its --frame and --lag-frames do not apply).
     #[command(flatten)]
-    pub params: ShearLinesParams,
+    pub params: pillar_pipe::pipeline::kinds::shear_line_tracks::ShearLineTracksParams,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -395,23 +391,10 @@ pub struct ShearLineTracksArgs {
 
 pub fn shear_line_tracks(args: ShearLineTracksArgs) -> Result<()> {
     use pillar_pipe::stages::line_tracks as lt;
-    let p = &args.params;
-    if p.frame.is_some() || p.lag_frames.is_some() {
-        anyhow::bail!(
-            "--frame and --lag-frames pick one pair for `shear-lines`; `shear-line-tracks` links every pair at the table's smallest lag"
-        );
-    }
     let output = args
         .output
         .unwrap_or_else(|| lt::default_output(&args.kinematics));
-    let opt = lt::TracksOptions {
-        diameter: p.diameter,
-        detect: p.options().detect,
-        link: pillar_pipe::structure::line_tracks::LinkOptions {
-            min_overlap: args.min_overlap,
-        },
-    };
-    let rep = lt::run(&args.kinematics, &output, &opt)
+    let rep = lt::run(&args.kinematics, &output, &args.params.options())
         .with_context(|| format!("shear-line tracks of {}", args.kinematics.display()))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);

@@ -211,7 +211,10 @@ fn line_tracks_follow_a_persistent_band_and_see_new_ones_born() {
     ]);
     assert!(!ok && text.contains("min-overlap"), "{text}");
     let (ok, text) = run(&["shear-line-tracks", kin.to_str().unwrap(), "--frame", "1"]);
-    assert!(!ok && text.contains("--frame"), "{text}");
+    assert!(
+        !ok && text.contains("--frame"),
+        "one pair is `shear-lines`' option: {text}"
+    );
     // A kinematics table without particle ids: the file and the column.
     let bare = dir.join("bare.csv");
     std::fs::write(&bare, "frame,frame_end,x,y,j2\n0,1,0.0,0.0,1.0\n").unwrap();

@@ -155,7 +155,7 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
     std::fs::write(
         &analyses,
         format!(
-            "[pipeline]\nroot = '{ROOT}'\n\n{}{}[small.gofr]\ninput = \"small.simulate\"\nbins = 40\n\n[small.outline]\ninput = \"small.simulate\"\nagainst = \"large.simulate\"\n\n[small.shear_lines]\ninput = \"small.kinematics\"\n\n[small.bar_pressure]\ninput = \"small.simulate\"\n\n[small.edge_stress]\ninput = \"small.simulate\"\n",
+            "[pipeline]\nroot = '{ROOT}'\n\n{}{}[small.gofr]\ninput = \"small.simulate\"\nbins = 40\n\n[small.outline]\ninput = \"small.simulate\"\nagainst = \"large.simulate\"\n\n[small.shear_lines]\ninput = \"small.kinematics\"\n\n[small.bar_pressure]\ninput = \"small.simulate\"\n\n[small.edge_stress]\ninput = \"small.simulate\"\n\n[small.shear_line_tracks]\ninput = \"small.kinematics\"\n",
             branch("small", 120),
             branch("large", 360)
         ),
@@ -172,6 +172,7 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
             "small.edge_stress",
             "small.gofr",
             "small.outline",
+            "small.shear_line_tracks",
             "small.shear_lines"
         ]
     );
@@ -247,6 +248,15 @@ fn a_pipeline_of_two_sizes_reports_the_size_scan() {
                 out("edge_stress.parquet"),
             ],
             "small.edge_stress",
+        ),
+        (
+            vec![
+                "shear-line-tracks".to_string(),
+                kin.display().to_string(),
+                "-o".into(),
+                out("shear_line_tracks.parquet"),
+            ],
+            "small.shear_line_tracks",
         ),
     ] {
         let a: Vec<&str> = args.iter().map(String::as_str).collect();

@@ -180,6 +180,7 @@ pub mod ramp;
 pub mod render;
 pub mod report;
 pub mod shear;
+pub mod shear_line_tracks;
 pub mod shear_lines;
 pub mod simulate;
 pub mod sizes;
@@ -241,6 +242,8 @@ registry! {
     Outline => outline;
     /// Transient shear lines of one frame pair (li-granular-pillars Fig. 11).
     ShearLines => shear_lines;
+    /// Shear lines linked across frame pairs (li-granular-pillars Sec. V).
+    ShearLineTracks => shear_line_tracks;
     /// Contact pressure along the bar (li-granular-pillars Fig. 10c).
     BarPressure => bar_pressure;
     /// Local stress against distance from the lateral edges (li-granular-pillars Sec. V).

@@ -68,14 +68,29 @@ impl ShearLinesParams {
             frame: self.frame,
             lag_frames: self.lag_frames,
             diameter: self.diameter,
-            detect: ShearLineOptions {
-                threshold: self.threshold,
-                min_grains: self.min_grains,
-                min_length_over_d: self.min_length,
-                min_elongation: self.min_elongation,
-                ..ShearLineOptions::default()
-            },
+            detect: detect_options(
+                self.threshold,
+                self.min_grains,
+                self.min_length,
+                self.min_elongation,
+            ),
         }
+    }
+}
+
+/// The detection's options from the keys `shear_lines` and `shear_line_tracks` share.
+pub(crate) fn detect_options(
+    threshold: f64,
+    min_grains: usize,
+    min_length: f64,
+    min_elongation: f64,
+) -> ShearLineOptions {
+    ShearLineOptions {
+        threshold,
+        min_grains,
+        min_length_over_d: min_length,
+        min_elongation,
+        ..ShearLineOptions::default()
     }
 }
 
