@@ -1,6 +1,7 @@
 //! A barrier for a fixed set of threads that meet tens of thousands of times a second
-//! (the pillar's step phases): waiters spin, and sleep only when waits grow long, as on
-//! a machine busy with other work, where spinning would steal the time the others need.
+//! (the pillar's step phases, the sheared disks' `team`): waiters spin, and sleep only
+//! when waits grow long, as on a machine busy with other work, where spinning would
+//! steal the time the others need.
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -53,12 +54,18 @@ impl SpinBarrier {
         }
     }
 
+    /// Whether a participant has panicked (the others' waits panic too).
+    pub fn poisoned(&self) -> bool {
+        self.poisoned.load(Ordering::Acquire)
+    }
+
     /// Wait for every thread; `spin` is this thread's spinning budget (iterations),
     /// adapted: halved when the wait was long (the others were descheduled: a busy
-    /// machine, where spinning steals time), doubled otherwise.
-    pub fn wait(&self, me: usize, spin: &mut u32) {
+    /// machine, where spinning steals time), doubled otherwise. Returns whether the
+    /// wait was long (also counted in `long_waits`).
+    pub fn wait(&self, me: usize, spin: &mut u32) -> bool {
         if self.threads == 1 {
-            return;
+            return false;
         }
         let g = self.generation.load(Ordering::Acquire);
         if self.count.fetch_add(1, Ordering::AcqRel) + 1 == self.threads {
@@ -74,7 +81,7 @@ impl SpinBarrier {
                     .filter(|&(t, _)| t != me)
                     .for_each(|(_, h)| h.unpark());
             }
-            return;
+            return false;
         }
         let slept = self.spin_then(
             || self.generation.load(Ordering::Acquire) != g,
@@ -100,6 +107,7 @@ impl SpinBarrier {
         } else {
             (*spin * 2).min(MAX_SPIN)
         };
+        long
     }
 }
 
@@ -131,7 +139,7 @@ impl SpinBarrier {
         let mut slept = None;
         while !done() {
             if self.poisoned.load(Ordering::Acquire) {
-                panic!("another pillar thread panicked");
+                panic!("another thread at this barrier panicked");
             }
             if spins < spin {
                 spins += 1;
