@@ -86,15 +86,53 @@ impl SpinBarrier {
         let slept = self.spin_then(
             || self.generation.load(Ordering::Acquire) != g,
             *spin,
-            || {
-                self.sleeping.fetch_add(1, Ordering::SeqCst);
-                if self.generation.load(Ordering::SeqCst) == g {
-                    // Timed, so a wake-up that raced ahead is never waited for long.
-                    std::thread::park_timeout(std::time::Duration::from_micros(500));
-                }
-                self.sleeping.fetch_sub(1, Ordering::SeqCst);
-            },
+            || self.sleep_while(|| self.generation.load(Ordering::SeqCst) == g),
         );
+        self.adapt(slept, spin)
+    }
+
+    /// Wait until `flag` (another thread's signal, a count it raises with
+    /// [`SpinBarrier::raise`]) reaches `target`: spinning as [`SpinBarrier::wait`]
+    /// does, then asleep until `raise` wakes it (a team's worker waiting for its next
+    /// job, which may be long in coming). Returns whether the wait was long.
+    pub fn sleep_until(&self, flag: &AtomicU64, target: u64, spin: &mut u32) -> bool {
+        let slept = self.spin_then(
+            || flag.load(Ordering::Acquire) >= target,
+            *spin,
+            || self.sleep_while(|| flag.load(Ordering::SeqCst) < target),
+        );
+        self.adapt(slept, spin)
+    }
+
+    /// Set `flag` to `value` and wake every participant but `me` that sleeps in
+    /// [`SpinBarrier::sleep_until`] (or [`SpinBarrier::wait`]).
+    pub fn raise(&self, flag: &AtomicU64, value: u64, me: usize) {
+        // SeqCst with the sleepers' count, as in `wait`.
+        flag.store(value, Ordering::SeqCst);
+        if self.sleeping.load(Ordering::SeqCst) > 0
+            && let Some(hs) = self.handles.get()
+        {
+            hs.iter()
+                .enumerate()
+                .filter(|&(t, _)| t != me)
+                .for_each(|(_, h)| h.unpark());
+        }
+    }
+
+    /// One sleep of a waiter, counted in `sleeping` (which the waker reads), unless
+    /// `still` (its condition, read SeqCst after raising the count) no longer holds.
+    fn sleep_while(&self, still: impl Fn() -> bool) {
+        self.sleeping.fetch_add(1, Ordering::SeqCst);
+        if still() {
+            // Timed, so a wake-up that raced ahead is never waited for long.
+            std::thread::park_timeout(std::time::Duration::from_micros(500));
+        }
+        self.sleeping.fetch_sub(1, Ordering::SeqCst);
+    }
+
+    /// A waiter's spinning budget after a wait that first slept at `slept`, if it did;
+    /// returns whether the wait was long.
+    fn adapt(&self, slept: Option<std::time::Instant>, spin: &mut u32) -> bool {
         // Sleeping was right only if the others were long in coming (descheduled on a
         // busy machine, for a time slice of milliseconds); a shorter sleep means spinning
         // a little longer would have won. (A 200 µs threshold misfired on an idle VM,
@@ -114,17 +152,20 @@ impl SpinBarrier {
 impl SpinBarrier {
     /// Wait until `flag` (another thread's progress, a step count it raises) reaches
     /// `target`: spinning as [`SpinBarrier::wait`] does, then yielding the core, since
-    /// nobody wakes this waiter. Long waits count towards the fallback as there.
-    pub fn wait_for(&self, flag: &AtomicU64, target: u64, spin: &mut u32) {
+    /// nobody wakes this waiter. Long waits count towards the fallback as there;
+    /// returns whether this one was.
+    pub fn wait_for(&self, flag: &AtomicU64, target: u64, spin: &mut u32) -> bool {
         let slept = self.spin_then(
             || flag.load(Ordering::Acquire) >= target,
             *spin,
             std::thread::yield_now,
         );
-        if slept.is_some_and(|t| t.elapsed() > LONG_WAIT) {
+        let long = slept.is_some_and(|t| t.elapsed() > LONG_WAIT);
+        if long {
             self.long_waits.fetch_add(1, Ordering::Relaxed);
             *spin = (*spin / 2).max(MIN_SPIN);
         }
+        long
     }
 
     /// Until `done`: spin `spin` times, then `sleep` between checks; panics if another

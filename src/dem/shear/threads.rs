@@ -59,18 +59,25 @@ pub struct ShearThreads {
     window: u64,
     /// Steps that ran on one thread after falling back.
     pub solo_steps: u64,
+    /// Wall and CPU seconds (the process's) in the current window's steps.
+    in_steps: (f64, f64),
     /// Never fall back on its own (tests).
     pub(crate) no_fallback: bool,
 }
 
-/// Every this many threaded steps, more long waits of the calling thread than
-/// `FALLBACK_LONG_WAITS` (about one every four steps; a step has three phases or
-/// more, each with two waits) send the next `solo_len` steps to one thread, as the
-/// pillar's `advance` does: on a busy machine a waiting thread sleeps and each wake-up
-/// can cost a time slice, several times a step (0.2× one thread measured at
-/// N = 16,384 with a compiler busy on both cores).
+/// Every this many threaded steps, a busy machine sends the next `solo_len` steps to
+/// one thread, as the pillar's `advance` does: with a core taken by other work, a
+/// share waits for the thread that took it to get its core back, several times a step
+/// (0.5–0.7× one thread measured at N = 16,384 and 65,536 with another program busy on
+/// one of two cores). Busy means more than `FALLBACK_LONG_WAITS` long waits of the
+/// calling thread, or the threads getting less than `FALLBACK_SHARE` of their cores
+/// during the steps (the process's CPU time over wall time and threads: a thread that
+/// works or spins counts; one waiting for its core does not: measured 0.44–0.6 per
+/// window with a core taken, 0.8–1.1 on the idle machine, a few quiet windows down
+/// to 0.72).
 const FALLBACK_WINDOW: u64 = 32;
 const FALLBACK_LONG_WAITS: usize = 8;
+const FALLBACK_SHARE: f64 = 0.65;
 /// The first fall-back's length in steps, and the longest (a busy spell tried again
 /// every so often costs a window of slow steps each time).
 const SOLO_FIRST: u64 = 256;
@@ -125,20 +132,32 @@ impl ShearThreads {
         solo
     }
 
-    /// After a threaded step (the step count now `step`): fall back to one thread
-    /// when the team's last window had many long waits (see `FALLBACK_WINDOW`).
-    fn watch(&mut self, step: u64, team: &Team) {
+    /// After a threaded step (the step count now `step`) that took `wall` seconds and
+    /// `cpu` seconds of the process's CPU time: fall back to one thread when the last
+    /// window of steps shows a busy machine (see `FALLBACK_WINDOW`).
+    fn watch(&mut self, step: u64, team: &Team, (wall, cpu): (f64, f64)) {
         self.window += 1;
-        if self.window < FALLBACK_WINDOW {
+        if self.window == 1 {
+            // The window starts here (after a fall-back, or with a new team).
+            self.in_steps = (0.0, 0.0);
+            team.take_long_waits();
+            return;
+        }
+        self.in_steps.0 += wall;
+        self.in_steps.1 += cpu;
+        if self.window <= FALLBACK_WINDOW {
             return;
         }
         self.window = 0;
-        self.after_window(step, team.take_long_waits());
+        let share = self.in_steps.1 / (self.in_steps.0 * team.size() as f64);
+        self.after_window(step, team.take_long_waits(), share);
     }
 
-    /// `watch`'s decision, given the window's long waits.
-    fn after_window(&mut self, step: u64, long_waits: usize) {
-        if long_waits > FALLBACK_LONG_WAITS && !self.no_fallback {
+    /// `watch`'s decision, given the window's long waits and the threads' share of
+    /// their cores (the process's CPU time over the steps' wall time and threads).
+    fn after_window(&mut self, step: u64, long_waits: usize, share: f64) {
+        let busy = long_waits > FALLBACK_LONG_WAITS || share < FALLBACK_SHARE;
+        if busy && !self.no_fallback {
             let len = self.solo_len.clamp(SOLO_FIRST, SOLO_MAX);
             self.solo_until = step + len;
             self.solo_len = (2 * len).min(SOLO_MAX);
@@ -189,6 +208,20 @@ impl ShearThreads {
         self.split_of = Some((slots.selections, bounds.to_vec()));
         // `split_into` copied the histories.
         self.hist_synced = true;
+    }
+}
+
+/// The process's CPU time so far (seconds, all its threads).
+fn cpu_seconds() -> f64 {
+    // SAFETY: `getrusage` only writes the struct it is given.
+    unsafe {
+        let mut u: libc::rusage = std::mem::zeroed();
+        if libc::getrusage(libc::RUSAGE_SELF, &mut u) == 0 {
+            let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
+            secs(u.ru_utime) + secs(u.ru_stime)
+        } else {
+            0.0
+        }
     }
 }
 
@@ -311,6 +344,9 @@ impl ShearSim {
     pub(super) fn step_threads(&mut self, threads: usize) {
         let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
         assert!(std::is_x86_feature_detected!("avx2"), "no AVX2");
+        // For the fall-back's watch (two system calls a step of tens of microseconds
+        // or more).
+        let (clock, cpu) = (std::time::Instant::now(), cpu_seconds());
         let bounds = bounds(n, threads);
         let team = self.par.team(threads);
         // The Verlet list's rebuilds and the near list's selections, inside the syncs
@@ -517,7 +553,8 @@ impl ShearSim {
             }
         });
         let step = self.step;
-        self.par.watch(step, &team);
+        let spent = (clock.elapsed().as_secs_f64(), cpu_seconds() - cpu);
+        self.par.watch(step, &team, spent);
     }
 }
 
@@ -531,20 +568,22 @@ mod tests {
     #[test]
     fn busy_windows_fall_back_for_longer_and_longer() {
         let mut par = ShearThreads::default();
-        par.after_window(100, FALLBACK_LONG_WAITS);
+        par.after_window(100, FALLBACK_LONG_WAITS, FALLBACK_SHARE);
         assert_eq!(par.solo_until, 0, "at the threshold: no fall-back");
-        par.after_window(100, FALLBACK_LONG_WAITS + 1);
+        par.after_window(100, FALLBACK_LONG_WAITS + 1, 1.0);
         assert_eq!(par.solo_until, 100 + SOLO_FIRST);
         assert!(par.solo(99 + SOLO_FIRST) && !par.solo(100 + SOLO_FIRST));
         assert_eq!(par.solo_steps, 1);
         let mut step = 1000;
         for k in 1..10 {
-            par.after_window(step, 100);
+            par.after_window(step, 100, 1.0);
             assert_eq!(par.solo_until - step, (SOLO_FIRST << k).min(SOLO_MAX));
             step = par.solo_until + FALLBACK_WINDOW;
         }
-        par.after_window(step, 0);
-        par.after_window(step, 100);
+        // A quiet window starts over; a busy one by the cores' share alone falls back.
+        par.after_window(step, 0, 1.0);
+        assert!(par.solo_until < step);
+        par.after_window(step, 0, FALLBACK_SHARE - 0.1);
         assert_eq!(par.solo_until - step, SOLO_FIRST);
     }
 
