@@ -16,10 +16,11 @@
 //! list's rebuild split into ranges of grains joined in order.
 //!
 //! The threads are a persistent [`Team`] (one per simulation, kept in its
-//! [`ShearThreads`] cache), meeting at a spin barrier before and after each phase:
-//! a phase is a fraction of a millisecond at N = 16,384, and handing each to a rayon
-//! pool, whose workers had gone to sleep, cost a third of the second thread's gain
-//! (issue 35).
+//! [`ShearThreads`] cache), its workers spinning between the phases (each a job of
+//! the team, one share per part): a phase is a fraction of a millisecond at
+//! N = 16,384, and handing each to a rayon pool, whose workers had gone to sleep, cost
+//! much of the second thread's gain (issue 35). On a busy machine the steps fall back
+//! to the one-thread path for a while (see `FALLBACK_WINDOW`).
 
 use crate::dem::backend::shear_integrate_avx2::{
     Now, correct_packed, predict_packed_into, unpack_forces,
