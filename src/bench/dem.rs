@@ -349,6 +349,10 @@ pub struct ShearBench {
     pub ns_per_particle_step_two_threads: f64,
     pub two_thread_speedup: f64,
     pub two_threads_same_bits: bool,
+    /// Steps of the two-thread runs (all rounds) that ran on one thread because the
+    /// team's waits were long (a busy machine; see `shear::threads`): when not 0, the
+    /// two-thread figure is partly a one-thread one.
+    pub two_thread_solo_steps: u64,
 }
 
 /// Rounds of the one- and two-thread timings (alternating, medians: the machine may be
@@ -389,7 +393,7 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         s.step();
     }
     let seconds = t.elapsed().as_secs_f64();
-    let (one, two, same) = time_shear_threads(&s, steps);
+    let (one, two, same, solo) = time_shear_threads(&s, steps);
     let per = |secs: f64| secs / (n as f64 * steps as f64) * 1e9;
     ShearBench {
         n,
@@ -404,15 +408,18 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         ns_per_particle_step_two_threads: per(two),
         two_thread_speedup: one / two,
         two_threads_same_bits: same,
+        two_thread_solo_steps: solo,
     }
 }
 
 /// `steps` steps from `start` on one thread and on two, alternating for
 /// `THREAD_ROUNDS` rounds: the median seconds of each, and whether every run ended in
-/// the same grains, forces and contact counts bit for bit.
-fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, f64, bool) {
+/// the same grains, forces and contact counts bit for bit; and the steps of the
+/// two-thread runs that fell back to one thread.
+fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, f64, bool, u64) {
     let mut times = [Vec::new(), Vec::new()];
     let mut ends = Vec::new();
+    let mut solo = 0;
     for _ in 0..THREAD_ROUNDS {
         for (k, threads) in [1, 2].into_iter().enumerate() {
             let mut s = start.clone();
@@ -422,6 +429,9 @@ fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, 
                 s.step();
             }
             times[k].push(t.elapsed().as_secs_f64());
+            solo += s.solo_steps();
+            // Its team's threads end here, not sleep on through the later rounds.
+            s.end_threads();
             ends.push(s);
         }
     }
@@ -442,7 +452,7 @@ fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, 
     let same = ends
         .iter()
         .all(|e| bits(e) == first && e.coll == ends[0].coll && e.list.shear == ends[0].list.shear);
-    (median(&mut times[0]), median(&mut times[1]), same)
+    (median(&mut times[0]), median(&mut times[1]), same, solo)
 }
 
 #[cfg(test)]

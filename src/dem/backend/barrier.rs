@@ -1,6 +1,7 @@
 //! A barrier for a fixed set of threads that meet tens of thousands of times a second
-//! (the pillar's step phases): waiters spin, and sleep only when waits grow long, as on
-//! a machine busy with other work, where spinning would steal the time the others need.
+//! (the pillar's step phases, the sheared disks' `team`): waiters spin, and sleep only
+//! when waits grow long, as on a machine busy with other work, where spinning would
+//! steal the time the others need.
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -53,12 +54,18 @@ impl SpinBarrier {
         }
     }
 
+    /// Whether a participant has panicked (the others' waits panic too).
+    pub fn poisoned(&self) -> bool {
+        self.poisoned.load(Ordering::Acquire)
+    }
+
     /// Wait for every thread; `spin` is this thread's spinning budget (iterations),
     /// adapted: halved when the wait was long (the others were descheduled: a busy
-    /// machine, where spinning steals time), doubled otherwise.
-    pub fn wait(&self, me: usize, spin: &mut u32) {
+    /// machine, where spinning steals time), doubled otherwise. Returns whether the
+    /// wait was long (also counted in `long_waits`).
+    pub fn wait(&self, me: usize, spin: &mut u32) -> bool {
         if self.threads == 1 {
-            return;
+            return false;
         }
         let g = self.generation.load(Ordering::Acquire);
         if self.count.fetch_add(1, Ordering::AcqRel) + 1 == self.threads {
@@ -74,20 +81,58 @@ impl SpinBarrier {
                     .filter(|&(t, _)| t != me)
                     .for_each(|(_, h)| h.unpark());
             }
-            return;
+            return false;
         }
         let slept = self.spin_then(
             || self.generation.load(Ordering::Acquire) != g,
             *spin,
-            || {
-                self.sleeping.fetch_add(1, Ordering::SeqCst);
-                if self.generation.load(Ordering::SeqCst) == g {
-                    // Timed, so a wake-up that raced ahead is never waited for long.
-                    std::thread::park_timeout(std::time::Duration::from_micros(500));
-                }
-                self.sleeping.fetch_sub(1, Ordering::SeqCst);
-            },
+            || self.sleep_while(|| self.generation.load(Ordering::SeqCst) == g),
         );
+        self.adapt(slept, spin)
+    }
+
+    /// Wait until `flag` (another thread's signal, a count it raises with
+    /// [`SpinBarrier::raise`]) reaches `target`: spinning as [`SpinBarrier::wait`]
+    /// does, then asleep until `raise` wakes it (a team's worker waiting for its next
+    /// job, which may be long in coming). Returns whether the wait was long.
+    pub fn sleep_until(&self, flag: &AtomicU64, target: u64, spin: &mut u32) -> bool {
+        let slept = self.spin_then(
+            || flag.load(Ordering::Acquire) >= target,
+            *spin,
+            || self.sleep_while(|| flag.load(Ordering::SeqCst) < target),
+        );
+        self.adapt(slept, spin)
+    }
+
+    /// Set `flag` to `value` and wake every participant but `me` that sleeps in
+    /// [`SpinBarrier::sleep_until`] (or [`SpinBarrier::wait`]).
+    pub fn raise(&self, flag: &AtomicU64, value: u64, me: usize) {
+        // SeqCst with the sleepers' count, as in `wait`.
+        flag.store(value, Ordering::SeqCst);
+        if self.sleeping.load(Ordering::SeqCst) > 0
+            && let Some(hs) = self.handles.get()
+        {
+            hs.iter()
+                .enumerate()
+                .filter(|&(t, _)| t != me)
+                .for_each(|(_, h)| h.unpark());
+        }
+    }
+
+    /// One sleep of a waiter, counted in `sleeping` (which the waker reads), unless
+    /// `still` (its condition, read SeqCst after raising the count) no longer holds.
+    fn sleep_while(&self, still: impl Fn() -> bool) {
+        self.sleeping.fetch_add(1, Ordering::SeqCst);
+        if still() {
+            // Timed, so a wake-up that raced ahead is never waited for long.
+            std::thread::park_timeout(std::time::Duration::from_micros(500));
+        }
+        self.sleeping.fetch_sub(1, Ordering::SeqCst);
+    }
+
+    /// A waiter's spinning budget after a wait that first slept at `slept`, if it did;
+    /// returns whether the wait was long.
+    fn adapt(&self, slept: Option<std::time::Instant>, spin: &mut u32) -> bool {
         // Sleeping was right only if the others were long in coming (descheduled on a
         // busy machine, for a time slice of milliseconds); a shorter sleep means spinning
         // a little longer would have won. (A 200 µs threshold misfired on an idle VM,
@@ -100,23 +145,27 @@ impl SpinBarrier {
         } else {
             (*spin * 2).min(MAX_SPIN)
         };
+        long
     }
 }
 
 impl SpinBarrier {
     /// Wait until `flag` (another thread's progress, a step count it raises) reaches
     /// `target`: spinning as [`SpinBarrier::wait`] does, then yielding the core, since
-    /// nobody wakes this waiter. Long waits count towards the fallback as there.
-    pub fn wait_for(&self, flag: &AtomicU64, target: u64, spin: &mut u32) {
+    /// nobody wakes this waiter. Long waits count towards the fallback as there;
+    /// returns whether this one was.
+    pub fn wait_for(&self, flag: &AtomicU64, target: u64, spin: &mut u32) -> bool {
         let slept = self.spin_then(
             || flag.load(Ordering::Acquire) >= target,
             *spin,
             std::thread::yield_now,
         );
-        if slept.is_some_and(|t| t.elapsed() > LONG_WAIT) {
+        let long = slept.is_some_and(|t| t.elapsed() > LONG_WAIT);
+        if long {
             self.long_waits.fetch_add(1, Ordering::Relaxed);
             *spin = (*spin / 2).max(MIN_SPIN);
         }
+        long
     }
 
     /// Until `done`: spin `spin` times, then `sleep` between checks; panics if another
@@ -131,7 +180,7 @@ impl SpinBarrier {
         let mut slept = None;
         while !done() {
             if self.poisoned.load(Ordering::Acquire) {
-                panic!("another pillar thread panicked");
+                panic!("another thread at this barrier panicked");
             }
             if spins < spin {
                 spins += 1;

@@ -21,6 +21,7 @@ mod shear_avx512;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod shear_integrate_avx2;
 pub mod simd;
+pub mod team;
 
 /// Threads a simulator runs on: `setting`, at most `cap`; or, for `setting` 0, one per
 /// core (`RAYON_NUM_THREADS` where set, as every parallel part of the program reads

@@ -131,47 +131,13 @@ pub struct Spare {
     head: Vec<u32>,
     items: Vec<u32>,
     cell: Vec<u32>,
-    /// Threads to build on (the sheared disks' steps lend theirs): the same list.
-    pub pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+    /// Threads to build on (the sheared disks' steps lend their team): the same list.
+    pub team: Option<std::sync::Arc<crate::dem::backend::team::Team>>,
     /// Per range of grains, its partners and CSR ends (`build`'s scratch).
     segs: Vec<(Vec<u32>, Vec<u32>)>,
 }
 
-/// Threads of a team: the workers of `pool` and the calling thread (one without).
-pub(crate) fn team_size(pool: Option<&rayon::ThreadPool>) -> usize {
-    pool.map_or(1, |p| p.current_num_threads() + 1)
-}
-
-/// `f` over each item (a range of grains, with what it writes): the first on the
-/// calling thread, the others on the workers of `pool` where there is one and more
-/// than one item (the caller works rather than sleeps, and its wake-up is saved); the
-/// results in order.
-pub(crate) fn chunked<I: Send, T: Send>(
-    pool: Option<&rayon::ThreadPool>,
-    items: Vec<I>,
-    f: impl Fn(I) -> T + Sync,
-) -> Vec<T> {
-    match pool {
-        Some(pool) if items.len() > 1 => {
-            let mut out: Vec<Option<T>> = items.iter().map(|_| None).collect();
-            let f = &f;
-            pool.in_place_scope(|s| {
-                let mut it = items.into_iter().zip(out.iter_mut());
-                let first = it.next();
-                for (item, o) in it {
-                    s.spawn(move |_| *o = Some(f(item)));
-                }
-                if let Some((item, o)) = first {
-                    *o = Some(f(item));
-                }
-            });
-            out.into_iter()
-                .map(|o| o.expect("every item ran"))
-                .collect()
-        }
-        _ => items.into_iter().map(f).collect(),
-    }
-}
+pub(crate) use crate::dem::backend::team::{chunked, team_size};
 
 /// 0..n in `parts` ranges of about equal size.
 pub(crate) fn even_ranges(n: usize, parts: usize) -> Vec<std::ops::Range<usize>> {
@@ -268,7 +234,7 @@ impl PairList {
             head,
             items,
             mut cell,
-            pool,
+            team,
             segs: mut segments,
         } = std::mem::take(&mut self.spare);
         start.clear();
@@ -281,7 +247,7 @@ impl PairList {
         let skin = self.skin;
         // Each grain's partners depend on nothing but the grid: ranges of grains are
         // listed apart (on threads, where lent) and joined in order.
-        let ranges = even_ranges(n, team_size(pool.as_deref()));
+        let ranges = even_ranges(n, team_size(team.as_deref()));
         // A range's partners onto `js`, the end of each grain's onto `ends` (offsets
         // within `js`).
         let list_range =
@@ -328,7 +294,7 @@ impl PairList {
             // Each range's buffers are kept for the next build.
             segments.resize_with(ranges.len(), Default::default);
             let items = ranges.iter().cloned().zip(segments.iter_mut()).collect();
-            chunked(pool.as_deref(), items, |(grains, (js, ends))| {
+            chunked(team.as_deref(), items, |(grains, (js, ends))| {
                 js.clear();
                 ends.clear();
                 list_range(grains, js, ends);
@@ -352,7 +318,7 @@ impl PairList {
                 rest = b;
             }
             let (start, js) = (&start, &js);
-            chunked(pool.as_deref(), pieces, |(grains, piece)| {
+            chunked(team.as_deref(), pieces, |(grains, piece)| {
                 let base = start[grains.start] as usize;
                 for i in grains {
                     let (old, new) = (
@@ -379,7 +345,7 @@ impl PairList {
             head,
             items,
             cell,
-            pool,
+            team,
             segs: segments,
         };
         self.x_ref.clear();

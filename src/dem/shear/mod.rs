@@ -275,6 +275,23 @@ impl ShearSim {
         1
     }
 
+    /// Steps that ran on one thread although more were asked for, because the
+    /// threads' waits were long (a busy machine; see `threads`). Never changes the
+    /// numbers.
+    pub fn solo_steps(&self) -> u64 {
+        #[cfg(target_arch = "x86_64")]
+        return self.par.solo_steps;
+        #[cfg(not(target_arch = "x86_64"))]
+        0
+    }
+
+    /// End the threads kept for the steps (a later threaded step starts new ones): a
+    /// simulation kept but no longer stepped then holds no sleeping threads.
+    pub fn end_threads(&mut self) {
+        #[cfg(target_arch = "x86_64")]
+        self.par.end_threads();
+    }
+
     /// Start times (τ_e) of the contacts open now, from the pair histories (each
     /// holds 1 + its contact's start time, 0 when apart): the censored part of the
     /// duration cohort (`Collisions::window_start`).
@@ -347,7 +364,9 @@ impl ShearSim {
         #[cfg(target_arch = "x86_64")]
         if self.kernel == ShearKernel::Slots && Packed::used_for(&self.p) {
             match self.threads_for_run() {
-                1 => {
+                // Also while the threads have fallen back (a busy machine): the same
+                // numbers.
+                t if t == 1 || self.par.solo(self.step) => {
                     self.par.history_changed();
                     self.step_packed();
                 }

@@ -254,8 +254,8 @@ impl Slots {
         let delta = b.image();
         // Ranges of grains select apart (on the threads the Verlet list was lent, if
         // any) and join in order: the same list.
-        let pool = list.spare.pool.as_deref();
-        let ranges = even_ranges(n, team_size(pool));
+        let team = list.spare.team.as_deref();
+        let ranges = even_ranges(n, team_size(team));
         let select_range = |ks: std::ops::Range<usize>, out: &mut Selected| {
             out.resize(ks.len());
             // Every Verlet slot is written at m and kept by advancing m: whether it is
@@ -305,7 +305,7 @@ impl Slots {
                 .map(|g| list.start[g.start] as usize..list.start[g.end] as usize)
                 .zip(parts.iter_mut())
                 .collect();
-            chunked(pool, items, |(ks, out)| select_range(ks, out));
+            chunked(team, items, |(ks, out)| select_range(ks, out));
         }
         let m: usize = parts.iter().map(|p| p.len).sum();
         if ranges.len() == 1 {

@@ -13,12 +13,19 @@
 //! are logged per thread and applied after, in slot order (the collision counts sum
 //! durations, whose rounding depends on the order). The integrator works grain by
 //! grain and splits as the grains do; the near list's re-selection and the Verlet
-//! list's rebuild stay on the calling thread.
+//! list's rebuild split into ranges of grains joined in order.
+//!
+//! The threads are a persistent [`Team`] (one per simulation, kept in its
+//! [`ShearThreads`] cache), its workers spinning between the phases (each a job of
+//! the team, one share per part): a phase is a fraction of a millisecond at
+//! N = 16,384, and handing each to a rayon pool, whose workers had gone to sleep, cost
+//! much of the second thread's gain (issue 35). On a busy machine the steps fall back
+//! to the one-thread path for a while (see `FALLBACK_WINDOW`).
 
 use crate::dem::backend::shear_integrate_avx2::{
     Now, correct_packed, predict_packed_into, unpack_forces,
 };
-use crate::dem::base::verlet::{chunked, team_size};
+use crate::dem::backend::team::{Team, chunked};
 use crate::dem::shear::ShearSim;
 use crate::dem::shear::integrate::{Pos, Quad};
 use crate::dem::shear::near::{Event, History, Slots};
@@ -30,11 +37,13 @@ use std::sync::Arc;
 /// thread: an evaluation of fewer grains is over before a woken thread has started.
 pub const GRAINS_PER_THREAD: usize = 4096;
 
-/// The threads' tables and pool: a cache, rebuilt when missing, never part of a
+/// The threads' tables and team: a cache, rebuilt when missing, never part of a
 /// simulation's value.
 #[derive(Default)]
 pub struct ShearThreads {
-    pool: Option<Arc<rayon::ThreadPool>>,
+    /// The threads the steps run on, kept from step to step (their spinning between
+    /// phases is what makes a phase of a fraction of a millisecond worth splitting).
+    team: Option<Arc<Team>>,
     parts: Vec<Part>,
     /// The near list's selection (`Slots::selections`) and the split the tables were
     /// made for.
@@ -42,14 +51,44 @@ pub struct ShearThreads {
     /// The tables' history copies are the near list's (false after any evaluation that
     /// did not run here, which may have changed them).
     hist_synced: bool,
+    /// Steps before this step count run on one thread: the team's waits were long (a
+    /// busy machine, where each phase can wait out a scheduler time slice).
+    solo_until: u64,
+    /// Length of the next fall-back (doubling while the machine stays busy).
+    solo_len: u64,
+    /// Threaded steps since the team's long waits were last looked at.
+    window: u64,
+    /// Steps that ran on one thread after falling back.
+    pub solo_steps: u64,
+    /// Wall and CPU seconds (the process's) in the current window's steps.
+    in_steps: (f64, f64),
+    /// Never fall back on its own (tests).
+    pub(crate) no_fallback: bool,
 }
 
+/// Every this many threaded steps, a busy machine sends the next `solo_len` steps to
+/// one thread, as the pillar's `advance` does: with a core taken by other work, a
+/// share waits for the thread that took it to get its core back, several times a step
+/// (0.5–0.7× one thread measured at N = 16,384 and 65,536 with another program busy on
+/// one of two cores). Busy means more than `FALLBACK_LONG_WAITS` long waits of the
+/// calling thread, or the threads getting less than `FALLBACK_SHARE` of their cores
+/// during the steps (the process's CPU time over wall time and threads: a thread that
+/// works or spins counts; one waiting for its core does not: measured 0.44–0.6 per
+/// window with a core taken, 0.8–1.1 on the idle machine, a few quiet windows down
+/// to 0.72).
+const FALLBACK_WINDOW: u64 = 32;
+const FALLBACK_LONG_WAITS: usize = 8;
+const FALLBACK_SHARE: f64 = 0.65;
+/// The first fall-back's length in steps, and the longest (a busy spell tried again
+/// every so often costs a window of slow steps each time).
+const SOLO_FIRST: u64 = 256;
+const SOLO_MAX: u64 = 16_384;
+
+/// A clone gets a team of its own when it first steps on threads: two simulations
+/// stepping at once on one team would mix their phases.
 impl Clone for ShearThreads {
     fn clone(&self) -> Self {
-        ShearThreads {
-            pool: self.pool.clone(),
-            ..Default::default()
-        }
+        ShearThreads::default()
     }
 }
 
@@ -71,27 +110,76 @@ impl ShearThreads {
         self.hist_synced = false;
     }
 
-    /// A pool of `threads` − 1 workers: the calling thread is the team's first.
-    fn pool(&mut self, threads: usize) -> Arc<rayon::ThreadPool> {
-        match &self.pool {
-            Some(p) if team_size(Some(p)) == threads => p.clone(),
+    /// A team of `threads`, the calling thread its first: the last one, if it has
+    /// that many threads and was made on this thread (else its barrier would wake
+    /// another), else a new one (the old one's workers end as it drops).
+    fn team(&mut self, threads: usize) -> Arc<Team> {
+        match &self.team {
+            Some(t) if t.size() == threads && t.owned_here() => t.clone(),
             _ => {
-                let p = Arc::new(
-                    rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads - 1)
-                        .thread_name(|t| format!("shear-{t}"))
-                        .build()
-                        .expect("a thread pool for the sheared disks"),
-                );
-                self.pool = Some(p.clone());
-                p
+                // The old team's workers end before the new one's start.
+                self.team = None;
+                let t = Arc::new(Team::new(threads, "shear"));
+                self.team = Some(t.clone());
+                t
             }
         }
     }
 
+    /// Whether the step after `step` runs on one thread (a fall-back is on); counts it.
+    pub(crate) fn solo(&mut self, step: u64) -> bool {
+        let solo = step < self.solo_until;
+        self.solo_steps += u64::from(solo);
+        solo
+    }
+
+    /// After a threaded step (the step count now `step`) that took `wall` seconds and
+    /// `cpu` seconds of the process's CPU time: fall back to one thread when the last
+    /// window of steps shows a busy machine (see `FALLBACK_WINDOW`).
+    fn watch(&mut self, step: u64, team: &Team, (wall, cpu): (f64, f64)) {
+        self.window += 1;
+        if self.window == 1 {
+            // The window starts here (after a fall-back, or with a new team).
+            self.in_steps = (0.0, 0.0);
+            team.take_long_waits();
+            return;
+        }
+        self.in_steps.0 += wall;
+        self.in_steps.1 += cpu;
+        if self.window <= FALLBACK_WINDOW {
+            return;
+        }
+        self.window = 0;
+        let share = self.in_steps.1 / (self.in_steps.0 * team.size() as f64);
+        self.after_window(step, team.take_long_waits(), share);
+    }
+
+    /// `watch`'s decision, given the window's long waits and the threads' share of
+    /// their cores (the process's CPU time over the steps' wall time and threads).
+    fn after_window(&mut self, step: u64, long_waits: usize, share: f64) {
+        let busy = long_waits > FALLBACK_LONG_WAITS || share < FALLBACK_SHARE;
+        if busy && !self.no_fallback {
+            let len = self.solo_len.clamp(SOLO_FIRST, SOLO_MAX);
+            self.solo_until = step + len;
+            self.solo_len = (2 * len).min(SOLO_MAX);
+        } else {
+            self.solo_len = SOLO_FIRST;
+        }
+    }
+
+    /// Drop the team (its workers end); the tables stay.
+    pub(crate) fn end_threads(&mut self) {
+        self.team = None;
+    }
+
+    /// Threads of the team the last threaded step ran on (0 without one).
+    pub fn team_threads(&self) -> usize {
+        self.team.as_ref().map_or(0, |t| t.size())
+    }
+
     /// The tables for the current selection of `slots` and split `bounds`, each made
-    /// by its own thread of `pool`.
-    fn split(&mut self, slots: &Slots, bounds: &[usize], pool: &rayon::ThreadPool) {
+    /// by its own thread of `team`.
+    fn split(&mut self, slots: &Slots, bounds: &[usize], team: &Team) {
         if self
             .split_of
             .as_ref()
@@ -117,10 +205,24 @@ impl ShearThreads {
                 }
             })
             .collect();
-        on_threads(pool, jobs);
+        on_threads(team, jobs);
         self.split_of = Some((slots.selections, bounds.to_vec()));
         // `split_into` copied the histories.
         self.hist_synced = true;
+    }
+}
+
+/// The process's CPU time so far (seconds, all its threads).
+fn cpu_seconds() -> f64 {
+    // SAFETY: `getrusage` only writes the struct it is given.
+    unsafe {
+        let mut u: libc::rusage = std::mem::zeroed();
+        if libc::getrusage(libc::RUSAGE_SELF, &mut u) == 0 {
+            let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
+            secs(u.ru_utime) + secs(u.ru_stime)
+        } else {
+            0.0
+        }
     }
 }
 
@@ -167,14 +269,14 @@ fn cut<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
     out
 }
 
-/// Run each job, the first on the calling thread, the others on the workers of
-/// `pool`; their results in order.
-fn on_threads<J, T>(pool: &rayon::ThreadPool, jobs: Vec<J>) -> Vec<T>
+/// Run each job, job t on thread t of `team` (the first on the calling thread);
+/// their results in order.
+fn on_threads<J, T>(team: &Team, jobs: Vec<J>) -> Vec<T>
 where
     J: FnOnce() -> T + Send,
     T: Send,
 {
-    chunked(Some(pool), jobs, |job| job())
+    chunked(Some(team), jobs, |job| job())
 }
 
 /// Forces of one part at the packed state (`pos`, `vel`): the imports, then its own
@@ -243,11 +345,14 @@ impl ShearSim {
     pub(super) fn step_threads(&mut self, threads: usize) {
         let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
         assert!(std::is_x86_feature_detected!("avx2"), "no AVX2");
+        // For the fall-back's watch (two system calls a step of tens of microseconds
+        // or more).
+        let (clock, cpu) = (std::time::Instant::now(), cpu_seconds());
         let bounds = bounds(n, threads);
-        let pool = self.par.pool(threads);
+        let team = self.par.team(threads);
         // The Verlet list's rebuilds and the near list's selections, inside the syncs
         // below, run on the same threads.
-        self.list.spare.pool = Some(pool.clone());
+        self.list.spare.team = Some(team.clone());
         self.advance_clock();
         let b = self.boundary();
         let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
@@ -284,7 +389,7 @@ impl ShearSim {
                     }
                 })
                 .collect();
-            let answers = on_threads(&pool, jobs);
+            let answers = on_threads(&team, jobs);
             answers.iter().try_fold(false, |a, s| s.map(|s| a | s))
         };
         if !self.slots.current(&self.list, n, b, strayed) {
@@ -298,7 +403,7 @@ impl ShearSim {
         let pr = &self.pred;
         self.slots
             .sync_tested(&mut self.list, r, (&pr.x, &pr.y), b, strayed);
-        self.par.split(&self.slots, &bounds, &pool);
+        self.par.split(&self.slots, &bounds, &team);
 
         // Forces at the predicted state, and Eqs. 23–24 range by range as each part's
         // sums are complete; the state at t + Δt to `packed_now`.
@@ -378,14 +483,14 @@ impl ShearSim {
                     (tested, far)
                 });
             }
-            let answers = on_threads(&pool, jobs);
+            let answers = on_threads(&team, jobs);
             let tested = answers.iter().all(|a| a.0);
             tested.then(|| answers.iter().any(|a| a.1))
         };
         let g = &self.g;
         self.slots
             .sync_tested(&mut self.list, &g.radius, (&g.x, &g.y), b, strayed);
-        self.par.split(&self.slots, &bounds, &pool);
+        self.par.split(&self.slots, &bounds, &team);
 
         // Forces at t + Δt (f_0 of the next step) into the arrays, part by part, the
         // contact events logged.
@@ -427,9 +532,9 @@ impl ShearSim {
                     }
                 })
                 .collect();
-            on_threads(&pool, jobs);
+            on_threads(&team, jobs);
         }
-        self.list.spare.pool = None;
+        self.list.spare.team = None;
         // The events, in slot order: part by part, each part's in its order.
         let ShearSim {
             slots,
@@ -448,11 +553,92 @@ impl ShearSim {
                 }
             }
         });
+        let step = self.step;
+        let spent = (clock.elapsed().as_secs_f64(), cpu_seconds() - cpu);
+        self.par.watch(step, &team, spent);
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::dem::shear::{Dissipation, ShearParams};
+
+    /// Busy windows send the next steps to one thread, for twice as long each time in
+    /// a row up to `SOLO_MAX`; a quiet window starts over.
+    #[test]
+    fn busy_windows_fall_back_for_longer_and_longer() {
+        let mut par = ShearThreads::default();
+        par.after_window(100, FALLBACK_LONG_WAITS, FALLBACK_SHARE);
+        assert_eq!(par.solo_until, 0, "at the threshold: no fall-back");
+        par.after_window(100, FALLBACK_LONG_WAITS + 1, 1.0);
+        assert_eq!(par.solo_until, 100 + SOLO_FIRST);
+        assert!(par.solo(99 + SOLO_FIRST) && !par.solo(100 + SOLO_FIRST));
+        assert_eq!(par.solo_steps, 1);
+        let mut step = 1000;
+        for k in 1..10 {
+            par.after_window(step, 100, 1.0);
+            assert_eq!(par.solo_until - step, (SOLO_FIRST << k).min(SOLO_MAX));
+            step = par.solo_until + FALLBACK_WINDOW;
+        }
+        // A quiet window starts over; a busy one by the cores' share alone falls back.
+        par.after_window(step, 0, 1.0);
+        assert!(par.solo_until < step);
+        par.after_window(step, 0, FALLBACK_SHARE - 0.1);
+        assert_eq!(par.solo_until - step, SOLO_FIRST);
+    }
+
+    /// Steps sent to one thread by a fall-back, and a team rebuilt for another thread
+    /// count, give the one-thread run bit for bit.
+    #[test]
+    fn a_fall_back_and_a_new_team_give_the_same_bits() {
+        if !std::is_x86_feature_detected!("avx2") {
+            eprintln!("SKIP: no AVX2: the steps do not run on threads here");
+            return;
+        }
+        let p = ShearParams {
+            n: 600,
+            phi: 0.84,
+            q: 1.0,
+            rate: 1e-2,
+            model: Dissipation::Cdrot,
+            alpha: 2.0,
+            dt: 0.05,
+            seed: 3,
+        };
+        let start = ShearSim::new(p);
+        let run = |threads: &dyn Fn(u64) -> usize, solo_at: Option<u64>| {
+            let mut s = start.clone();
+            // Only the fall-back asked for below (this machine may be busy).
+            s.par.no_fallback = true;
+            for k in 0..150 {
+                s.threads = threads(k);
+                if solo_at == Some(k) {
+                    s.par.solo_until = s.step + 30;
+                }
+                s.step();
+            }
+            s
+        };
+        let one = run(&|_| 1, None);
+        let other = run(&|k| if k < 100 { 2 } else { 3 }, Some(40));
+        assert_eq!(other.par.solo_steps, 30);
+        assert_eq!(other.par.team_threads(), 3, "a new team for three threads");
+        let bits = |s: &ShearSim| {
+            let g = &s.g;
+            [
+                &g.x, &g.y, &g.vx, &g.vy, &g.theta, &g.omega, &s.fx, &s.fy, &s.tq,
+            ]
+            .iter()
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .collect::<Vec<u64>>()
+        };
+        assert!(bits(&one) == bits(&other));
+        assert_eq!(one.list.shear, other.list.shear);
+        assert_eq!(one.coll, other.coll);
+        assert!(one.coll.begun > 0);
+    }
+
     #[test]
     fn bounds_cover_the_grains_in_multiples_of_eight() {
         let b = super::bounds(1000, 3);
