@@ -130,7 +130,7 @@ fn three_band_tracks(dir: &Path) -> PathBuf {
             let (u, offset) = bands[k - 1];
             for (i, q) in p.pos.iter().enumerate() {
                 let across = (*q - c).cross(u) - offset;
-                cur[i] = cur[i] + u * (0.1 * across.clamp(-1.0, 1.0));
+                cur[i] += u * (0.1 * across.clamp(-1.0, 1.0));
             }
         }
         for (i, q) in cur.iter().enumerate() {
