@@ -105,6 +105,19 @@ pub fn snapshots(dir: &Path, window: (f64, f64), column: &str) -> Result<(Vec<Sn
     Ok((out, reached))
 }
 
+/// The run tables [`snapshots`] reads, each with its SHA-256, for an output's sidecar.
+pub fn snapshot_sources(dir: &Path) -> Result<Vec<serde_json::Value>> {
+    ["stress_strain.parquet", "forces.parquet", "tracks.parquet"]
+        .iter()
+        .map(|name| {
+            let f = dir.join(name);
+            Ok(serde_json::json!({
+                "source": f.display().to_string(), "source_sha256": sha256_file(&f)?,
+            }))
+        })
+        .collect()
+}
+
 /// A run's mean profile over its snapshots in `window`, p in m g μ/D, and how many
 /// snapshots it averages.
 pub fn run_profile(
@@ -153,13 +166,7 @@ pub fn run(
         ],
     )
     .map_err(|e| Error::polars("the bar pressure table", e))?;
-    let mut sources = Vec::new();
-    for name in ["stress_strain.parquet", "forces.parquet", "tracks.parquet"] {
-        let f = dir.join(name);
-        sources.push(serde_json::json!({
-            "source": f.display().to_string(), "source_sha256": sha256_file(&f)?,
-        }));
-    }
+    let sources = snapshot_sources(dir)?;
     let sidecar = serde_json::json!({
         "table": "bar_pressure",
         "snapshots": n,

@@ -5,7 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::io::table::write_table;
-use crate::io::{sha256_file, write_with_sidecar};
+use crate::io::write_with_sidecar;
 use crate::structure::edge_stress::{EdgeProfile, EdgeStress};
 use polars::prelude::{Column, DataFrame};
 use std::path::Path;
@@ -51,13 +51,7 @@ pub fn run(dir: &Path, window: (f64, f64), output: &Path) -> Result<EdgeProfile>
         ],
     )
     .map_err(|e| Error::polars("the edge stress table", e))?;
-    let mut sources = Vec::new();
-    for name in ["stress_strain.parquet", "forces.parquet", "tracks.parquet"] {
-        let f = dir.join(name);
-        sources.push(serde_json::json!({
-            "source": f.display().to_string(), "source_sha256": sha256_file(&f)?,
-        }));
-    }
+    let sources = super::bar_pressure::snapshot_sources(dir)?;
     let sidecar = serde_json::json!({
         "table": "edge_stress",
         "units": {"d_over_d": "D", "p": "m g mu / D", "rate": "m g mu / D per D"},

@@ -37,6 +37,9 @@ pub struct Tracked {
     pub lines: Vec<Vec<ShearLine>>,
     pub tracks: LineTracks,
     pub d_large: f64,
+    /// The table's units, from its sidecar ("length", "time" without one).
+    pub length_unit: String,
+    pub time_unit: String,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -118,7 +121,15 @@ pub fn analyse(input: &Path, opt: &TracksOptions) -> Result<Tracked> {
         lines.push(found.lines);
     }
     let tracks = link(&by_pair, &opt.link);
+    let unit = |k: &str, none: &str| {
+        meta.as_ref()
+            .and_then(|m| m[k].as_str())
+            .unwrap_or(none)
+            .to_string()
+    };
     Ok(Tracked {
+        length_unit: unit("length_unit", "length"),
+        time_unit: unit("time_unit", "time"),
         pairs,
         skipped,
         lines,
@@ -136,21 +147,12 @@ pub fn run(input: &Path, output: &Path, opt: &TracksOptions) -> Result<TracksRep
         ));
     }
     let a = analyse(input, opt)?;
-    let meta: Option<serde_json::Value> = std::fs::read_to_string(sidecar_path(input))
-        .ok()
-        .and_then(|s| serde_json::from_str(&s).ok());
-    let side = |k: &str| {
-        meta.as_ref()
-            .and_then(|m| m[k].as_str())
-            .map(str::to_string)
-            .unwrap_or_else(|| k.trim_end_matches("_unit").into())
-    };
     let rep = TracksReport {
         input: input.display().to_string(),
         output: output.display().to_string(),
         d_large: a.d_large,
-        length_unit: side("length_unit"),
-        time_unit: side("time_unit"),
+        length_unit: a.length_unit.clone(),
+        time_unit: a.time_unit.clone(),
         pairs: a.pairs.len(),
         skipped_pairs: a.skipped,
         dt: a.pairs.first().map_or(f64::NAN, |p| p.2),

@@ -271,17 +271,8 @@ pub(crate) fn predict_packed(
     packed: &mut crate::dem::shear::integrate::Packed,
     test: Option<StrayTest>,
 ) -> Option<bool> {
-    let n = state.0.len();
-    let lens = [
-        state.1, state.2, state.3, state.4, r, inv.0, inv.1, f0.0, f0.1, f0.2,
-    ];
-    assert!(
-        std::is_x86_feature_detected!("avx2")
-            && lens.iter().all(|s| s.len() == n)
-            && test.is_none_or(|t| t.x_ref.len() == n && t.y_ref.len() == n),
-        "predict_packed: slices of unequal length, or no AVX2"
-    );
-    let (pos, vel) = packed.reserve(n);
+    // `predict_packed_into` checks the lengths and AVX2.
+    let (pos, vel) = packed.reserve(state.0.len());
     predict_packed_into(dt, rotate, state, r, inv, f0, (pos, vel), test)
 }
 

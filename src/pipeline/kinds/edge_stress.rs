@@ -6,7 +6,7 @@
 
 use super::Locate;
 use super::Stage;
-use super::{Kind, StageKind};
+use super::StageKind;
 use super::{parse_pair, typed};
 use crate::error::Result;
 use crate::pipeline::exec::{Ctx, Produced, outputs};
@@ -45,19 +45,7 @@ impl StageKind for EdgeStress {
 
     /// The per-grain forces are a pillar simulation's: `input` names a simulate stage.
     fn check_references(&self, src: &dyn Locate, st: &Stage, all: &[Stage]) -> Result<()> {
-        let Some(up) = st.upstream.get("input") else {
-            return Ok(());
-        };
-        match all.iter().find(|s| &s.name == up) {
-            Some(u) if u.kind != Kind::Simulate => Err(src.err(
-                &format!("{}.input", st.name),
-                format!(
-                    "'{up}' is a {} stage; the grains' contact forces are a simulate stage's",
-                    u.kind.name()
-                ),
-            )),
-            _ => Ok(()),
-        }
+        super::input_is_simulate(src, st, all, "the grains' contact forces")
     }
 
     fn execute(&self, s: &Stage, ctx: &Ctx, out: &Path) -> Result<Produced> {

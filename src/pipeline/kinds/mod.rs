@@ -160,6 +160,29 @@ pub(crate) fn round_trip<T: Serialize + DeserializeOwned>(
     Ok(serde_json::to_value(t).expect("json"))
 }
 
+/// For kinds that read a pillar run's folder (its force snapshots): `input` must name a
+/// simulate stage; `what` says what is read, for the error at `STAGE.input`.
+pub(crate) fn input_is_simulate(
+    src: &dyn Locate,
+    st: &Stage,
+    all: &[Stage],
+    what: &str,
+) -> Result<()> {
+    let Some(up) = st.upstream.get("input") else {
+        return Ok(());
+    };
+    match all.iter().find(|s| &s.name == up) {
+        Some(u) if u.kind != Kind::Simulate => Err(src.err(
+            &format!("{}.input", st.name),
+            format!(
+                "'{up}' is a {} stage; {what} are a simulate stage's",
+                u.kind.name()
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// The stage's parameters as the kind's typed struct, or the schema error at its line.
 pub(crate) fn typed_at<T: DeserializeOwned>(src: &dyn Locate, st: &Stage) -> Result<T> {
     serde_json::from_value(st.params.clone()).map_err(|e| src.err(&st.name, e.to_string()))

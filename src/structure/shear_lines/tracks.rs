@@ -26,8 +26,6 @@
 //!   whose grains keep shearing gives a persistence far above chance; the paper's
 //!   transient lines give one near it.
 
-use std::collections::HashMap;
-
 /// The lines of one frame pair: each line's grains as sorted particle ids.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairLines {
@@ -226,20 +224,21 @@ pub fn line_ids(lines: &[super::ShearLine], particle: &[i64]) -> Vec<Vec<i64>> {
         .collect()
 }
 
-/// Per track id, the pairs (indices) it lives in: for tables and tests.
-pub fn pairs_of(tracks: &LineTracks) -> HashMap<usize, Vec<usize>> {
-    let mut m: HashMap<usize, Vec<usize>> = HashMap::new();
-    for (k, ids) in tracks.track.iter().enumerate() {
-        for &t in ids {
-            m.entry(t).or_default().push(k);
-        }
-    }
-    m
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashMap;
+
+    /// Per track id, the pairs (indices) it lives in.
+    fn pairs_of(tracks: &LineTracks) -> HashMap<usize, Vec<usize>> {
+        let mut m: HashMap<usize, Vec<usize>> = HashMap::new();
+        for (k, ids) in tracks.track.iter().enumerate() {
+            for &t in ids {
+                m.entry(t).or_default().push(k);
+            }
+        }
+        m
+    }
 
     fn pair(frame: i64, lines: Vec<Vec<i64>>) -> PairLines {
         PairLines {
