@@ -1,10 +1,11 @@
 //! The packer as a user times it (`pillar-pipe bench pack`): the whole `pillar-pipe pack`
 //! process (li-granular-pillars Sec. II.A) as it runs by default, against the same
-//! binary's `--serial` (the packer as it was until 2026-11-27, bit for bit the old
-//! packings), alternating, seed by seed. The minimisations near jamming stop on
-//! the first CG step whose energy change is below 1e-12 of the energy, so a seed's
-//! iteration count is close to a random draw: compare medians over several seeds, and
-//! the CPU time on a shared machine.
+//! binary's `--serial --f-tol 0` (the packer as it was until 2026-11-27, bit for bit the
+//! old packings: one serial force sum, the paper's energy rule alone), alternating,
+//! seed by seed. Under the energy rule the minimisations near jamming stop on the first
+//! CG step whose energy change is below 1e-12 of the energy, so a seed's iteration
+//! count is close to a random draw: compare medians over several seeds, and the CPU
+//! time on a shared machine.
 
 use crate::bench::whole::{WholeRun, median, timed};
 use crate::error::{Error, Result};
@@ -15,7 +16,7 @@ use std::process::Command;
 #[derive(Debug, Clone, Serialize)]
 pub struct PackRun {
     pub seed: u64,
-    /// `default` or `serial` (the reference).
+    /// `default` or `reference` (`--serial --f-tol 0`).
     pub variant: String,
     pub run: WholeRun,
     /// From the packing's metadata: jammed φ, box growths, CG iterations, force
@@ -52,7 +53,7 @@ impl PackBench {
     }
 }
 
-/// `exe pack --n n` for each seed, as by default then with `--serial`, into
+/// `exe pack --n n` for each seed, as by default then as the reference, into
 /// `dir`; `threads` is passed on as `RAYON_NUM_THREADS` when given.
 pub fn bench_pack(
     exe: &Path,
@@ -65,15 +66,15 @@ pub fn bench_pack(
     let mut runs = Vec::new();
     let bar = crate::stages::progress(seeds.len() as u64, "pack runs", false);
     for &seed in seeds {
-        for variant in ["default", "serial"] {
+        for variant in ["default", "reference"] {
             let out = dir.join(format!("pack_{n}_{seed}_{variant}.parquet"));
             let mut c = Command::new(exe);
             c.arg("pack")
                 .args(["--n", &n.to_string(), "--seed", &seed.to_string()])
                 .args(["--quiet", "-o"])
                 .arg(&out);
-            if variant == "serial" {
-                c.arg("--serial");
+            if variant == "reference" {
+                c.args(["--serial", "--f-tol", "0"]);
             }
             if let Some(t) = threads {
                 c.env("RAYON_NUM_THREADS", t.to_string());

@@ -338,7 +338,7 @@ pub fn simulate(cmd: SimulateCmd) -> Result<()> {
 
 pub fn pack(a: PackArgs) -> Result<()> {
     let p = &a.params;
-    let rep = pillar_pipe::stages::pack::run(&a.output, p.n, p.seed, p.growth, a.serial, a.quiet)
+    let rep = pillar_pipe::stages::pack::run(&a.output, p, a.serial, a.quiet)
         .with_context(|| format!("pack into {}", a.output.display()))?;
     println!("{rep}");
     Ok(())

@@ -312,7 +312,7 @@ fn packing_is_at_jamming_without_overlaps() {
     // Minimisation: a hand-made overlap is removed.
     let mut lj = Lj::new(vec![0.5, 0.5], Boundary::Open);
     let (mut x, mut y) = (vec![0.0, 0.9], vec![0.0, 0.0]);
-    lj.minimise(&mut x, &mut y, 1e-12);
+    lj.minimise(&mut x, &mut y, 1e-12, 0.0);
     assert!(x[1] - x[0] > 1.0 - 1e-9);
 }
 

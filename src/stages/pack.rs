@@ -5,8 +5,40 @@ use crate::dem::pillar::pack::{Growth, PackOptions, Packing, pack};
 use crate::dem::pillar::params::PillarParams;
 use crate::error::Result;
 use crate::tracks::{FrameBox, Provenance, Tracks, TracksMeta};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// `pack`'s options, defined once for the command line and a pipeline.
+#[derive(Debug, Clone, Serialize, Deserialize, clap::Args)]
+#[serde(deny_unknown_fields, default)]
+pub struct PackParams {
+    /// Grains (half small, half large).
+    #[arg(long, default_value_t = PackParams::default().n)]
+    pub n: usize,
+    /// Seed of the initial random positions.
+    #[arg(long, default_value_t = PackParams::default().seed)]
+    pub seed: u64,
+    /// How the box grows between minimisations: `halving` (default) or `secant` (half
+    /// the growths, about as many CG iterations).
+    #[arg(long, value_enum, default_value_t = PackParams::default().growth)]
+    pub growth: Growth,
+    /// A minimisation also stops once the forces balance: rms residual force at most
+    /// this fraction of the mean virial per grain (the contact-force scale). 0: the
+    /// paper's energy rule alone (relative energy change per CG step below 1e-12).
+    #[arg(long, default_value_t = PackParams::default().f_tol)]
+    pub f_tol: f64,
+}
+
+impl Default for PackParams {
+    fn default() -> Self {
+        PackParams {
+            n: 1000,
+            seed: 1,
+            growth: Growth::Halving,
+            f_tol: crate::dem::pillar::pack::F_TOL,
+        }
+    }
+}
 
 #[derive(Debug, Serialize)]
 pub struct PackReport {
@@ -39,16 +71,21 @@ impl std::fmt::Display for PackReport {
 }
 
 /// Generate and write the packing (lengths scaled to the paper's D = 0.635 cm).
-/// `schedule`: the box's growth between minimisations; `serial`: one force sum in the
-/// order drawn, the packer before 2026-11-27 bit for bit (the reference of `bench pack`).
-pub fn run(
-    out: &Path,
-    n: usize,
-    seed: u64,
-    schedule: Growth,
-    serial: bool,
-    quiet: bool,
-) -> Result<PackReport> {
+/// `serial`: one force sum in the order drawn (the reference of `bench pack`; with
+/// `f_tol` = 0, the packer before 2026-11-27 bit for bit).
+pub fn run(out: &Path, params: &PackParams, serial: bool, quiet: bool) -> Result<PackReport> {
+    let &PackParams {
+        n,
+        seed,
+        growth: schedule,
+        f_tol,
+    } = params;
+    if !(f_tol >= 0.0 && f_tol.is_finite()) {
+        return Err(crate::Error::param(
+            "f_tol",
+            format!("need a finite tolerance ≥ 0 (0: the energy rule alone), got {f_tol}"),
+        ));
+    }
     if n < 2 {
         return Err(crate::Error::param(
             "n",
@@ -61,6 +98,7 @@ pub fn run(
         n,
         seed,
         schedule,
+        f_tol,
         ..Default::default()
     };
     if serial {

@@ -408,21 +408,49 @@ fn pack_then_simulate_from_the_packing_file() {
     );
 }
 
-/// `bench pack` runs the whole command and its `--serial` reference; below 2049
-/// grains the two are the same packer, so the same packing and iteration count.
+/// `bench pack` runs the whole command and its reference, the packer before
+/// 2026-11-27 (`--serial --f-tol 0`): each gives what that `pack` command gives.
 #[test]
-fn bench_pack_times_the_command_against_the_serial_packer() {
+fn bench_pack_times_the_command_against_the_old_packer() {
     let (ok, text) = run(&["bench", "pack", "--n", "80", "--seeds", "3", "--json"]);
     assert!(ok, "{text}");
     let v: serde_json::Value = serde_json::from_str(text.trim()).expect("json");
     let runs = v["runs"].as_array().unwrap();
     assert_eq!(runs.len(), 2);
     assert_eq!(runs[0]["variant"], "default");
-    assert_eq!(runs[1]["variant"], "serial");
-    assert_eq!(runs[0]["phi"], runs[1]["phi"]);
-    assert_eq!(runs[0]["cg_iterations"], runs[1]["cg_iterations"]);
+    assert_eq!(runs[1]["variant"], "reference");
+    let dir = tmpdir("bench-pack");
+    for (k, extra) in [(0, &[][..]), (1, &["--serial", "--f-tol", "0"][..])] {
+        let out = dir.join(format!("{k}.parquet"));
+        let mut args = vec!["pack", "--n", "80", "--seed", "3", "--quiet", "-o"];
+        args.push(out.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let (ok, text) = run(&args);
+        assert!(ok, "{text}");
+        let meta: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.with_extension("parquet.meta.json")).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(runs[k]["phi"], meta["summary"]["phi"], "{extra:?}");
+        assert_eq!(runs[k]["cg_iterations"], meta["summary"]["cg_iterations"]);
+    }
     assert!(runs[0]["cg_iterations"].as_u64().unwrap() > 0);
     assert!(runs[0]["run"]["cpu_seconds"].as_f64().unwrap() > 0.0);
+}
+
+/// A force tolerance that is negative or not a number is refused by name, and nothing
+/// is written.
+#[test]
+fn pack_refuses_a_bad_force_tolerance() {
+    let dir = tmpdir("pack-ftol");
+    let out = dir.join("pk.parquet");
+    for bad in ["-0.001", "NaN", "inf"] {
+        let arg = format!("--f-tol={bad}");
+        let (ok, text) = run(&["pack", "--n", "20", &arg, "-o", out.to_str().unwrap()]);
+        assert!(!ok, "{bad}: {text}");
+        assert!(text.contains("f_tol") && text.contains(bad), "{bad}: {text}");
+        assert!(!out.exists());
+    }
 }
 
 #[test]
