@@ -448,7 +448,10 @@ fn pack_refuses_a_bad_force_tolerance() {
         let arg = format!("--f-tol={bad}");
         let (ok, text) = run(&["pack", "--n", "20", &arg, "-o", out.to_str().unwrap()]);
         assert!(!ok, "{bad}: {text}");
-        assert!(text.contains("f_tol") && text.contains(bad), "{bad}: {text}");
+        assert!(
+            text.contains("f_tol") && text.contains(bad),
+            "{bad}: {text}"
+        );
         assert!(!out.exists());
     }
 }
