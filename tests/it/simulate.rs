@@ -540,8 +540,8 @@ strain = 0.005
 
 /// Issue 35: a `pack` stage is one packing every simulate stage that names it starts
 /// from (packed once, shared from the cache): two runs of a parameter study begin from
-/// the same grains, the packing is `pillar-pipe pack`'s bit for bit, and a rerun packs
-/// nothing.
+/// the same grains, the packing is `pillar-pipe pack`'s with the same options bit for
+/// bit, and a rerun packs nothing.
 #[test]
 fn a_pack_stage_is_packed_once_and_shared_by_the_simulations_that_name_it() {
     use crate::common::{computed, latest, run_ok};
@@ -556,7 +556,7 @@ fn a_pack_stage_is_packed_once_and_shared_by_the_simulations_that_name_it() {
     std::fs::write(
         &file,
         format!(
-            "[pipeline]\nroot = '{}'\n\n[pack]\nn = 150\nseed = 3\n\n{}{}",
+            "[pipeline]\nroot = '{}'\n\n[pack]\nn = 150\nseed = 3\nf_tol = 0.0\n\n{}{}",
             env!("CARGO_MANIFEST_DIR"),
             sim("soft", "1000.0"),
             sim("stiff", "3000.0")
@@ -577,11 +577,19 @@ fn a_pack_stage_is_packed_once_and_shared_by_the_simulations_that_name_it() {
         "150",
         "--seed",
         "3",
+        "--f-tol",
+        "0",
         "--quiet",
         "-o",
         cli_pack.to_str().unwrap(),
     ]);
     assert!(ok, "{text}");
+    // The stage's `f_tol` reached the packer (the energy rule alone) and is recorded.
+    let meta: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(packing.with_extension("parquet.meta.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(meta["provenance"]["parameters"]["protocol"]["f_tol"], 0.0);
     let (a, b) = (
         pillar_pipe::io::read_tracks(&packing).unwrap().0,
         pillar_pipe::io::read_tracks(&cli_pack).unwrap().0,
