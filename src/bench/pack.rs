@@ -25,6 +25,8 @@ pub struct PackRun {
     pub growth_steps: u64,
     pub cg_iterations: u64,
     pub force_evaluations: u64,
+    /// The force-balance tolerance the packing recorded (0: the energy rule alone).
+    pub f_tol: f64,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -93,6 +95,9 @@ pub fn bench_pack(
                 growth_steps: s["growth_steps"].as_u64().unwrap_or(0),
                 cg_iterations: s["cg_iterations"].as_u64().unwrap_or(0),
                 force_evaluations: s["force_evaluations"].as_u64().unwrap_or(0),
+                f_tol: v["provenance"]["parameters"]["protocol"]["f_tol"]
+                    .as_f64()
+                    .unwrap_or(f64::NAN),
             });
         }
         bar.inc(1);

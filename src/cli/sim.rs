@@ -279,8 +279,9 @@ pub struct PackArgs {
     params: pillar_pipe::pipeline::kinds::pack::PackParams,
     #[arg(short, long)]
     output: PathBuf,
-    /// The packer before 2026-11-27, bit for bit: one serial force sum, grains in the
-    /// order drawn (the reference of `bench pack`; the same packings below 2049 grains).
+    /// One serial force sum, grains in the order drawn; with `--f-tol 0`, the packer
+    /// before 2026-11-27 bit for bit (the reference of `bench pack`). Below 2049 grains
+    /// it changes nothing.
     #[arg(long)]
     serial: bool,
     #[arg(long)]

@@ -23,6 +23,7 @@ pub const DECISIONS: &[&str] = &[
     "torque lever arm 1/2 |r_ij| for both grains (Eq. 8), also in the contact-point slip velocity, so the tangential spring does no spurious work",
     "velocity Verlet for positions with substrate friction from the mid-step velocity; explicit Euler for spins; xi rule (Eq. 11) after the update",
     "grains from a given packing take the preset's radius and mass of their species; overlaps are relaxed with the Eq. 1 potential before the run",
+    "a generated packing's CG minimisations stop on the paper's energy rule (1e-12) or once the forces balance (rms residual <= f_tol = 1e-3 of the mean virial per grain; setup.protocol)",
     "p_gs (Eq. 21) uses the mean velocity over the output interval (Eq. 13); p_gs_exact is the interval mean of sum |f_i . v_i|",
 ];
 
@@ -40,16 +41,13 @@ pub fn initial_pillar(
                     format!("a pillar needs at least 2 grains, got {}", opt.n),
                 ));
             }
-            let pk = pack(
-                &PackOptions {
-                    n: opt.n,
-                    seed: opt.seed,
-                    ..Default::default()
-                },
-                |_, _| {},
-            )
-            .map_err(crate::stages::pack::stopped)?;
-            let setup = serde_json::json!({"packing": "generated (Sec. II.A)", "seed": opt.seed, "pack": pk});
+            let protocol = PackOptions {
+                n: opt.n,
+                seed: opt.seed,
+                ..Default::default()
+            };
+            let pk = pack(&protocol, |_, _| {}).map_err(crate::stages::pack::stopped)?;
+            let setup = serde_json::json!({"packing": "generated (Sec. II.A)", "seed": opt.seed, "protocol": protocol, "pack": pk});
             let x: Vec<f64> = pk.x.iter().map(|v| v * d).collect();
             let y: Vec<f64> = pk.y.iter().map(|v| v * d).collect();
             (
