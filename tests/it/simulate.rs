@@ -420,7 +420,10 @@ fn bench_pack_times_the_command_against_the_old_packer() {
     assert_eq!(runs[0]["variant"], "default");
     assert_eq!(runs[1]["variant"], "reference");
     assert_eq!(runs[0]["f_tol"], 1e-3);
-    assert_eq!(runs[1]["f_tol"], 0.0, "the reference is the energy rule alone");
+    assert_eq!(
+        runs[1]["f_tol"], 0.0,
+        "the reference is the energy rule alone"
+    );
     let dir = tmpdir("bench-pack");
     for (k, extra) in [(0, &[][..]), (1, &["--serial", "--f-tol", "0"][..])] {
         let out = dir.join(format!("{k}.parquet"));
