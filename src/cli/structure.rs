@@ -7,7 +7,7 @@ use pillar_pipe::pipeline::kinds::bar_pressure::BarPressureParams;
 use pillar_pipe::pipeline::kinds::gofr::GofrParams;
 use pillar_pipe::pipeline::kinds::outline::OutlineParams;
 use pillar_pipe::pipeline::kinds::shear_lines::ShearLinesParams;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Pair distribution g(r) of one frame, around small and around large grains
 /// (li-granular-pillars Fig. 2); r in units of the large-grain diameter D.
@@ -126,8 +126,13 @@ pub fn shear_lines(args: ShearLinesArgs) -> Result<()> {
     let opt = params.options();
     let rep = sl::run(&kinematics, &output, &opt)
         .with_context(|| format!("shear lines of {}", kinematics.display()))?;
+    show(&rep, json, &output)
+}
+
+/// A line analysis's report: as JSON, or as text with the table it wrote.
+fn show<T: serde::Serialize + std::fmt::Display>(rep: &T, json: bool, output: &Path) -> Result<()> {
     if json {
-        println!("{}", serde_json::to_string_pretty(&rep)?);
+        println!("{}", serde_json::to_string_pretty(rep)?);
     } else {
         println!("{rep}");
         println!("wrote       {}", output.display());
@@ -396,13 +401,7 @@ pub fn shear_line_tracks(args: ShearLineTracksArgs) -> Result<()> {
         .unwrap_or_else(|| lt::default_output(&args.kinematics));
     let rep = lt::run(&args.kinematics, &output, &args.params.options())
         .with_context(|| format!("shear-line tracks of {}", args.kinematics.display()))?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&rep)?);
-    } else {
-        println!("{rep}");
-        println!("wrote       {}", output.display());
-    }
-    Ok(())
+    show(&rep, args.json, &output)
 }
 
 /// Local stress against distance from the lateral edges of a `simulate pillar` run

@@ -73,14 +73,7 @@ impl SpinBarrier {
             // SeqCst with the sleepers' count (a waiter raises it, then looks at the
             // generation): either it sees the new generation or this sees it asleep.
             self.generation.store(g + 1, Ordering::SeqCst);
-            if self.sleeping.load(Ordering::SeqCst) > 0
-                && let Some(hs) = self.handles.get()
-            {
-                hs.iter()
-                    .enumerate()
-                    .filter(|&(t, _)| t != me)
-                    .for_each(|(_, h)| h.unpark());
-            }
+            self.wake_sleepers(me);
             return false;
         }
         let slept = self.spin_then(
@@ -109,6 +102,12 @@ impl SpinBarrier {
     pub fn raise(&self, flag: &AtomicU64, value: u64, me: usize) {
         // SeqCst with the sleepers' count, as in `wait`.
         flag.store(value, Ordering::SeqCst);
+        self.wake_sleepers(me);
+    }
+
+    /// Unpark every participant but `me` if any sleeps; called right after a SeqCst
+    /// store of what the sleepers wait for, so that a sleeper either sees it or is seen.
+    fn wake_sleepers(&self, me: usize) {
         if self.sleeping.load(Ordering::SeqCst) > 0
             && let Some(hs) = self.handles.get()
         {
