@@ -33,30 +33,11 @@ pub(crate) fn strays(x: &[f64], y: &[f64], x_ref: &[f64], y_ref: &[f64], dgamma:
 }
 }
 
-/// Where the grains live.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Boundary {
-    /// Unbounded plane (the pillar: bars and substrate confine it).
-    Open,
-    /// Periodic in x and y with sides `lx`, `ly` (m); minimum-image separations.
-    Periodic { lx: f64, ly: f64 },
-    /// Lees–Edwards: periodic, and the image above is shifted along x by `offset`
-    /// (= γ L_y for accumulated strain γ; any real value, not wrapped).
-    LeesEdwards { lx: f64, ly: f64, offset: f64 },
-}
-
+pub use crate::dem::base::boundary::Boundary;
 pub use crate::geom::{MinImage, rint};
 
-impl Boundary {
-    /// The boundary's minimum-image map (`geom::MinImage`: the project's one rule).
-    pub fn image(&self) -> MinImage {
-        match *self {
-            Boundary::Open => MinImage::OPEN,
-            Boundary::Periodic { lx, ly } => MinImage::new(lx, ly, 0.0),
-            Boundary::LeesEdwards { lx, ly, offset } => MinImage::new(lx, ly, offset),
-        }
-    }
-}
+use crate::dem::base::cell_grid::Grid;
+use std::sync::Mutex;
 
 /// Shear strain of a Lees–Edwards box since its offset was `offset_ref` (0 otherwise).
 pub(crate) fn strain_since(b: Boundary, offset_ref: f64) -> f64 {
@@ -73,29 +54,6 @@ pub(crate) fn strain_since(b: Boundary, offset_ref: f64) -> f64 {
 pub(crate) fn stray_limit(skin: f64, dgamma: f64, reach: f64) -> Option<f64> {
     let room = skin - dgamma.abs() * reach;
     (reach > 0.0 && room > 0.0).then_some(0.25 * room * room)
-}
-
-impl Boundary {
-    /// Separation r_i − r_j given as raw `(dx, dy)`, mapped to its minimum image.
-    #[inline(always)]
-    pub fn delta(&self, dx: f64, dy: f64) -> (f64, f64) {
-        self.image().of(dx, dy)
-    }
-
-    /// As [`Boundary::delta`], also returning the y image index n used for j (the
-    /// image of j sits at y_j + n L_y, x_j + n offset, moving n γ̇ L_y faster along x).
-    #[inline(always)]
-    pub fn delta_image(&self, dx: f64, dy: f64) -> (f64, f64, f64) {
-        self.image().with_index(dx, dy)
-    }
-
-    /// The Lees–Edwards offset (0 for other boundaries).
-    pub fn offset(&self) -> f64 {
-        match *self {
-            Boundary::LeesEdwards { offset, .. } => offset,
-            _ => 0.0,
-        }
-    }
 }
 
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -133,8 +91,8 @@ pub struct Spare {
     cell: Vec<u32>,
     /// Threads to build on (the sheared disks' steps lend their team): the same list.
     pub team: Option<std::sync::Arc<crate::dem::backend::team::Team>>,
-    /// Per range of grains, its partners and CSR ends (`build`'s scratch).
-    segs: Vec<(Vec<u32>, Vec<u32>)>,
+    /// Per part of a build, its lists (kept for the next).
+    segs: Vec<Segment>,
 }
 
 pub(crate) use crate::dem::backend::team::{chunked, team_size};
@@ -224,118 +182,156 @@ impl PairList {
         2.0 * r.iter().cloned().fold(0.0, f64::max) + self.skin
     }
 
-    /// Build the list: all pairs closer than R_i + R_j + skin.
+    /// Build the list: all pairs closer than R_i + R_j + skin (on the team of
+    /// `spare.team` where lent, one part of the grains a thread).
     pub fn build(&mut self, x: &[f64], y: &[f64], r: &[f64], b: Boundary) {
-        let n = x.len();
+        let parts = team_size(self.spare.team.as_deref());
+        let plan = self.begin_build(x, y, r, b, parts);
+        let list = &*self;
+        chunked(plan.team.as_deref(), (0..plan.parts()).collect(), |k| {
+            list.list_part(&plan, k, x, y, r)
+        });
+        self.finish_build(plan, x, y, b);
+    }
+
+    /// The first step of a build in `parts` parts (ranges of grains): the cell grid.
+    /// Each part is then listed by [`PairList::list_part`], on any thread, in any
+    /// order, and [`PairList::finish_build`] joins them in order: a grain's partners
+    /// depend on nothing but the grid, so any number of parts gives the same list.
+    /// The list stays the old one until the build is finished.
+    pub fn begin_build(
+        &mut self,
+        x: &[f64],
+        y: &[f64],
+        r: &[f64],
+        b: Boundary,
+        parts: usize,
+    ) -> PendingBuild {
         let Spare {
-            mut start,
-            j: mut js,
-            mut shear,
+            start,
+            j,
+            shear,
             head,
             items,
             mut cell,
             team,
-            segs: mut segments,
+            segs,
         } = std::mem::take(&mut self.spare);
-        start.clear();
-        js.clear();
-        start.push(0u32);
         let cut = self.reach(r);
-        self.cut = cut;
         let grid = Grid::new(x, y, cut, b, (head, items), &mut cell);
-        let delta = b.image();
-        let skin = self.skin;
-        // Each grain's partners depend on nothing but the grid: ranges of grains are
-        // listed apart (on threads, where lent) and joined in order.
-        let ranges = even_ranges(n, team_size(team.as_deref()));
-        // A range's partners onto `js`, the end of each grain's onto `ends` (offsets
-        // within `js`).
-        let list_range =
-            |grains: std::ops::Range<usize>, js: &mut Vec<u32>, ends: &mut Vec<u32>| {
-                let mut seg: Vec<u32> = vec![0; 64];
-                let mut cells = [(0, 0); 9];
-                for i in grains {
-                    let count = match &grid {
-                        Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
-                        None => {
-                            cells[0] = (i as u32 + 1, n as u32);
-                            1
-                        }
-                    };
-                    let ranges = &cells[..count];
-                    // Every candidate is written and kept only by advancing `m`: whether j > i
-                    // and whether it is in reach are coin flips a branch would mispredict.
-                    let mut m = 0;
-                    for &(a, b) in ranges {
-                        for q in a as usize..b as usize {
-                            let j = match &grid {
-                                Some(g) => g.items[q] as usize,
-                                None => q,
-                            };
-                            let (dx, dy) = delta.of(x[i] - x[j], y[i] - y[j]);
-                            let c = r[i] + r[j] + skin;
-                            if m == seg.len() {
-                                seg.push(0);
-                            }
-                            seg[m] = j as u32;
-                            m += ((j > i) & (dx * dx + dy * dy < c * c)) as usize;
-                        }
-                    }
-                    let seg = &mut seg[..m];
-                    seg.sort_unstable();
-                    js.extend_from_slice(seg);
-                    ends.push(js.len() as u32);
-                }
-            };
-        if ranges.len() == 1 {
-            // One range: straight into the list (`start` holds its leading 0).
-            list_range(0..n, &mut js, &mut start);
-        } else {
-            // Each range's buffers are kept for the next build.
-            segments.resize_with(ranges.len(), Default::default);
-            let items = ranges.iter().cloned().zip(segments.iter_mut()).collect();
-            chunked(team.as_deref(), items, |(grains, (js, ends))| {
-                js.clear();
-                ends.clear();
-                list_range(grains, js, ends);
-            });
-            for (part, ends) in &segments {
-                let base = js.len() as u32;
-                js.extend_from_slice(part);
-                start.extend(ends.iter().map(|e| base + e));
-            }
+        let ranges = even_ranges(x.len(), parts);
+        let mut segs = segs;
+        segs.resize_with(ranges.len(), Default::default);
+        // An unlisted part must not pass for listed with the last build's lists.
+        segs.iter_mut().for_each(|s| s.ends.clear());
+        PendingBuild {
+            grid,
+            ranges,
+            open: b == Boundary::Open,
+            delta: b.image(),
+            skin: self.skin,
+            cut,
+            segs: segs.into_iter().map(Mutex::new).collect(),
+            fresh: (start, j, shear),
+            cell,
+            team,
         }
-        // Carry the history of surviving pairs (both segments are sorted by j).
+    }
+
+    /// Part `k` of a build begun by [`PairList::begin_build`] (on the same positions
+    /// and radii): its grains' partners, sorted, each with the tangential spring this
+    /// list holds for that pair (0 for a new pair). Reads only; a part beyond the
+    /// build's is nothing.
+    pub fn list_part(&self, plan: &PendingBuild, k: usize, x: &[f64], y: &[f64], r: &[f64]) {
+        let Some(grains) = plan.ranges.get(k).cloned() else {
+            return;
+        };
+        let n = x.len();
+        let mut seg = plan.segs[k].lock().expect("a part's lists");
+        let Segment { js, ends, shear } = &mut *seg;
+        js.clear();
+        ends.clear();
+        ends.push(0);
+        // An open plane needs no image: its own loop, without the rounding.
+        let sizes = (x, y, r, plan.skin);
+        if plan.open {
+            list_grains(
+                plan.grid.as_ref(),
+                grains.clone(),
+                sizes,
+                |dx, dy| (dx, dy),
+                js,
+                ends,
+            );
+        } else {
+            let d = plan.delta;
+            list_grains(
+                plan.grid.as_ref(),
+                grains.clone(),
+                sizes,
+                |dx, dy| d.of(dx, dy),
+                js,
+                ends,
+            );
+        }
+        // Carry the history of surviving pairs (both partner lists are sorted by j).
         shear.clear();
         shear.resize(js.len(), 0.0);
         if self.start.len() == n + 1 {
-            let (old_start, old_j, old_shear) = (&self.start, &self.j, &self.shear);
-            let mut pieces = Vec::with_capacity(ranges.len());
-            let mut rest = &mut shear[..];
-            for g in &ranges {
-                let (a, b) = rest.split_at_mut((start[g.end] - start[g.start]) as usize);
-                pieces.push((g.clone(), a));
-                rest = b;
-            }
-            let (start, js) = (&start, &js);
-            chunked(team.as_deref(), pieces, |(grains, piece)| {
-                let base = start[grains.start] as usize;
-                for i in grains {
-                    let (old, new) = (
-                        old_start[i] as usize..old_start[i + 1] as usize,
-                        start[i] as usize..start[i + 1] as usize,
-                    );
-                    let mut k = old.start;
-                    for m in new {
-                        while k < old.end && old_j[k] < js[m] {
-                            k += 1;
-                        }
-                        if k < old.end && old_j[k] == js[m] {
-                            piece[m - base] = old_shear[k];
-                        }
+            for (g, i) in grains.enumerate() {
+                let old = self.start[i] as usize..self.start[i + 1] as usize;
+                let mut o = old.start;
+                for m in ends[g] as usize..ends[g + 1] as usize {
+                    while o < old.end && self.j[o] < js[m] {
+                        o += 1;
+                    }
+                    if o < old.end && self.j[o] == js[m] {
+                        shear[m] = self.shear[o];
                     }
                 }
-            });
+            }
+        }
+    }
+
+    /// Join the listed parts of `plan` in order into this list (positions as given
+    /// to [`PairList::begin_build`]).
+    ///
+    /// # Panics
+    /// If a part was not listed.
+    pub fn finish_build(&mut self, plan: PendingBuild, x: &[f64], y: &[f64], b: Boundary) {
+        let n = x.len();
+        let PendingBuild {
+            grid,
+            segs,
+            fresh: (mut start, mut js, mut shear),
+            cut,
+            cell,
+            team,
+            ..
+        } = plan;
+        let mut segs: Vec<Segment> = segs
+            .into_iter()
+            .map(|s| s.into_inner().expect("a part's lists"))
+            .collect();
+        let listed: usize = segs.iter().map(|s| s.ends.len().saturating_sub(1)).sum();
+        assert_eq!(listed, n, "finish_build: every part listed");
+        if let [one] = &mut segs[..] {
+            // One part: its lists are the list (its buffers take the old ones'
+            // place for the next build).
+            std::mem::swap(&mut start, &mut one.ends);
+            std::mem::swap(&mut js, &mut one.js);
+            std::mem::swap(&mut shear, &mut one.shear);
+        } else {
+            start.clear();
+            js.clear();
+            shear.clear();
+            start.push(0);
+            for s in &segs {
+                let base = js.len() as u32;
+                js.extend_from_slice(&s.js);
+                shear.extend_from_slice(&s.shear);
+                start.extend(s.ends[1..].iter().map(|e| base + e));
+            }
         }
         let (head, items) = grid.map(|g| (g.head, g.items)).unwrap_or_default();
         self.spare = Spare {
@@ -346,8 +342,9 @@ impl PairList {
             items,
             cell,
             team,
-            segs: segments,
+            segs,
         };
+        self.cut = cut;
         self.x_ref.clear();
         self.x_ref.extend_from_slice(x);
         self.y_ref.clear();
@@ -357,200 +354,87 @@ impl PairList {
     }
 }
 
-/// Cells of side ≥ the list cutoff; `None` when the box is too small for a grid (then
-/// every pair is tested, which for such small systems is cheap).
-struct Grid {
-    ncx: usize,
-    ncy: usize,
-    periodic: bool,
-    /// Lees–Edwards offset (0 otherwise).
-    offset: f64,
-    x0: f64,
-    y0: f64,
-    cx: f64,
-    cy: f64,
-    /// CSR of grain indices per cell.
-    head: Vec<u32>,
-    items: Vec<u32>,
-}
-
-impl Grid {
-    /// The grid of the points, in the buffers `head`, `items` (and `cell`, scratch) of a
-    /// previous grid when given.
-    fn new(
-        x: &[f64],
-        y: &[f64],
-        cut: f64,
-        b: Boundary,
-        (mut head, mut items): (Vec<u32>, Vec<u32>),
-        cell: &mut Vec<u32>,
-    ) -> Option<Grid> {
-        let n = x.len();
-        let (periodic, x0, y0, w, h) = match b {
-            Boundary::Periodic { lx, ly } | Boundary::LeesEdwards { lx, ly, .. } => {
-                (true, 0.0, 0.0, lx, ly)
-            }
-            Boundary::Open => {
-                let f =
-                    |v: &[f64], m: fn(f64, f64) -> f64, init: f64| v.iter().cloned().fold(init, m);
-                let (xl, xh) = (
-                    f(x, f64::min, f64::INFINITY),
-                    f(x, f64::max, f64::NEG_INFINITY),
-                );
-                let (yl, yh) = (
-                    f(y, f64::min, f64::INFINITY),
-                    f(y, f64::max, f64::NEG_INFINITY),
-                );
-                (false, xl, yl, (xh - xl).max(cut), (yh - yl).max(cut))
+/// The partners j > i closer than R_i + R_j + skin of each grain i of `grains`, sorted,
+/// onto `js`, and the end of each grain's onto `ends`; `image` maps a separation to its
+/// nearest image. Without a grid every later grain is a candidate.
+fn list_grains(
+    grid: Option<&Grid>,
+    grains: std::ops::Range<usize>,
+    (x, y, r, skin): (&[f64], &[f64], &[f64], f64),
+    image: impl Fn(f64, f64) -> (f64, f64),
+    js: &mut Vec<u32>,
+    ends: &mut Vec<u32>,
+) {
+    let n = x.len();
+    let mut cand: Vec<u32> = vec![0; 64];
+    let mut cells = [(0, 0); 9];
+    for i in grains {
+        let count = match grid {
+            Some(g) => g.neighbour_cells(x[i], y[i], &mut cells),
+            None => {
+                cells[0] = (i as u32 + 1, n as u32);
+                1
             }
         };
-        if !(w.is_finite() && h.is_finite() && cut > 0.0) {
-            return None;
-        }
-        let (fx, fy) = ((w / cut).floor().max(1.0), (h / cut).floor().max(1.0));
-        // A grain flung ~1e40 away (a corrupt checkpoint) asked for a grid whose cell
-        // count wrapped to zero (a panic) or could not be allocated; no real packing
-        // comes near 2^24 cells (N = 65,536 needs ~4e4), so the all-pairs fallback,
-        // slow but exact, takes such states.
-        if fx * fy > (1u64 << 24) as f64 {
-            return None;
-        }
-        let (ncx, ncy) = (fx as usize, fy as usize);
-        if periodic && (ncx < 3 || ncy < 3) || n < 16 {
-            return None;
-        }
-        // Open grids get one more cell per side so the maximum coordinate fits.
-        let (ncx, ncy) = if periodic {
-            (ncx, ncy)
-        } else {
-            (ncx + 1, ncy + 1)
-        };
-        let (cx, cy) = if periodic {
-            (w / ncx as f64, h / ncy as f64)
-        } else {
-            (cut, cut)
-        };
-        let mut g = Grid {
-            ncx,
-            ncy,
-            periodic,
-            offset: b.offset(),
-            x0,
-            y0,
-            cx,
-            cy,
-            head: Vec::new(),
-            items: Vec::new(),
-        };
-        head.clear();
-        head.resize(ncx * ncy + 1, 0);
-        items.clear();
-        items.resize(n, 0);
-        cell.clear();
-        cell.extend((0..n).map(|i| g.cell_of_wrapped(x[i], y[i]) as u32));
-        for &c in cell.iter() {
-            head[c as usize + 1] += 1;
-        }
-        for c in 0..ncx * ncy {
-            head[c + 1] += head[c];
-        }
-        // Fill each cell from its end (`head[c + 1]` counts down to `head[c]`), in
-        // reverse grain order so each cell lists its grains ascending.
-        for (i, &c) in cell.iter().enumerate().rev() {
-            let c = c as usize + 1;
-            head[c] -= 1;
-            items[head[c] as usize] = i as u32;
-        }
-        // Now head[c + 1] == start of cell c: shift back.
-        head.rotate_left(1);
-        head[ncx * ncy] = n as u32;
-        (g.head, g.items) = (head, items);
-        Some(g)
-    }
-
-    /// Column and row of a point in the primary cell (positions may be unwrapped:
-    /// crossing the y boundary n times shifts x by −n·offset).
-    fn col_row(&self, x: f64, y: f64) -> (i64, i64) {
-        let (mut x, mut y) = (x, y);
-        if self.periodic {
-            let h = self.cy * self.ncy as f64;
-            let n = ((y - self.y0) / h).floor();
-            y -= n * h;
-            x -= n * self.offset;
-        }
-        let cx = ((x - self.x0) / self.cx).floor() as i64;
-        let cy = ((y - self.y0) / self.cy).floor() as i64;
-        if self.periodic {
-            (
-                cx.rem_euclid(self.ncx as i64),
-                cy.rem_euclid(self.ncy as i64),
-            )
-        } else {
-            (
-                cx.clamp(0, self.ncx as i64 - 1),
-                cy.clamp(0, self.ncy as i64 - 1),
-            )
-        }
-    }
-
-    fn cell_of_wrapped(&self, x: f64, y: f64) -> usize {
-        let (cx, cy) = self.col_row(x, y);
-        cy as usize * self.ncx + cx as usize
-    }
-
-    /// The ranges of `items` of the cells around the point (at most 9); returns how
-    /// many. Rows across the y boundary are seen through the Lees–Edwards shift, so their
-    /// columns are re-centred on the point's shifted x.
-    fn neighbour_cells(&self, x: f64, y: f64, out: &mut [(u32, u32); 9]) -> usize {
-        let mut count = 0;
-        let (cx, cy) = self.col_row(x, y);
-        for dy in -1..=1 {
-            let mut ny = cy + dy;
-            let mut ccx = cx;
-            if self.periodic {
-                let wrap = if ny < 0 {
-                    -1.0
-                } else if ny >= self.ncy as i64 {
-                    1.0
-                } else {
-                    0.0
+        // Every candidate is written and kept only by advancing `m`: whether j > i and
+        // whether it is in reach are coin flips a branch would mispredict.
+        let mut m = 0;
+        for &(a, b) in &cells[..count] {
+            for q in a as usize..b as usize {
+                let j = match grid {
+                    Some(g) => g.items[q] as usize,
+                    None => q,
                 };
-                if wrap != 0.0 && self.offset != 0.0 {
-                    // The point's image seen from the row on the other side.
-                    let (wx, _) = self.col_row_raw(x, y);
-                    let shifted = wx - wrap * self.offset;
-                    ccx = ((shifted - self.x0) / self.cx).floor() as i64;
+                let (dx, dy) = image(x[i] - x[j], y[i] - y[j]);
+                let c = r[i] + r[j] + skin;
+                if m == cand.len() {
+                    cand.push(0);
                 }
-                ny = ny.rem_euclid(self.ncy as i64);
-            } else if ny < 0 || ny >= self.ncy as i64 {
-                continue;
-            }
-            let span: &[i64] = if self.periodic && self.ncx < 3 {
-                &[0]
-            } else {
-                &[-1, 0, 1]
-            };
-            for &dx in span {
-                let mut nx = ccx + dx;
-                if self.periodic {
-                    nx = nx.rem_euclid(self.ncx as i64);
-                } else if nx < 0 || nx >= self.ncx as i64 {
-                    continue;
-                }
-                let c = ny as usize * self.ncx + nx as usize;
-                out[count] = (self.head[c], self.head[c + 1]);
-                count += 1;
+                cand[m] = j as u32;
+                m += ((j > i) & (dx * dx + dy * dy < c * c)) as usize;
             }
         }
-        count
-    }
-
-    /// The point mapped into the primary cell (x, y), Lees–Edwards aware.
-    fn col_row_raw(&self, x: f64, y: f64) -> (f64, f64) {
-        let h = self.cy * self.ncy as f64;
-        let w = self.cx * self.ncx as f64;
-        let n = ((y - self.y0) / h).floor();
-        let (x, y) = (x - n * self.offset, y - n * h);
-        (x - ((x - self.x0) / w).floor() * w, y)
+        let found = &mut cand[..m];
+        found.sort_unstable();
+        js.extend_from_slice(found);
+        ends.push(js.len() as u32);
     }
 }
+
+/// A build of the list under way ([`PairList::begin_build`]): the grid, the parts'
+/// ranges of grains and what each part has listed.
+#[derive(Debug)]
+pub struct PendingBuild {
+    grid: Option<Grid>,
+    ranges: Vec<std::ops::Range<usize>>,
+    /// No periodic axis (`delta` is then the identity).
+    open: bool,
+    delta: MinImage,
+    skin: f64,
+    cut: f64,
+    /// One per part, each locked only by the thread listing it.
+    segs: Vec<Mutex<Segment>>,
+    /// The buffers the list will be built in (the previous build's).
+    fresh: (Vec<u32>, Vec<u32>, Vec<f64>),
+    cell: Vec<u32>,
+    team: Option<std::sync::Arc<crate::dem::backend::team::Team>>,
+}
+
+impl PendingBuild {
+    /// Parts to list.
+    pub fn parts(&self) -> usize {
+        self.ranges.len()
+    }
+}
+
+/// A part's partners (`js`), the end of each grain's within them after a leading 0
+/// (`ends`), and their springs (`shear`).
+#[derive(Debug, Clone, Default)]
+struct Segment {
+    js: Vec<u32>,
+    ends: Vec<u32>,
+    shear: Vec<f64>,
+}
+
+#[cfg(test)]
+mod tests;

@@ -181,6 +181,43 @@ mod tests {
         (start, js)
     }
 
+    /// A layout rebuilt in another's buffers (larger, so stale entries would show) is
+    /// the one built fresh.
+    #[test]
+    fn a_layout_rebuilt_in_used_buffers_is_the_one_built_fresh() {
+        let (start, js) = random_list(130, 1);
+        let mut used = Reverse::build(130, &start, &js);
+        for (n, seed) in [(70, 2), (33, 3), (1, 4), (0, 5)] {
+            let (start, js) = if n > 1 {
+                random_list(n, seed)
+            } else {
+                (vec![0; n + 1], vec![])
+            };
+            used.rebuild(n, &start, &js);
+            let fresh = Reverse::build(n, &start, &js);
+            assert_eq!(
+                (&used.start, &used.term_own, &used.term_partner, &used.width),
+                (
+                    &fresh.start,
+                    &fresh.term_own,
+                    &fresh.term_partner,
+                    &fresh.width
+                ),
+                "{n} grains"
+            );
+            assert_eq!(
+                (&used.chunk_base, used.places, &used.neighbour, &used.reach),
+                (
+                    &fresh.chunk_base,
+                    fresh.places,
+                    &fresh.neighbour,
+                    &fresh.reach
+                ),
+                "{n} grains"
+            );
+        }
+    }
+
     #[test]
     fn padded_terms_sum_as_each_grain_s_own_terms_in_order() {
         // 70 grains: two whole chunks and a part one, so three widths.

@@ -40,12 +40,25 @@ pub struct Reverse {
     /// Per chunk, the lowest and highest grain among its grains' neighbours and
     /// itself: only grains in that span can unmark one of its grains.
     pub reach: Vec<(u32, u32)>,
+    /// `rebuild`'s scratch: per grain, its slots as partner met so far.
+    seen: Vec<u32>,
 }
 
 impl Reverse {
-    #[allow(clippy::needless_range_loop)]
     pub fn build(n: usize, start: &[u32], js: &[u32]) -> Reverse {
-        let mut rs = vec![0u32; n + 1];
+        let mut r = Reverse::default();
+        r.rebuild(n, start, js);
+        r
+    }
+
+    /// The layout of the half list `start`, `js` over `n` grains, in this one's buffers
+    /// (a rebuild of 16,000 grains' layout in fresh memory spent most of its time
+    /// touching new pages).
+    #[allow(clippy::needless_range_loop)]
+    pub fn rebuild(&mut self, n: usize, start: &[u32], js: &[u32]) {
+        let rs = &mut self.start;
+        rs.clear();
+        rs.resize(n + 1, 0);
         for &j in js {
             rs[j as usize + 1] += 1;
         }
@@ -57,7 +70,9 @@ impl Reverse {
         // mispredicted loop exit per grain: that was most of their cost).
         let count = |g: usize| start[g + 1] - start[g] + rs[g + 1] - rs[g];
         let chunks = n.div_ceil(CHUNK);
-        let (mut width, mut chunk_base) = (Vec::with_capacity(chunks), Vec::with_capacity(chunks));
+        let (width, chunk_base) = (&mut self.width, &mut self.chunk_base);
+        width.clear();
+        chunk_base.clear();
         let mut places = 0u32;
         for c in 0..chunks {
             let grains = c * CHUNK..((c + 1) * CHUNK).min(n);
@@ -67,44 +82,46 @@ impl Reverse {
             places += w * grains.len() as u32;
         }
         let base = |g: usize| chunk_base[g / CHUNK] + (g % CHUNK) as u32 * width[g / CHUNK];
-        let mut fill = rs.clone();
-        let mut neighbour: Vec<u32> = (0..n)
-            .flat_map(|g| std::iter::repeat_n(g as u32, width[g / CHUNK] as usize))
-            .collect();
-        let (mut term_own, mut term_partner) = (vec![0u32; js.len()], vec![0u32; js.len()]);
+        // Padding names the grain itself; real terms are written below.
+        let neighbour = &mut self.neighbour;
+        neighbour.clear();
+        neighbour.resize(places as usize, 0);
+        for g in 0..n {
+            let from = base(g) as usize;
+            neighbour[from..from + width[g / CHUNK] as usize].fill(g as u32);
+        }
+        let (term_own, term_partner) = (&mut self.term_own, &mut self.term_partner);
+        term_own.clear();
+        term_own.resize(js.len(), 0);
+        term_partner.clear();
+        term_partner.resize(js.len(), 0);
+        // Per grain, its slots as partner met so far.
+        let seen = &mut self.seen;
+        seen.clear();
+        seen.resize(n, 0);
         for i in 0..n {
             for k in start[i] as usize..start[i + 1] as usize {
                 let j = js[k] as usize;
-                let r = fill[j] as usize;
                 // Grain g's terms start at its base: its own slots in order, then
                 // those where it is the partner, in order.
                 term_own[k] = base(i) + k as u32 - start[i];
-                term_partner[k] = base(j) + start[j + 1] - start[j] + (r as u32 - rs[j]);
+                term_partner[k] = base(j) + start[j + 1] - start[j] + seen[j];
                 neighbour[term_own[k] as usize] = j as u32;
                 neighbour[term_partner[k] as usize] = i as u32;
-                fill[j] += 1;
+                seen[j] += 1;
             }
         }
-        let reach = (0..chunks)
-            .map(|c| {
-                let grains = (c * CHUNK) as u32..((c + 1) * CHUNK).min(n) as u32;
-                let places = chunk_base[c] as usize
-                    ..chunk_base[c] as usize + width[c] as usize * grains.len();
-                let nb = neighbour[places].iter().copied();
-                let lo = nb.clone().min().unwrap_or(grains.start).min(grains.start);
-                (lo, nb.max().unwrap_or(grains.end - 1).max(grains.end - 1))
-            })
-            .collect();
-        Reverse {
-            start: rs,
-            term_own,
-            term_partner,
-            width,
-            chunk_base,
-            places: places as usize,
-            neighbour,
-            reach,
+        self.reach.clear();
+        for c in 0..chunks {
+            let grains = (c * CHUNK) as u32..((c + 1) * CHUNK).min(n) as u32;
+            let places =
+                chunk_base[c] as usize..chunk_base[c] as usize + width[c] as usize * grains.len();
+            let nb = &neighbour[places];
+            let lo = nb.iter().copied().fold(grains.start, u32::min);
+            let hi = nb.iter().copied().fold(grains.end - 1, u32::max);
+            self.reach.push((lo, hi));
         }
+        self.places = places as usize;
     }
 
     /// Grain i's places in the per-grain term array, its chunk's width of them (its

@@ -188,20 +188,23 @@ impl StepLaws {
     }
 }
 
-/// The serial sections' view of the arrays, republished after each.
-pub(crate) struct Shared(pub(crate) UnsafeCell<Arrays>);
+/// What the serial sections publish to every thread (the arrays' view, a list build
+/// under way), republished after each.
+pub(crate) struct Shared<T>(pub(crate) UnsafeCell<T>);
 // SAFETY: only the first thread writes the cell, in the serial sections, while the
 // others wait at the barrier; they read it after the barrier publishes it.
-unsafe impl Sync for Shared {}
-impl Shared {
-    pub(crate) fn get(&self) -> *mut Arrays {
+unsafe impl<T> Sync for Shared<T> {}
+impl<T> Shared<T> {
+    pub(crate) fn get(&self) -> *mut T {
         self.0.get()
     }
 }
 
 pub(crate) struct SendPtr(pub(crate) *mut PillarSim);
-// SAFETY: the simulation outlives the scoped threads of one `advance`, and only the
-// first thread dereferences the pointer, in the serial sections.
+// SAFETY: the simulation outlives the scoped threads of one `advance`. The first
+// thread dereferences the pointer in the serial sections (the others waiting at the
+// barrier); between the barriers around a list rebuild's listing, every thread reads
+// through it and none writes.
 unsafe impl Send for SendPtr {}
 unsafe impl Sync for SendPtr {}
 impl SendPtr {

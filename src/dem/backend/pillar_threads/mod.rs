@@ -8,7 +8,7 @@
 
 use crate::dem::backend::barrier::{MAX_SPIN, PoisonOnPanic, SpinBarrier};
 use crate::dem::backend::simd::{Pos, Quad};
-use crate::dem::base::verlet::Boundary;
+use crate::dem::base::verlet::{Boundary, PendingBuild};
 use crate::dem::pillar::{PillarSim, top_y_at};
 pub mod arrays;
 
@@ -16,7 +16,7 @@ use crate::dem::backend::pillar_threads::arrays::{
     SendPtr, Shared, Slots, StepLaws, parity_half, phase_grains, phase_kick, phase_pack,
     phase_pairs,
 };
-use crate::dem::pillar::phases::{CHUNK, Reverse};
+use crate::dem::pillar::phases::CHUNK;
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
@@ -29,6 +29,11 @@ struct Line<T>(T);
 /// call to one thread.
 const FALLBACK_WINDOW: u64 = 64;
 const FALLBACK_LONG_WAITS: usize = 16;
+/// Work of two neighbouring threads within this fraction of each other is balanced:
+/// 10 % left thread 0 of two waiting 25 µs of a 190 µs step at N = 16,000, and one
+/// chunk (32 grains) is well under 1 % of a thread's work there, so a narrow band only
+/// makes the boundary step back and forth by a chunk.
+const BALANCE_BAND: f64 = 0.02;
 /// Steps between rebalances of the threads' shares.
 const REBALANCE_EVERY: u64 = 128;
 /// Steps between timings of the phases for the rebalance (a clock read costs tens of
@@ -58,6 +63,8 @@ impl PillarSim {
         self.prepare(threads);
         let barrier = SpinBarrier::new(threads);
         let shared = Shared(UnsafeCell::new(self.arrays(true)));
+        // A list rebuild under way, begun by thread 0 in a slow step's serial part.
+        let rebuild: Shared<Option<PendingBuild>> = Shared(UnsafeCell::new(None));
         let laws = StepLaws::of(self);
         // The frozen skip of a fast step: the terms always hold the list's forces there
         // (fast steps never rebuild it).
@@ -151,7 +158,23 @@ impl PillarSim {
                                     }
                                 }
                             }
-                            s.serial_before(parity);
+                            *rebuild.get() = s.begin_rebuild(parity, threads);
+                        }
+                        barrier.wait(t, &mut spin);
+                        // A rebuild's listing, a part of the grains on each thread (the
+                        // list is the same for any split); the others only read.
+                        let listing = (*rebuild.get()).is_some();
+                        if let Some(plan) = &*rebuild.get() {
+                            let s = &*sim.get();
+                            let g = &s.grains;
+                            s.list.list_part(plan, t, &g.x, &g.y, &g.radius);
+                        }
+                        if listing {
+                            barrier.wait(t, &mut spin);
+                        }
+                        if t == 0 {
+                            let s = &mut *sim.get();
+                            s.finish_rebuild((*rebuild.get()).take());
                             if s.step.is_multiple_of(REBALANCE_EVERY) {
                                 s.rebalance();
                             }
@@ -362,21 +385,22 @@ impl PillarSim {
             b.slots_valid = false;
         }
         if !b.slots_valid {
-            b.reverse = Reverse::build(n, &self.list.start, &self.list.j);
-            b.terms = vec![Quad::default(); b.reverse.places];
-            b.owner = (0..n)
-                .flat_map(|i| {
-                    let r = self.list.start[i]..self.list.start[i + 1];
-                    r.map(move |_| i as u32)
-                })
-                .collect();
+            // In the last layout's buffers: fresh pages cost more than the work.
+            b.reverse.rebuild(n, &self.list.start, &self.list.j);
+            b.terms.clear();
+            b.terms.resize(b.reverse.places, Quad::default());
+            b.owner.clear();
+            for (i, w) in self.list.start.windows(2).enumerate() {
+                b.owner
+                    .extend(std::iter::repeat_n(i as u32, (w[1] - w[0]) as usize));
+            }
         }
+        // The largest index of each (a fold without early exit, which vectorises).
+        let top = |v: &[u32]| v.iter().fold(0, |a: u32, &b| a.max(b)) as usize;
         // The AVX2 pair kernel indexes grains without bounds checks: every list index
         // is checked here, after each rebuild and at the start of each `advance`.
         assert!(
-            b.owner.len() == slots
-                && b.owner.iter().all(|&i| (i as usize) < n)
-                && self.list.j.iter().all(|&j| (j as usize) < n),
+            b.owner.len() == slots && (slots == 0 || top(&b.owner) < n && top(&self.list.j) < n),
             "pair list indices within the grains"
         );
         // So are the places the pair kernels write each slot's terms.
@@ -384,10 +408,8 @@ impl PillarSim {
         assert!(
             r.term_own.len() == slots
                 && r.term_partner.len() == slots
-                && r.term_own
-                    .iter()
-                    .chain(&r.term_partner)
-                    .all(|&m| (m as usize) < b.terms.len()),
+                && (slots == 0
+                    || top(&r.term_own) < b.terms.len() && top(&r.term_partner) < b.terms.len()),
             "term places within the terms"
         );
         let rec = self.record.is_some();
@@ -401,28 +423,41 @@ impl PillarSim {
     }
 
     /// Thread 0 between the kick and the forces: the list's rebuild test (on the
-    /// threads' moves in the `parity` half) and rebuild, the step count.
-    fn serial_before(&mut self, parity: usize) {
+    /// threads' moves in the `parity` half), and when it must be rebuilt, its build
+    /// begun in `parts` parts, one for each thread to list.
+    fn begin_rebuild(&mut self, parity: usize, parts: usize) -> Option<PendingBuild> {
         let threads = self.scratch.buffers.moved2.len() / 2;
         let moved2 = &self.scratch.buffers.moved2[parity_half(threads, parity)];
         let moved2 = moved2.iter().fold(0.0, |a: f64, &b| a.max(b));
-        if strayed(&[moved2], self.list.skin)
+        if !(strayed(&[moved2], self.list.skin)
             || self.list.x_ref.len() != self.grains.len()
-            || self.step + 1 >= self.scratch.buffers.near_bar_until
+            || self.step + 1 >= self.scratch.buffers.near_bar_until)
         {
-            if self.list.x_ref.len() == self.grains.len() {
-                let ratio = moved2.sqrt() / (0.5 * self.list.skin);
-                self.scratch.rebuild_overshoot = self.scratch.rebuild_overshoot.max(ratio);
-            }
-            let since = self
-                .scratch
-                .last_build
-                .and_then(|b| self.step.checked_sub(b));
-            self.list.skin =
-                crate::dem::pillar::adapt_skin(self.list.skin, self.params.d_large, since);
-            self.scratch.last_build = Some(self.step);
+            return None;
+        }
+        if self.list.x_ref.len() == self.grains.len() {
+            let ratio = moved2.sqrt() / (0.5 * self.list.skin);
+            self.scratch.rebuild_overshoot = self.scratch.rebuild_overshoot.max(ratio);
+        }
+        let since = self
+            .scratch
+            .last_build
+            .and_then(|b| self.step.checked_sub(b));
+        self.list.skin = crate::dem::pillar::adapt_skin(self.list.skin, self.params.d_large, since);
+        self.scratch.last_build = Some(self.step);
+        let g = &self.grains;
+        Some(
+            self.list
+                .begin_build(&g.x, &g.y, &g.radius, Boundary::Open, parts),
+        )
+    }
+
+    /// Thread 0 after the listing: the list's rebuild finished (when one was begun)
+    /// with the buffers that follow it, and the step count.
+    fn finish_rebuild(&mut self, build: Option<PendingBuild>) {
+        if let Some(plan) = build {
             let g = &self.grains;
-            self.list.build(&g.x, &g.y, &g.radius, Boundary::Open);
+            self.list.finish_build(plan, &g.x, &g.y, Boundary::Open);
             self.scratch.buffers.slots_valid = false;
             self.sync_list_buffers();
             self.mark_near_bars(self.step + 1);
@@ -539,14 +574,36 @@ unsafe fn fast_bookkeeping(sim: *mut PillarSim, freeze: bool, parity: usize) -> 
     }
 }
 
-/// One step of [`PillarSim::rebalance`] for one split; clears the busy times.
+/// One step of [`PillarSim::rebalance`] for one split; clears the busy times. Each
+/// boundary moves by half the grains that would even out its two threads' work at
+/// their measured cost per grain, in whole chunks: the work moves as the pillar
+/// flows and grains freeze (by 30 % between two threads within 2000 steps at
+/// N = 16,000, measured), faster than a chunk at a time followed it; half, so that
+/// the timings' noise does not make it swing.
 fn shift_bounds(bounds: &mut [usize], busy: &mut [f64], n: usize) {
     for t in 1..bounds.len() - 1 {
         let (left, right) = (busy[t - 1], busy[t]);
-        if left < 0.9 * right && bounds[t] + CHUNK <= bounds[t + 1].min(n) {
-            bounds[t] += CHUNK;
-        } else if left > 1.1 * right && bounds[t] >= bounds[t - 1] + CHUNK {
-            bounds[t] -= CHUNK;
+        if !(left > 0.0 && right > 0.0) || (left - right).abs() <= BALANCE_BAND * left.max(right) {
+            continue;
+        }
+        let (lo, hi) = (bounds[t - 1], bounds[t + 1].min(n));
+        // Grains to move from the busier side, at that side's cost per grain.
+        let (from, grains) = if left < right {
+            (right, hi - bounds[t])
+        } else {
+            (left, bounds[t] - lo)
+        };
+        let cost = from / grains.max(1) as f64;
+        let chunks = (((left - right).abs() / 4.0 / cost) / CHUNK as f64)
+            .round()
+            .max(1.0) as usize;
+        if left < right {
+            // Whole chunks, never past the next boundary.
+            let room = (hi - bounds[t]) / CHUNK;
+            bounds[t] += chunks.min(room) * CHUNK;
+        } else {
+            let room = (bounds[t] - lo) / CHUNK;
+            bounds[t] -= chunks.min(room) * CHUNK;
         }
     }
     busy.iter_mut().for_each(|v| *v = 0.0);
@@ -632,5 +689,60 @@ impl PillarSim {
             marking: sets[2].len(),
             chunk_sums: chunk_lines.len(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_boundary_moves_half_way_to_even_work_in_whole_chunks() {
+        let n = 16_000;
+        // Thread 1 works three times as long on as many grains: evening them out moves
+        // 1/3 of its 8000 grains; half of that is 1333, 42 chunks.
+        let (mut bounds, mut busy) = (vec![0, 8000, n], vec![1.0, 3.0]);
+        shift_bounds(&mut bounds, &mut busy, n);
+        assert_eq!(bounds, [0, 8000 + 42 * CHUNK, n]);
+        assert_eq!(busy, [0.0, 0.0]);
+        let (mut bounds, mut busy) = (vec![0, 8000, n], vec![3.0, 1.0]);
+        shift_bounds(&mut bounds, &mut busy, n);
+        assert_eq!(bounds, [0, 8000 - 42 * CHUNK, n]);
+        // Within the band: left alone.
+        let (mut bounds, mut busy) = (vec![0, 8000, n], vec![1.0, 1.01]);
+        shift_bounds(&mut bounds, &mut busy, n);
+        assert_eq!(bounds, [0, 8000, n]);
+        // Never past the next boundary, nor below the previous one.
+        let (mut bounds, mut busy) = (vec![0, 64, 100], vec![1e-6, 1.0]);
+        shift_bounds(&mut bounds, &mut busy, 100);
+        assert_eq!(bounds, [0, 96, 100]);
+        let (mut bounds, mut busy) = (vec![0, 64, 100], vec![1.0, 1e-6]);
+        shift_bounds(&mut bounds, &mut busy, 100);
+        assert_eq!(bounds, [0, 32, 100]);
+        shift_bounds(&mut bounds, &mut vec![1.0, 1e-6], 100);
+        assert_eq!(bounds, [0, 0, 100]);
+    }
+
+    #[test]
+    fn shares_settle_where_the_work_is_even() {
+        // Three threads, grains costing 1, 2 and 4 in thirds of the pillar: each two
+        // neighbours' shares settle within the band (and a chunk) of equal work.
+        let n = 9600;
+        let cost = |g: usize| [1.0, 2.0, 4.0][g * 3 / n];
+        let work = |r: std::ops::Range<usize>| r.map(cost).sum::<f64>();
+        let mut bounds = vec![0, 3200, 6400, n];
+        for _ in 0..40 {
+            let mut busy: Vec<f64> = bounds.windows(2).map(|w| work(w[0]..w[1])).collect();
+            shift_bounds(&mut bounds, &mut busy, n);
+        }
+        let w: Vec<f64> = bounds.windows(2).map(|w| work(w[0]..w[1])).collect();
+        for p in w.windows(2) {
+            let (lo, hi) = (p[0].min(p[1]), p[0].max(p[1]));
+            assert!(
+                hi <= (1.0 + BALANCE_BAND) * lo + 4.0 * CHUNK as f64,
+                "{w:?} at {bounds:?}"
+            );
+        }
+        assert!(bounds.iter().skip(1).take(2).all(|b| b % CHUNK == 0));
     }
 }
