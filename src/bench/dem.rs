@@ -22,6 +22,9 @@ pub struct PillarBench {
     /// Same run: one pass over the pair list computing distances only, per particle.
     pub floor_ns_per_particle: f64,
     pub list_builds: u64,
+    /// Whether the timed run finished on one thread because its waits kept being long
+    /// (a machine busy with other work): its figure is then not the threads'.
+    pub fell_back: bool,
     /// Same steps, same state, with the frozen-grain skip off (same run; the timed run has it on).
     pub ns_per_particle_step_no_skip: f64,
     /// Fraction of grain-steps frozen (skipped).
@@ -127,6 +130,7 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
     let seconds_single = t.elapsed().as_secs_f64();
     let threads = sim.threads_for_run();
     let builds0 = sim.list.builds;
+    let fallbacks0 = sim.scratch.fallbacks;
     let t = Instant::now();
     sim.advance_with(steps, threads);
     let seconds = t.elapsed().as_secs_f64();
@@ -175,6 +179,7 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
         ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
         floor_ns_per_particle: floor,
         list_builds: sim.list.builds - builds0,
+        fell_back: sim.scratch.fallbacks > fallbacks0,
         ns_per_particle_step_no_skip: seconds_plain / (n as f64 * steps as f64) * 1e9,
         reused_fraction,
         threads,

@@ -375,6 +375,11 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                         b.floor_ns_per_particle,
                         b.list_builds
                     );
+                    if b.fell_back {
+                        println!(
+                            "  the timed run finished on one thread (its waits kept being long: a busy machine); its figure is not the threads'"
+                        );
+                    }
                     if b.threads > 1 {
                         let c = &b.cross_lines;
                         println!(

@@ -142,6 +142,8 @@ fn checkpoint_halt_resume_equals_an_uninterrupted_run() {
     assert_eq!(v["n"], 120);
     let frozen = v["reused_fraction"].as_f64().unwrap();
     assert!((0.0..=1.0).contains(&frozen) && v["ns_per_particle_step"].as_f64().unwrap() > 0.0);
+    // Whether the timed run fell back to one thread is part of the figure.
+    assert!(v["fell_back"].is_boolean(), "{text}");
     // Resuming with different physics is refused; with the same, it finishes.
     let (ok, text) = run(&[
         "simulate",

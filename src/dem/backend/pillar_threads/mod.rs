@@ -1,6 +1,7 @@
 //! Running pillar steps on several threads (or one): the phases of `pillar_phases`,
-//! separated by a barrier (`barrier`), with the few serial parts (pair-list rebuild,
-//! totals, force snapshots) on the first thread. A step of N = 1000 grains is tens of
+//! separated by a barrier (`barrier`), with the few serial parts (the pair-list
+//! rebuild's grid and joining, totals, force snapshots) on the first thread; the
+//! rebuild's listing, most of its work, runs on every thread. A step of N = 1000 grains is tens of
 //! microseconds, far below what waking a thread pool costs, so the threads live for a
 //! whole `advance` call. Shares of grains follow the measured work; a run whose waits
 //! keep being long (a busy machine) finishes on one thread. The numbers never depend on
@@ -95,7 +96,9 @@ impl PillarSim {
         // whether a step is *slow*: the first, one that rebalances or whose list must
         // be rebuilt, or any with a force snapshot. A slow step has a serial part on
         // thread 0 (last step's totals, the rebuild, the shares, this step's views)
-        // and a second barrier; on the others thread 0 folds last step's totals in at
+        // and a second barrier, and when the list is rebuilt, every thread lists its
+        // part of the pairs between two more (the serial part begins and finishes the
+        // build); on the others thread 0 folds last step's totals in at
         // the start of its pairs. No barrier follows the pairs: partners follow their
         // owner in index order, so a thread's grains get terms only from its own slots
         // and from earlier threads' `Exports` slots, which those compute first and
@@ -719,7 +722,7 @@ mod tests {
         let (mut bounds, mut busy) = (vec![0, 64, 100], vec![1.0, 1e-6]);
         shift_bounds(&mut bounds, &mut busy, 100);
         assert_eq!(bounds, [0, 32, 100]);
-        shift_bounds(&mut bounds, &mut vec![1.0, 1e-6], 100);
+        shift_bounds(&mut bounds, &mut [1.0, 1e-6], 100);
         assert_eq!(bounds, [0, 0, 100]);
     }
 
