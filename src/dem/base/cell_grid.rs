@@ -187,10 +187,9 @@ impl Grid {
                     push(lo as usize, hi as usize);
                 }
             } else if self.ncx < 3 {
-                push(
-                    ccx.rem_euclid(self.ncx as i64) as usize,
-                    ccx.rem_euclid(self.ncx as i64) as usize,
-                );
+                // (`new` makes no periodic grid this narrow; kept for its own sake.)
+                let c = ccx.rem_euclid(self.ncx as i64) as usize;
+                push(c, c);
             } else if (1..last).contains(&ccx) {
                 push((ccx - 1) as usize, (ccx + 1) as usize);
             } else {

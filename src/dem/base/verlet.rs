@@ -191,7 +191,7 @@ impl PairList {
         chunked(plan.team.as_deref(), (0..plan.parts()).collect(), |k| {
             list.list_part(&plan, k, x, y, r)
         });
-        self.finish_build(plan, x, y, b);
+        self.finish_build(plan, x, y);
     }
 
     /// The first step of a build in `parts` parts (ranges of grains): the cell grid.
@@ -231,6 +231,7 @@ impl PairList {
             delta: b.image(),
             skin: self.skin,
             cut,
+            offset: b.offset(),
             segs: segs.into_iter().map(Mutex::new).collect(),
             fresh: (start, j, shear),
             cell,
@@ -252,7 +253,8 @@ impl PairList {
         js.clear();
         ends.clear();
         ends.push(0);
-        // An open plane needs no image: its own loop, without the rounding.
+        // An open plane needs no image: its own loop (one compiled per closure),
+        // without the rounding.
         let sizes = (x, y, r, plan.skin);
         if plan.open {
             list_grains(
@@ -298,13 +300,14 @@ impl PairList {
     ///
     /// # Panics
     /// If a part was not listed.
-    pub fn finish_build(&mut self, plan: PendingBuild, x: &[f64], y: &[f64], b: Boundary) {
-        let n = x.len();
+    pub fn finish_build(&mut self, plan: PendingBuild, x: &[f64], y: &[f64]) {
         let PendingBuild {
             grid,
+            ranges,
             segs,
             fresh: (mut start, mut js, mut shear),
             cut,
+            offset,
             cell,
             team,
             ..
@@ -313,8 +316,15 @@ impl PairList {
             .into_iter()
             .map(|s| s.into_inner().expect("a part's lists"))
             .collect();
-        let listed: usize = segs.iter().map(|s| s.ends.len().saturating_sub(1)).sum();
-        assert_eq!(listed, n, "finish_build: every part listed");
+        assert!(
+            ranges.len() == segs.len()
+                && ranges
+                    .iter()
+                    .zip(&segs)
+                    .all(|(r, s)| s.ends.len() == r.len() + 1)
+                && ranges.last().is_none_or(|r| r.end == x.len()),
+            "finish_build: every part listed"
+        );
         if let [one] = &mut segs[..] {
             // One part: its lists are the list (its buffers take the old ones'
             // place for the next build).
@@ -349,7 +359,7 @@ impl PairList {
         self.x_ref.extend_from_slice(x);
         self.y_ref.clear();
         self.y_ref.extend_from_slice(y);
-        self.offset_ref = b.offset();
+        self.offset_ref = offset;
         self.builds += 1;
     }
 }
@@ -412,6 +422,8 @@ pub struct PendingBuild {
     delta: MinImage,
     skin: f64,
     cut: f64,
+    /// The Lees–Edwards offset the list is built at (m; 0 for other boundaries).
+    offset: f64,
     /// One per part, each locked only by the thread listing it.
     segs: Vec<Mutex<Segment>>,
     /// The buffers the list will be built in (the previous build's).

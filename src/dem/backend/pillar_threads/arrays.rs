@@ -191,9 +191,12 @@ impl StepLaws {
 /// What the serial sections publish to every thread (the arrays' view, a list build
 /// under way), republished after each.
 pub(crate) struct Shared<T>(pub(crate) UnsafeCell<T>);
-// SAFETY: only the first thread writes the cell, in the serial sections, while the
-// others wait at the barrier; they read it after the barrier publishes it.
-unsafe impl<T> Sync for Shared<T> {}
+// SAFETY (both): only the first thread writes the cell, in the serial sections, while
+// the others wait at the barrier; they read it after the barrier publishes it. The
+// arrays' raw pointers are dereferenced under the rules of the module notes; a build
+// under way is itself `Sync` (each part's lists behind their own lock).
+unsafe impl Sync for Shared<Arrays> {}
+unsafe impl Sync for Shared<Option<crate::dem::base::verlet::PendingBuild>> {}
 impl<T> Shared<T> {
     pub(crate) fn get(&self) -> *mut T {
         self.0.get()

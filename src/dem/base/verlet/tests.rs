@@ -54,7 +54,7 @@ fn built_in_parts(
     for k in (0..plan.parts()).rev() {
         l.list_part(&plan, k, x, y, r);
     }
-    l.finish_build(plan, x, y, b);
+    l.finish_build(plan, x, y);
 }
 
 const BOUNDARIES: [Boundary; 4] = [
@@ -165,7 +165,7 @@ fn a_build_with_a_part_not_listed_is_refused() {
     let mut l = PairList::new(0.2);
     let plan = l.begin_build(&x, &y, &r, Boundary::Open, 2);
     l.list_part(&plan, 0, &x, &y, &r);
-    l.finish_build(plan, &x, &y, Boundary::Open);
+    l.finish_build(plan, &x, &y);
 }
 
 /// A Lees–Edwards offset far beyond any real strain (a corrupt checkpoint) put a
