@@ -7,7 +7,7 @@ mod mat2;
 mod simbox;
 mod vec2;
 
-pub use image::{MinImage, rint};
+pub use image::{MinImage, floor_index, rint};
 pub use mat2::Mat2;
 pub use simbox::SimBox;
 pub use vec2::Vec2;

@@ -3,7 +3,7 @@
 //! analysis and the simulators share it.
 
 use crate::error::{Error, Result};
-use crate::geom::{SimBox, Vec2};
+use crate::geom::{SimBox, Vec2, floor_index};
 
 /// Whether a pair at exactly the cutoff counts. The paper (Li et al., Sec. III) uses
 /// |r_ji| < R_c; OVITO uses ≤.
@@ -11,19 +11,6 @@ use crate::geom::{SimBox, Vec2};
 pub enum Cutoff {
     Strict,
     Inclusive,
-}
-
-/// `v.floor() as isize`, without the libm call that `floor` is on baseline x86-64 (no
-/// SSE4.1 `roundsd`): three per neighbour query, 5 % of the kinematics kernel. Equal
-/// for every f64, NaN (0) and the saturating ends included.
-#[inline]
-pub fn floor_index(v: f64) -> isize {
-    let t = v as isize;
-    if (t as f64) > v {
-        t.saturating_sub(1)
-    } else {
-        t
-    }
 }
 
 /// Cell list over a set of positions. Cells are at least `cutoff` wide, so all
@@ -279,39 +266,6 @@ mod tests {
             cl.for_each_within(pos[i], |j, _| got.push(j));
             got.sort();
             assert_eq!(got, brute(&pos, i, rc, b), "particle {i}");
-        }
-    }
-
-    #[test]
-    fn floor_index_is_floor_as_isize_for_every_kind_of_value() {
-        let mut rng = Rng::new(9);
-        let mut vals = vec![
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            2.5,
-            -2.5,
-            1e-300,
-            -1e-300,
-            f64::NAN,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::MAX,
-            f64::MIN,
-            9.3e18,
-            -9.3e18,
-            isize::MAX as f64,
-            isize::MIN as f64,
-            -4503599627370497.0,
-            4503599627370497.5,
-        ];
-        vals.extend((0..100_000).map(|_| (rng.uniform() - 0.5) * 1e3));
-        vals.extend((-50..50).map(|k| k as f64 - f64::EPSILON * k as f64));
-        for v in vals {
-            assert_eq!(floor_index(v), v.floor() as isize, "{v:e}");
         }
     }
 

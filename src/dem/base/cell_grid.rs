@@ -3,6 +3,7 @@
 //! cells around it (Lees–Edwards rows seen through the shift).
 
 use crate::dem::base::boundary::Boundary;
+use crate::geom::floor_index;
 
 /// Cells of side ≥ the list cutoff; `None` when the box is too small for a grid (then
 /// every pair is tested, which for such small systems is cheap).
@@ -126,8 +127,8 @@ impl Grid {
             y -= n * h;
             x -= n * self.offset;
         }
-        let cx = floor_i64((x - self.x0) / self.cx);
-        let cy = floor_i64((y - self.y0) / self.cy);
+        let cx = floor_index((x - self.x0) / self.cx) as i64;
+        let cy = floor_index((y - self.y0) / self.cy) as i64;
         if self.periodic {
             (
                 cx.rem_euclid(self.ncx as i64),
@@ -167,7 +168,7 @@ impl Grid {
                     // The point's image seen from the row on the other side.
                     let (wx, _) = self.col_row_raw(x, y);
                     let shifted = wx - wrap * self.offset;
-                    ccx = floor_i64((shifted - self.x0) / self.cx);
+                    ccx = floor_index((shifted - self.x0) / self.cx) as i64;
                 }
                 ny = ny.rem_euclid(self.ncy as i64);
             } else if ny < 0 || ny >= self.ncy as i64 {
@@ -212,52 +213,5 @@ impl Grid {
         let n = ((y - self.y0) / h).floor();
         let (x, y) = (x - n * self.offset, y - n * h);
         (x - ((x - self.x0) / w).floor() * w, y)
-    }
-}
-
-/// `v.floor() as i64` for every `v` (NaN 0, saturating at i64's ends), without the
-/// library call `floor` is on processors without SSE4.1's rounding, the build's
-/// baseline: two a grain in each list build.
-#[inline(always)]
-fn floor_i64(v: f64) -> i64 {
-    let t = v as i64;
-    if (t as f64) > v {
-        t.saturating_sub(1)
-    } else {
-        t
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn floor_i64_is_floor_as_i64() {
-        let mut v = vec![
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            2.999_999,
-            -2.000_001,
-            1e15 + 0.5,
-            -1e15 - 0.5,
-            9.2e18,
-            -9.2e18,
-            1e300,
-            -1e300,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-            f64::MIN_POSITIVE,
-            -f64::MIN_POSITIVE,
-            4503599627370495.5,
-            -4503599627370495.5,
-        ];
-        v.extend((-2000..2000).map(|k| k as f64 * 0.37));
-        for x in v {
-            assert_eq!(super::floor_i64(x), x.floor() as i64, "{x}");
-        }
     }
 }
