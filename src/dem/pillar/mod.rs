@@ -20,6 +20,7 @@ pub mod kernels;
 pub mod pack;
 pub mod params;
 pub mod phases;
+pub mod reverse;
 pub mod stress;
 
 use crate::dem::base::forces::ContactRecord;

@@ -197,6 +197,7 @@ pub(crate) struct Shared<T>(pub(crate) UnsafeCell<T>);
 // under way is itself `Sync` (each part's lists behind their own lock).
 unsafe impl Sync for Shared<Arrays> {}
 unsafe impl Sync for Shared<Option<crate::dem::base::verlet::PendingBuild>> {}
+unsafe impl Sync for Shared<Option<super::layout::LayoutBuild>> {}
 impl<T> Shared<T> {
     pub(crate) fn get(&self) -> *mut T {
         self.0.get()

@@ -12,11 +12,13 @@ use crate::dem::backend::simd::{Pos, Quad};
 use crate::dem::base::verlet::{Boundary, PendingBuild};
 use crate::dem::pillar::{PillarSim, top_y_at};
 pub mod arrays;
+mod layout;
 
 use crate::dem::backend::pillar_threads::arrays::{
     SendPtr, Shared, Slots, StepLaws, parity_half, phase_grains, phase_kick, phase_pack,
     phase_pairs,
 };
+use crate::dem::backend::pillar_threads::layout::LayoutBuild;
 use crate::dem::pillar::phases::CHUNK;
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -34,13 +36,20 @@ const FALLBACK_LONG_WAITS: usize = 16;
 /// 10 % left thread 0 of two waiting 25 µs of a 190 µs step at N = 16,000, where a
 /// chunk (32 grains) is under 1 % of a thread's work. In small pillars (N = 1000: a
 /// chunk is 6-10 % of a thread's work) the rounding to whole chunks decides instead:
-/// a boundary moves only when half the imbalance is half a chunk or more.
+/// a boundary moves only when the move is half a chunk or more.
 const BALANCE_BAND: f64 = 0.02;
 /// Steps between rebalances of the threads' shares.
 const REBALANCE_EVERY: u64 = 128;
 /// Steps between timings of the phases for the rebalance (a clock read costs tens of
 /// nanoseconds, and a step of 1000 grains on two threads a few microseconds).
 const TIME_EVERY: u64 = 16;
+/// Timed steps between two rebalances: each thread's work in each is kept (one slot
+/// per timed step of the window), so that the rebalance can take medians.
+const SAMPLES: usize = (REBALANCE_EVERY / TIME_EVERY) as usize;
+/// Fewer timed steps than this in which both neighbours were timed: no move.
+const MIN_SAMPLES: usize = 3;
+/// The fraction of the measured imbalance a rebalance removes.
+const BALANCE_GAIN: f64 = 0.75;
 
 impl PillarSim {
     /// Threads an `advance` uses: the `threads` setting, or (0) one per core
@@ -67,6 +76,8 @@ impl PillarSim {
         let shared = Shared(UnsafeCell::new(self.arrays(true)));
         // A list rebuild under way, begun by thread 0 in a slow step's serial part.
         let rebuild: Shared<Option<PendingBuild>> = Shared(UnsafeCell::new(None));
+        // Its terms' layout under way, begun by thread 0 once the list is joined.
+        let layout: Shared<Option<LayoutBuild>> = Shared(UnsafeCell::new(None));
         let laws = StepLaws::of(self);
         // The frozen skip of a fast step: the terms always hold the list's forces there
         // (fast steps never rebuild it).
@@ -124,7 +135,9 @@ impl PillarSim {
                 // The step count during this step's forces, and its parity.
                 let step = first + k + 1;
                 let parity = (step % 2) as usize;
-                let timed = k.is_multiple_of(TIME_EVERY);
+                // Timed steps fill the window's slots (see `SAMPLES`) in step order.
+                let timed = step.is_multiple_of(TIME_EVERY);
+                let slot = t * SAMPLES + (step / TIME_EVERY) as usize % SAMPLES;
                 // SAFETY: see the module notes; serial parts run on thread 0 while the
                 // others wait at a barrier holding no references; a fast step's
                 // bookkeeping on thread 0 touches no array the phases use.
@@ -164,7 +177,7 @@ impl PillarSim {
                             }
                             *rebuild.get() = s.begin_rebuild(parity, threads);
                             if (*rebuild.get()).is_none() {
-                                s.finish_serial(None);
+                                s.end_step();
                                 *shared.get() = s.arrays(true);
                             }
                         }
@@ -180,9 +193,46 @@ impl PillarSim {
                                 s.list.list_part(plan, t, &g.x, &g.y, &g.radius);
                             }
                             barrier.wait(t, &mut spin);
+                            // The list joined, then its terms' layout in parts
+                            // (`layout`), a barrier after each phase; thread 0 alone
+                            // between them.
                             if t == 0 {
                                 let s = &mut *sim.get();
-                                s.finish_serial((*rebuild.get()).take());
+                                if let Some(plan) = (*rebuild.get()).take() {
+                                    s.finish_list(plan);
+                                }
+                                *layout.get() = s.begin_layout(threads);
+                            }
+                            barrier.wait(t, &mut spin);
+                            if (*layout.get()).is_some() {
+                                if let Some(l) = &*layout.get() {
+                                    l.count(t);
+                                }
+                                barrier.wait(t, &mut spin);
+                                if let Some(l) = &*layout.get() {
+                                    l.sum(t);
+                                }
+                                barrier.wait(t, &mut spin);
+                                if t == 0
+                                    && let Some(l) = (*layout.get()).as_mut()
+                                {
+                                    (*sim.get()).layout_offsets(l);
+                                }
+                                barrier.wait(t, &mut spin);
+                                if let Some(l) = &*layout.get() {
+                                    l.place(t);
+                                }
+                                barrier.wait(t, &mut spin);
+                                if let Some(l) = &*layout.get() {
+                                    l.reach(t);
+                                }
+                                barrier.wait(t, &mut spin);
+                            }
+                            if t == 0 {
+                                let s = &mut *sim.get();
+                                *layout.get() = None;
+                                s.after_layout();
+                                s.end_step();
                                 *shared.get() = s.arrays(true);
                             }
                             barrier.wait(t, &mut spin);
@@ -215,7 +265,7 @@ impl PillarSim {
                     phase_grains(&a, t, &laws, step, parity);
                     if let Some(c) = clock {
                         work += c.elapsed().as_secs_f64();
-                        a.busy.part(t..t + 1)[0] += work;
+                        a.busy.part(slot..slot + 1)[0] = work;
                     }
                 }
                 completed += 1;
@@ -288,7 +338,8 @@ impl PillarSim {
         // One half per step parity (see `fast_bookkeeping`).
         b.skipped = vec![0; 2 * threads];
         b.frozen_count = vec![0; 2 * threads];
-        b.busy = vec![0.0; threads];
+        // Per thread, its work in each timed step of the window (0: not timed).
+        b.busy = vec![0.0; threads * SAMPLES];
         b.pow_t.resize(n, 0.0);
         b.pow_r.resize(n, 0.0);
         b.packed_state.resize(n, Quad::default());
@@ -372,65 +423,13 @@ impl PillarSim {
     }
 
     /// Move each boundary between two threads towards the one that worked less since
-    /// the last call, by half the measured imbalance (`shift_bounds`; frozen grains
+    /// the last call, by most of the measured imbalance (`shift_bounds`; frozen grains
     /// cost little and gather at the bottom, so equal shares of grains are unequal
     /// shares of work).
     fn rebalance(&mut self) {
         let n = self.grains.len();
         let b = &mut self.scratch.buffers;
         shift_bounds(&mut b.bounds, &mut b.busy, n);
-    }
-
-    /// Per-slot buffers and the reverse index for the current list.
-    fn sync_list_buffers(&mut self) {
-        let (n, slots) = (self.grains.len(), self.list.len());
-        let b = &mut self.scratch.buffers;
-        if b.reverse.start.len() != n + 1
-            || b.terms.len() != b.reverse.places
-            || b.reverse.term_own.len() != slots
-        {
-            b.slots_valid = false;
-        }
-        if !b.slots_valid {
-            // In the last layout's buffers: fresh pages cost more than the work.
-            b.reverse.rebuild(n, &self.list.start, &self.list.j);
-            b.terms.clear();
-            b.terms.resize(b.reverse.places, Quad::default());
-            b.owner.clear();
-            for (i, w) in self.list.start.windows(2).enumerate() {
-                // (Offsets never decrease in a built or checked list; saturating all
-                // the same, so a bad one is caught by the length check below.)
-                b.owner.extend(std::iter::repeat_n(
-                    i as u32,
-                    w[1].saturating_sub(w[0]) as usize,
-                ));
-            }
-        }
-        // The largest index of each (a fold without early exit, which vectorises).
-        let top = |v: &[u32]| v.iter().fold(0, |a: u32, &b| a.max(b)) as usize;
-        // The AVX2 pair kernel indexes grains without bounds checks: every list index
-        // is checked here, after each rebuild and at the start of each `advance`.
-        assert!(
-            b.owner.len() == slots && (slots == 0 || top(&b.owner) < n && top(&self.list.j) < n),
-            "pair list indices within the grains"
-        );
-        // So are the places the pair kernels write each slot's terms.
-        let r = &b.reverse;
-        assert!(
-            r.term_own.len() == slots
-                && r.term_partner.len() == slots
-                && (slots == 0
-                    || top(&r.term_own) < b.terms.len() && top(&r.term_partner) < b.terms.len()),
-            "term places within the terms"
-        );
-        let rec = self.record.is_some();
-        let want = if rec { slots } else { 0 };
-        b.rec_fn.resize(want, 0.0);
-        b.rec_ft.resize(want, 0.0);
-        b.rec_touch.resize(want, false);
-        // Per grain; zeroed for each snapshot (only touching grains are written).
-        b.rec_bar.clear();
-        b.rec_bar.resize(if rec { n } else { 0 }, 0.0);
     }
 
     /// Thread 0 between the kick and the forces: the list's rebuild test (on the
@@ -463,17 +462,23 @@ impl PillarSim {
         )
     }
 
-    /// Thread 0 at the end of a slow step's serial part (after the listing, when the
-    /// list is rebuilt): the rebuild finished with the buffers that follow the list,
-    /// the step count, the shares' rebalance.
-    fn finish_serial(&mut self, build: Option<PendingBuild>) {
-        if let Some(plan) = build {
-            let g = &self.grains;
-            self.list.finish_build(plan, &g.x, &g.y);
-            self.scratch.buffers.slots_valid = false;
-            self.sync_list_buffers();
-            self.mark_near_bars(self.step + 1);
-        }
+    /// A rebuilt list joined from its parts; its slots' buffers no longer hold it.
+    fn finish_list(&mut self, plan: PendingBuild) {
+        let g = &self.grains;
+        self.list.finish_build(plan, &g.x, &g.y);
+        self.scratch.buffers.slots_valid = false;
+    }
+
+    /// After a rebuilt list's layout (every thread's parts): its checks, and the
+    /// chunks near a bar.
+    fn after_layout(&mut self) {
+        self.end_layout();
+        self.mark_near_bars(self.step + 1);
+    }
+
+    /// The end of a slow step's serial part on thread 0: the step counted, and the
+    /// shares rebalanced when it is time.
+    fn end_step(&mut self) {
         self.step += 1;
         if self.step.is_multiple_of(REBALANCE_EVERY) {
             self.rebalance();
@@ -589,28 +594,41 @@ unsafe fn fast_bookkeeping(sim: *mut PillarSim, freeze: bool, parity: usize) -> 
     }
 }
 
-/// One step of [`PillarSim::rebalance`] for one split; clears the busy times. Each
-/// boundary moves by half the grains that would even out its two threads' work at
-/// their measured cost per grain, in whole chunks: the work moves as the pillar
-/// flows and grains freeze (by 30 % between two threads within 2000 steps at
-/// N = 16,000, measured), faster than a chunk at a time followed it; half, so that
-/// the timings' noise does not make it swing.
+/// One step of [`PillarSim::rebalance`] for one split, from `busy`: each thread's work
+/// in each timed step of the window (`SAMPLES` a thread, 0 where not timed), which it
+/// clears. Each boundary moves by `BALANCE_GAIN` of the grains that would even out
+/// its two threads' work, in whole chunks. The imbalance is the median over the
+/// timed steps of the difference of the two threads' work in the same step, and the
+/// busier side's cost per grain its median work over its grains: the work moves as
+/// the pillar flows and grains freeze (by 30 % between two threads within 2000 steps
+/// at N = 16,000, measured), and one step in which a thread was descheduled (tens of
+/// microseconds, against a few of imbalance) swung a sum of the timings, and the
+/// boundary with it, the wrong way.
 fn shift_bounds(bounds: &mut [usize], busy: &mut [f64], n: usize) {
+    let window = |t: usize| &busy[t * SAMPLES..(t + 1) * SAMPLES];
     for t in 1..bounds.len() - 1 {
-        let (left, right) = (busy[t - 1], busy[t]);
-        if !(left > 0.0 && right > 0.0) || (left - right).abs() <= BALANCE_BAND * left.max(right) {
+        let (l, r) = (window(t - 1), window(t));
+        let both = || l.iter().zip(r).filter(|&(&a, &b)| a > 0.0 && b > 0.0);
+        if both().count() < MIN_SAMPLES {
+            continue;
+        }
+        let diff = median(both().map(|(a, b)| a - b).collect());
+        let left = median(both().map(|(&a, _)| a).collect());
+        let right = median(both().map(|(_, &b)| b).collect());
+        if diff.abs() <= BALANCE_BAND * left.max(right) {
             continue;
         }
         let (lo, hi) = (bounds[t - 1], bounds[t + 1].min(n));
         // Grains to move from the busier side, at that side's cost per grain.
-        let (from, grains) = if left < right {
+        let (from, grains) = if diff < 0.0 {
             (right, hi - bounds[t])
         } else {
             (left, bounds[t] - lo)
         };
         let cost = from / grains.max(1) as f64;
-        let chunks = (((left - right).abs() / 4.0 / cost) / CHUNK as f64).round() as usize;
-        if left < right {
+        // Moving g grains changes the difference by 2 g × cost.
+        let chunks = ((diff.abs() * BALANCE_GAIN / 2.0 / cost) / CHUNK as f64).round() as usize;
+        if diff < 0.0 {
             // Whole chunks, never past the next boundary.
             let room = (hi - bounds[t]) / CHUNK;
             bounds[t] += chunks.min(room) * CHUNK;
@@ -620,6 +638,17 @@ fn shift_bounds(bounds: &mut [usize], busy: &mut [f64], n: usize) {
         }
     }
     busy.iter_mut().for_each(|v| *v = 0.0);
+}
+
+/// The median of `v` (the mean of the middle two when even); `v` is not empty.
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        0.5 * (v[m - 1] + v[m])
+    }
 }
 
 /// The cache lines that cross between the threads' cores every step at the current
@@ -709,36 +738,83 @@ impl PillarSim {
 mod tests {
     use super::*;
 
+    /// Each thread's work the same in every timed step of the window.
+    fn windows(work: &[f64]) -> Vec<f64> {
+        work.iter().flat_map(|&w| [w; SAMPLES]).collect()
+    }
+
     #[test]
-    fn a_boundary_moves_half_way_to_even_work_in_whole_chunks() {
+    fn a_boundary_moves_most_of_the_way_to_even_work_in_whole_chunks() {
         let n = 16_000;
-        // Thread 1 works three times as long on as many grains: evening them out moves
-        // 1/3 of its 8000 grains; half of that is 1333, 42 chunks.
-        let (mut bounds, mut busy) = (vec![0, 8000, n], vec![1.0, 3.0]);
+        // Thread 1 works twice as long on as many grains: the difference (1) over twice
+        // its cost per grain (2/8000) is 2000 grains; 3/4 of that is 1500, 47 chunks.
+        let (mut bounds, mut busy) = (vec![0, 8000, n], windows(&[1.0, 2.0]));
         shift_bounds(&mut bounds, &mut busy, n);
-        assert_eq!(bounds, [0, 8000 + 42 * CHUNK, n]);
-        assert_eq!(busy, [0.0, 0.0]);
-        let (mut bounds, mut busy) = (vec![0, 8000, n], vec![3.0, 1.0]);
+        assert_eq!(bounds, [0, 8000 + 47 * CHUNK, n]);
+        assert!(busy.iter().all(|&w| w == 0.0), "the window is cleared");
+        let (mut bounds, mut busy) = (vec![0, 8000, n], windows(&[2.0, 1.0]));
         shift_bounds(&mut bounds, &mut busy, n);
-        assert_eq!(bounds, [0, 8000 - 42 * CHUNK, n]);
+        assert_eq!(bounds, [0, 8000 - 47 * CHUNK, n]);
         // Within the band: left alone.
-        let (mut bounds, mut busy) = (vec![0, 8000, n], vec![1.0, 1.01]);
+        let (mut bounds, mut busy) = (vec![0, 8000, n], windows(&[1.0, 1.01]));
         shift_bounds(&mut bounds, &mut busy, n);
         assert_eq!(bounds, [0, 8000, n]);
-        // Half a chunk's worth or more moves a chunk, less stays: all the work on
-        // thread 1's 68 grains evens out by moving 34, half of that is 0.53 chunk; then
-        // on its 36, 0.28 chunk.
-        let (mut bounds, mut busy) = (vec![0, 32, 100], vec![1e-6, 1.0]);
+        // A move of half a chunk or more moves a chunk, less stays: all the work on
+        // thread 1's 68 grains, 3/8 of them is 0.8 chunk; then of its 36, 0.42 chunk.
+        let (mut bounds, mut busy) = (vec![0, 32, 100], windows(&[1e-6, 1.0]));
         shift_bounds(&mut bounds, &mut busy, 100);
         assert_eq!(bounds, [0, 64, 100]);
-        shift_bounds(&mut bounds, &mut [1e-6, 1.0], 100);
+        shift_bounds(&mut bounds, &mut windows(&[1e-6, 1.0]), 100);
         assert_eq!(bounds, [0, 64, 100], "less than half a chunk: no move");
-        // The other way: 0.75 chunk on thread 0's 96 grains, then just under 0.5 on 64.
-        let (mut bounds, mut busy) = (vec![0, 96, 100], vec![1.0, 1e-6]);
+        // The other way: 3/8 of thread 0's 96 grains is 1.1 chunks, of 64 0.75, of
+        // 32 0.38.
+        let (mut bounds, mut busy) = (vec![0, 96, 100], windows(&[1.0, 1e-6]));
         shift_bounds(&mut bounds, &mut busy, 100);
         assert_eq!(bounds, [0, 64, 100]);
-        shift_bounds(&mut bounds, &mut [1.0, 1e-6], 100);
-        assert_eq!(bounds, [0, 64, 100], "less than half a chunk: no move");
+        shift_bounds(&mut bounds, &mut windows(&[1.0, 1e-6]), 100);
+        assert_eq!(bounds, [0, 32, 100]);
+        shift_bounds(&mut bounds, &mut windows(&[1.0, 1e-6]), 100);
+        assert_eq!(bounds, [0, 32, 100], "less than half a chunk: no move");
+    }
+
+    #[test]
+    fn one_descheduled_step_does_not_move_a_boundary_the_wrong_way() {
+        let n = 16_000;
+        // Thread 1 is busier in every timed step but one, in which thread 0 was held
+        // up for 50 times a step's work: a sum of the timings would move the boundary
+        // far down; the median moves it up as without that step.
+        let mut busy = windows(&[1.0, 2.0]);
+        busy[3] = 50.0;
+        let mut bounds = vec![0, 8000, n];
+        shift_bounds(&mut bounds, &mut busy, n);
+        assert_eq!(bounds, [0, 8000 + 47 * CHUNK, n]);
+    }
+
+    #[test]
+    fn too_few_steps_timed_on_both_sides_move_nothing() {
+        let n = 16_000;
+        // Two timed steps in common: too few to tell noise from imbalance.
+        let mut busy = vec![0.0; 2 * SAMPLES];
+        busy[0] = 1.0;
+        busy[1] = 1.0;
+        busy[SAMPLES] = 2.0;
+        busy[SAMPLES + 1] = 2.0;
+        let mut bounds = vec![0, 8000, n];
+        shift_bounds(&mut bounds, &mut busy, n);
+        assert_eq!(bounds, [0, 8000, n]);
+        // Each side timed in different steps (none in common): no move either.
+        let mut busy = vec![0.0; 2 * SAMPLES];
+        busy[..SAMPLES / 2].fill(1.0);
+        busy[SAMPLES + SAMPLES / 2..].fill(2.0);
+        shift_bounds(&mut bounds, &mut busy, n);
+        assert_eq!(bounds, [0, 8000, n]);
+    }
+
+    #[test]
+    fn the_median_of_an_even_count_is_the_middle_pair_s_mean() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(vec![7.0]), 7.0);
     }
 
     #[test]
@@ -751,8 +827,8 @@ mod tests {
         let work = |r: std::ops::Range<usize>| r.map(cost).sum::<f64>();
         let mut bounds = vec![0, 3200, 6400, n];
         for _ in 0..40 {
-            let mut busy: Vec<f64> = bounds.windows(2).map(|w| work(w[0]..w[1])).collect();
-            shift_bounds(&mut bounds, &mut busy, n);
+            let w: Vec<f64> = bounds.windows(2).map(|w| work(w[0]..w[1])).collect();
+            shift_bounds(&mut bounds, &mut windows(&w), n);
         }
         let w: Vec<f64> = bounds.windows(2).map(|w| work(w[0]..w[1])).collect();
         for p in w.windows(2) {
