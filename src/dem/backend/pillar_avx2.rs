@@ -246,7 +246,7 @@ pub struct PackedGrains<'a> {
 /// # Safety
 /// The processor must have AVX2; `packed` holds the state `g` holds, and both and
 /// `resting` cover every grain that the owners and partners name over `slots` (the
-/// caller asserts both); the sink's term places are in bounds (`sync_list_buffers`
+/// caller asserts both); the sink's term places are in bounds (`end_layout`
 /// checks every one after each rebuild).
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments, unused_unsafe)]

@@ -90,7 +90,7 @@ pub struct TermSink<'a> {
 impl<'a> TermSink<'a> {
     /// # Safety
     /// `terms` points at `len` terms; every index in `own` and `partner` is below `len`
-    /// (`sync_list_buffers` checks it), and no other thread touches those places
+    /// (`end_layout` checks it), and no other thread touches those places
     /// while the sink is used.
     pub unsafe fn new(terms: *mut Quad, len: usize, own: &'a [u32], partner: &'a [u32]) -> Self {
         assert_eq!(
@@ -372,6 +372,8 @@ pub struct StepBuffers {
     /// (its range's end if none). The slots from there on are computed first, so the
     /// later threads' terms are ready early (see the thread plumbing).
     pub export_from: Vec<usize>,
-    /// Seconds each thread spent working (not waiting) since the last rebalance.
+    /// Seconds each thread spent working (not waiting) in each timed step since the
+    /// last rebalance, a window of slots per thread (0: not timed; see the thread
+    /// plumbing's `shift_bounds`).
     pub busy: Vec<f64>,
 }

@@ -55,7 +55,7 @@ impl Reverse {
     /// (a rebuild of 16,000 grains' layout in fresh memory spent most of its time
     /// touching new pages): the parts' build with one part.
     pub fn rebuild(&mut self, n: usize, start: &[u32], js: &[u32]) {
-        self.begin(n, 1, js.len());
+        self.begin(n, 1, start, js);
         // SAFETY: one part, on this thread, in the order the build needs.
         unsafe {
             let v = self.view();
@@ -68,9 +68,19 @@ impl Reverse {
         }
     }
 
-    /// Sizes the buffers for a build of `slots` slots over `n` grains in `parts`
-    /// parts (whole chunks each, as equal as chunks allow).
-    pub fn begin(&mut self, n: usize, parts: usize, slots: usize) {
+    /// Sizes the buffers for a build of the half list `start`, `js` over `n` grains in
+    /// `parts` parts (whole chunks each, as equal as chunks allow). Panics unless the
+    /// offsets run from 0 to the slots, ascending: the phases write where they point
+    /// unchecked (`count` checks each partner against n).
+    pub fn begin(&mut self, n: usize, parts: usize, start: &[u32], js: &[u32]) {
+        let slots = js.len();
+        assert!(
+            start.len() == n + 1
+                && start[0] == 0
+                && start[n] as usize == slots
+                && start.windows(2).all(|w| w[0] <= w[1]),
+            "pair list offsets ascend from 0 to its {slots} slots over {n} grains"
+        );
         let parts = parts.max(1);
         let chunks = n.div_ceil(CHUNK);
         self.parts = (0..parts)
@@ -118,6 +128,7 @@ impl Reverse {
     /// or `offsets`.
     pub fn view(&mut self) -> ReverseView {
         ReverseView {
+            n: self.start.len().saturating_sub(1),
             counts: self.counts.iter_mut().map(|c| c.as_mut_ptr()).collect(),
             parts: self.parts.clone(),
             sums: self.sums.as_mut_ptr(),
@@ -161,6 +172,8 @@ impl Reverse {
 /// its parts; each phase of part t writes only what the phase's notes give to part t.
 #[derive(Clone)]
 pub struct ReverseView {
+    /// The grains `begin` sized the buffers for.
+    n: usize,
     counts: Vec<*mut u32>,
     parts: Vec<Range<usize>>,
     sums: *mut (u32, u32),
@@ -195,12 +208,11 @@ impl ReverseView {
     ///
     /// # Safety
     /// After `begin`, before `sum`; no other call for part t at the same time; `start`
-    /// and `js` are the list `begin` was sized for.
+    /// and `js` are the list `begin` checked.
     pub unsafe fn count(&self, t: usize, start: &[u32], js: &[u32]) {
         let r = self.parts[t].clone();
-        let n = start.len() - 1;
         // SAFETY: part t's counts, n long (`begin`), are this call's alone.
-        let counts = unsafe { std::slice::from_raw_parts_mut(self.counts[t], n) };
+        let counts = unsafe { std::slice::from_raw_parts_mut(self.counts[t], self.n) };
         counts.fill(0);
         for &j in &js[start[r.start] as usize..start[r.end] as usize] {
             counts[j as usize] += 1;
@@ -419,7 +431,7 @@ mod tests {
 
     /// The parts' build, the phases run part after part as the threads would.
     fn in_parts(r: &mut Reverse, n: usize, parts: usize, start: &[u32], js: &[u32]) {
-        r.begin(n, parts, js.len());
+        r.begin(n, parts, start, js);
         // SAFETY: one thread; each phase for every part before the next phase.
         unsafe {
             let v = r.view();
@@ -463,5 +475,27 @@ mod tests {
                 (&want.0, &want.2, &want.5)
             );
         }
+    }
+
+    #[test]
+    fn a_list_whose_offsets_do_not_fit_is_refused_before_anything_is_written() {
+        let bad: [(usize, &[u32], &[u32]); 4] = [
+            // Offsets for one grain more than there are.
+            (0, &[0, 1], &[0]),
+            // Not from 0.
+            (2, &[1, 1, 1], &[1]),
+            // Past the slots.
+            (2, &[0, 2, 2], &[1]),
+            // Descending.
+            (3, &[0, 2, 1, 2], &[1, 2]),
+        ];
+        for (n, start, js) in bad {
+            let r = std::panic::catch_unwind(|| Reverse::build(n, start, js));
+            let msg = r.expect_err("refused").downcast::<String>().unwrap();
+            assert!(msg.contains("offsets ascend"), "{msg}");
+        }
+        // A partner beyond the grains: refused as it is counted.
+        let r = std::panic::catch_unwind(|| Reverse::build(2, &[0, 1, 1], &[5]));
+        assert!(r.is_err());
     }
 }

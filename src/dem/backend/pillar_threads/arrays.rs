@@ -546,7 +546,7 @@ pub(crate) unsafe fn phase_pairs(
         let (law, dt) = (&laws.law, laws.dt);
         let rev = &*a.rev;
         // SAFETY: each slot's two term places are its own (`Reverse::build`), checked
-        // in bounds by `sync_list_buffers`; no phase reads the terms while pairs run.
+        // in bounds by `end_layout`; no phase reads the terms while pairs run.
         let sink = TermSink::new(
             a.terms.0,
             a.terms.1,
@@ -563,7 +563,7 @@ pub(crate) unsafe fn phase_pairs(
                 state: a.packed_state.all(),
                 spin: a.packed_spin.all(),
             };
-            // `sync_list_buffers` checked every owner and partner index against n.
+            // `end_layout` checked every owner and partner index against n.
             assert!(packed.state.len() == n && packed.spin.len() == n);
             assert!(rest.is_none_or(|f| f.len() == n));
             // SAFETY: AVX2 present; indices and lengths checked (above and at the list's

@@ -37,25 +37,23 @@ impl LayoutBuild {
         }
     }
 
-    /// Part t's partner counts, and the owner of each of its slots. Checks the part's
-    /// list offsets ascend (every partner index is checked against the grains as it
-    /// is counted), so the later phases' writes stay in their buffers.
+    /// Part t's partner counts, and the owner of each of its slots.
     ///
     /// # Safety
-    /// After `begin_layout`; once per part; no other phase at the same time.
+    /// After `begin_layout` (whose `Reverse::begin` checked the list's offsets); once
+    /// per part; no other phase at the same time.
     pub(crate) unsafe fn count(&self, t: usize) {
         let (start, js) = self.list();
         let r = self.rev.part(t);
-        assert!(
-            start[r.start..=r.end].windows(2).all(|w| w[0] <= w[1]),
-            "pair list offsets ascend"
-        );
-        // SAFETY: part t's grains' slots, this call's alone (the caller's promise).
-        let owner = unsafe {
-            let s = start[r.start] as usize;
-            std::slice::from_raw_parts_mut(self.owner.add(s), start[r.end] as usize - s)
-        };
         let s0 = start[r.start];
+        // SAFETY: part t's grains' slots, this call's alone, within the owners
+        // (`begin_layout` sized them to the slots the checked offsets end at).
+        let owner = unsafe {
+            std::slice::from_raw_parts_mut(
+                self.owner.add(s0 as usize),
+                (start[r.end] - s0) as usize,
+            )
+        };
         for i in r.clone() {
             owner[(start[i] - s0) as usize..(start[i + 1] - s0) as usize].fill(i as u32);
         }
@@ -110,12 +108,9 @@ impl PillarSim {
             return None;
         }
         let l = &self.list;
-        assert!(
-            l.start.len() == n + 1 && l.start[0] == 0 && l.start[n] as usize == slots,
-            "pair list offsets cover its slots"
-        );
-        // In the last layout's buffers: fresh pages cost more than the work.
-        b.reverse.begin(n, parts, slots);
+        // In the last layout's buffers: fresh pages cost more than the work. (This
+        // checks the offsets, on this thread before any part writes by them.)
+        b.reverse.begin(n, parts, &l.start, &l.j);
         b.owner.resize(slots, 0);
         Some(LayoutBuild {
             rev: b.reverse.view(),

@@ -1,7 +1,8 @@
 //! Running pillar steps on several threads (or one): the phases of `pillar_phases`,
 //! separated by a barrier (`barrier`), with the few serial parts (the pair-list
 //! rebuild's grid and joining, totals, force snapshots) on the first thread; the
-//! rebuild's listing, most of its work, runs on every thread. A step of N = 1000 grains is tens of
+//! rebuild's listing and the terms' layout (`layout`), most of its work, run on every
+//! thread. A step of N = 1000 grains is tens of
 //! microseconds, far below what waking a thread pool costs, so the threads live for a
 //! whole `advance` call. Shares of grains follow the measured work; a run whose waits
 //! keep being long (a busy machine) finishes on one thread. The numbers never depend on
@@ -110,8 +111,11 @@ impl PillarSim {
         // thread 0 (last step's totals, the rebuild, the shares, this step's views)
         // and a second barrier; when the list is rebuilt, the serial part begins the
         // build before that barrier, every thread lists its part of the pairs after
-        // it, and thread 0 finishes between two more; on the others thread 0 folds last step's totals in at
-        // the start of its pairs. No barrier follows the pairs: partners follow their
+        // it, thread 0 joins the parts, and every thread builds its part of the terms'
+        // layout in four phases (thread 0 alone between the second and third), a
+        // barrier after each: ten barriers in all, a few microseconds against the
+        // milliseconds of a rebuild. On the other steps thread 0 folds last step's
+        // totals in at the start of its pairs. No barrier follows the pairs: partners follow their
         // owner in index order, so a thread's grains get terms only from its own slots
         // and from earlier threads' `Exports` slots, which those compute first and
         // flag; a thread then waits only for the earlier threads' flags (thread 0 for
@@ -227,10 +231,13 @@ impl PillarSim {
                                     l.reach(t);
                                 }
                                 barrier.wait(t, &mut spin);
+                                // Every thread has read the cell for the last time.
+                                if t == 0 {
+                                    *layout.get() = None;
+                                }
                             }
                             if t == 0 {
                                 let s = &mut *sim.get();
-                                *layout.get() = None;
                                 s.after_layout();
                                 s.end_step();
                                 *shared.get() = s.arrays(true);
@@ -338,8 +345,12 @@ impl PillarSim {
         // One half per step parity (see `fast_bookkeeping`).
         b.skipped = vec![0; 2 * threads];
         b.frozen_count = vec![0; 2 * threads];
-        // Per thread, its work in each timed step of the window (0: not timed).
-        b.busy = vec![0.0; threads * SAMPLES];
+        // Per thread, its work in each timed step of the window (0: not timed), kept
+        // from one call to the next (runs that write frames often advance a few
+        // steps a call) unless the split changes.
+        if b.busy.len() != threads * SAMPLES {
+            b.busy = vec![0.0; threads * SAMPLES];
+        }
         b.pow_t.resize(n, 0.0);
         b.pow_r.resize(n, 0.0);
         b.packed_state.resize(n, Quad::default());
@@ -420,6 +431,7 @@ impl PillarSim {
         b.bounds = (0..=threads)
             .map(|t| (chunks * t / threads * CHUNK).min(n))
             .collect();
+        b.busy.iter_mut().for_each(|w| *w = 0.0);
     }
 
     /// Move each boundary between two threads towards the one that worked less since
