@@ -296,8 +296,9 @@ impl ReverseView {
             }
         }
         for i in r {
-            for k in start[i] as usize..start[i + 1] as usize {
-                let j = js[k] as usize;
+            let slots = start[i] as usize..start[i + 1] as usize;
+            for (k, &j) in slots.clone().zip(&js[slots]) {
+                let j = j as usize;
                 // SAFETY: slot k is this part's; the partner place is the next rank
                 // of part t's slots among j's (its count, this part's alone).
                 unsafe {
@@ -339,13 +340,8 @@ impl ReverseView {
 mod tests {
     use super::*;
 
-    /// The layout as first written, one grain after another: the reference every
-    /// split must give.
-    fn reference(
-        n: usize,
-        start: &[u32],
-        js: &[u32],
-    ) -> (
+    /// start, term_own, term_partner, width, chunk_base, neighbour, reach.
+    type Layout = (
         Vec<u32>,
         Vec<u32>,
         Vec<u32>,
@@ -353,7 +349,11 @@ mod tests {
         Vec<u32>,
         Vec<u32>,
         Vec<(u32, u32)>,
-    ) {
+    );
+
+    /// The layout as first written, one grain after another: the reference every
+    /// split must give.
+    fn reference(n: usize, start: &[u32], js: &[u32]) -> Layout {
         let mut rs = vec![0u32; n + 1];
         for &j in js {
             rs[j as usize + 1] += 1;
