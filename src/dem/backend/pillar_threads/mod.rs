@@ -21,6 +21,7 @@ use crate::dem::backend::pillar_threads::arrays::{
 };
 use crate::dem::backend::pillar_threads::layout::LayoutBuild;
 use crate::dem::pillar::phases::CHUNK;
+use crate::stats::median_select;
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
@@ -130,6 +131,15 @@ impl PillarSim {
             // SAFETY: published before any thread starts; republished only in the serial
             // parts, while every other thread waits.
             let mut a = unsafe { *shared.get() };
+            // One phase of the layout under way on this thread's part, then a barrier.
+            let layout_part = |phase: unsafe fn(&LayoutBuild, usize), spin: &mut u32| {
+                // SAFETY: thread 0 writes the cell only while every thread waits at a
+                // barrier, and each phase runs once per part between two of them.
+                if let Some(l) = unsafe { &*layout.get() } {
+                    unsafe { phase(l, t) };
+                }
+                barrier.wait(t, spin);
+            };
             for k in 0..steps {
                 // Set by thread 0 in a serial part; every thread has passed a barrier
                 // since, so all stop at the same step.
@@ -209,28 +219,16 @@ impl PillarSim {
                             }
                             barrier.wait(t, &mut spin);
                             if (*layout.get()).is_some() {
-                                if let Some(l) = &*layout.get() {
-                                    l.count(t);
-                                }
-                                barrier.wait(t, &mut spin);
-                                if let Some(l) = &*layout.get() {
-                                    l.sum(t);
-                                }
-                                barrier.wait(t, &mut spin);
+                                layout_part(LayoutBuild::count, &mut spin);
+                                layout_part(LayoutBuild::sum, &mut spin);
                                 if t == 0
                                     && let Some(l) = (*layout.get()).as_mut()
                                 {
                                     (*sim.get()).layout_offsets(l);
                                 }
                                 barrier.wait(t, &mut spin);
-                                if let Some(l) = &*layout.get() {
-                                    l.place(t);
-                                }
-                                barrier.wait(t, &mut spin);
-                                if let Some(l) = &*layout.get() {
-                                    l.reach(t);
-                                }
-                                barrier.wait(t, &mut spin);
+                                layout_part(LayoutBuild::place, &mut spin);
+                                layout_part(LayoutBuild::reach, &mut spin);
                                 // Every thread has read the cell for the last time.
                                 if t == 0 {
                                     *layout.get() = None;
@@ -624,6 +622,7 @@ fn shift_bounds(bounds: &mut [usize], busy: &mut [f64], n: usize) {
         if both().count() < MIN_SAMPLES {
             continue;
         }
+        let median = |v: Vec<f64>| median_select(&mut { v });
         let diff = median(both().map(|(a, b)| a - b).collect());
         let left = median(both().map(|(&a, _)| a).collect());
         let right = median(both().map(|(_, &b)| b).collect());
@@ -650,17 +649,6 @@ fn shift_bounds(bounds: &mut [usize], busy: &mut [f64], n: usize) {
         }
     }
     busy.iter_mut().for_each(|v| *v = 0.0);
-}
-
-/// The median of `v` (the mean of the middle two when even); `v` is not empty.
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    }
 }
 
 /// The cache lines that cross between the threads' cores every step at the current
@@ -820,13 +808,6 @@ mod tests {
         busy[SAMPLES + SAMPLES / 2..].fill(2.0);
         shift_bounds(&mut bounds, &mut busy, n);
         assert_eq!(bounds, [0, 8000, n]);
-    }
-
-    #[test]
-    fn the_median_of_an_even_count_is_the_middle_pair_s_mean() {
-        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), 2.5);
-        assert_eq!(median(vec![7.0]), 7.0);
     }
 
     #[test]
