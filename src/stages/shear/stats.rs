@@ -25,6 +25,30 @@ pub(crate) fn block_stats(blocks: &[f64]) -> MeanErr {
     }
 }
 
+/// var[θ̇_i/γ̇] of vagberg-sheared-disks Eq. 28, ⟨(θ̇_i/γ̇)²⟩ − ⟨θ̇_i/γ̇⟩² with ⟨…⟩ the
+/// average over the disks and the steady window's samples (Eq. 29), from each sample's
+/// mean `m` and spread `v` over the disks (the series' two spin columns: the sample's
+/// mean square is v + m²). The value is over the whole window, as the paper's is; its
+/// error is that of the same quantity block by block. (The mean of the samples' own
+/// spreads, which this once reported, misses the samples' scatter of m: O(1/N).)
+pub(crate) fn spin_variance(m: &[f64], v: &[f64], blocks: &[std::ops::Range<usize>]) -> MeanErr {
+    let eq28 = |r: &std::ops::Range<usize>| {
+        let k = r.len() as f64;
+        let mean = m[r.clone()].iter().sum::<f64>() / k;
+        let square = r.clone().map(|i| v[i] + m[i] * m[i]).sum::<f64>() / k;
+        square - mean * mean
+    };
+    let per_block: Vec<f64> = blocks.iter().map(eq28).collect();
+    let whole = match (blocks.first(), blocks.last()) {
+        (Some(a), Some(b)) => eq28(&(a.start..b.end)),
+        _ => f64::NAN,
+    };
+    MeanErr {
+        mean: whole,
+        err: block_stats(&per_block).err,
+    }
+}
+
 /// The contacts begun in the averaging window, by half (see `cohort_half`): the
 /// durations of those that ended, and how long those still open at the end had lasted.
 pub(crate) struct Cohort {
@@ -115,13 +139,17 @@ pub(crate) fn summarize(
         ("sigma_el", "sigma_el"),
         ("z", "z"),
         ("theta_dot_over_gamma_dot", "theta_dot_over_gamma_dot"),
-        (
-            "theta_dot_over_gamma_dot_var",
-            "theta_dot_over_gamma_dot_var",
-        ),
     ] {
         s.insert(key.to_string(), per_block(&|r| mean_in(col(c), r)));
     }
+    s.insert(
+        "theta_dot_over_gamma_dot_var".into(),
+        spin_variance(
+            col("theta_dot_over_gamma_dot"),
+            col("theta_dot_over_gamma_dot_var"),
+            &ranges,
+        ),
+    );
     s.insert(
         "mu".into(),
         per_block(&|r| mean_in(col("sigma"), r) / mean_in(col("p"), r)),
@@ -264,4 +292,29 @@ pub(crate) fn collision_angle_stats(making: &[u64], breaking: &[u64]) -> BTreeMa
         s.insert("breaking_separating_fraction".into(), f);
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Eq. 28 by hand: every disk spins at 1 in one sample and at 3 in the next (each
+    /// sample's own spread 0), so ⟨x²⟩ = 5, ⟨x⟩² = 4 and var = 1; the mean of the
+    /// samples' spreads would say 0. With spreads 0.5 in every sample, var = 1.5.
+    #[test]
+    fn the_spin_variance_is_eq_28_over_disks_and_samples() {
+        let m = [1.0, 3.0, 1.0, 3.0];
+        let blocks = [0..2, 2..4];
+        let v = spin_variance(&m, &[0.0; 4], &blocks);
+        assert_eq!((v.mean, v.err), (1.0, 0.0));
+        let v = spin_variance(&m, &[0.5; 4], &blocks);
+        assert!((v.mean - 1.5).abs() < 1e-15, "{v:?}");
+        // Blocks that differ give an error from their spread: blocks (1, 1) and (1, 3).
+        let v = spin_variance(&[1.0, 1.0, 1.0, 3.0], &[0.0; 4], &blocks);
+        // Whole window: ⟨x²⟩ = 3, ⟨x⟩² = 2.25; blocks 0 and 1 give 0 and 1.
+        assert!(
+            (v.mean - 0.75).abs() < 1e-15 && (v.err - 0.5).abs() < 1e-15,
+            "{v:?}"
+        );
+    }
 }
