@@ -28,10 +28,33 @@ fn register_font() {
     });
 }
 
+/// A figure's title and axis descriptions, as drawn.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Labels {
+    pub title: String,
+    pub x: String,
+    pub y: String,
+}
+
+impl Labels {
+    pub fn of(title: &str, x: &str, y: &str) -> Self {
+        Labels {
+            title: title.into(),
+            x: x.into(),
+            y: y.into(),
+        }
+    }
+}
+
 /// Something that draws itself on any plotters backend.
 pub trait Figure {
     /// Width and height, pixels.
     fn size(&self) -> (u32, u32);
+    /// Its title and axes (empty where a figure kind does not say), so that tests can
+    /// hold a title that cites a paper's figure to that figure's axes.
+    fn labels(&self) -> Labels {
+        Labels::default()
+    }
     fn draw<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
@@ -45,6 +68,8 @@ pub struct SavedFigure {
     pub svg: PathBuf,
     #[serde(skip)]
     pub svg_text: String,
+    #[serde(skip)]
+    pub labels: Labels,
 }
 
 /// Render `fig` to `<stem>.png` and `<stem>.svg`, each written under a temporary name
@@ -81,7 +106,12 @@ pub fn save(fig: &impl Figure, stem: &Path) -> Result<SavedFigure> {
             return Err(e);
         }
     }
-    Ok(SavedFigure { png, svg, svg_text })
+    Ok(SavedFigure {
+        png,
+        svg,
+        svg_text,
+        labels: fig.labels(),
+    })
 }
 
 /// Viridis, from its 9 anchor colours, t ∈ [0, 1].

@@ -61,16 +61,23 @@ pub fn read_sweep_angles(dir: &Path) -> Result<Vec<AnglePdf>> {
     Ok(out)
 }
 
-/// The Q values drawn for one φ: the least, the middle and the largest of those run (all
-/// of them when there are three or fewer), as the paper shows one Q well above Q_c, one
-/// well below and one near it.
-fn three_q(mut qs: Vec<f64>) -> Vec<f64> {
+/// The Q values drawn for one φ, as the paper shows them: one below Q_c, one near it and
+/// one above. Where the grid brackets Q_c (`qc::locate`: between the consecutive Q
+/// `qc.0` and `qc.1`), the least Q run, the bracket's lower end (its upper end when the
+/// lower is the least) and the largest; otherwise the least, the middle and the largest
+/// (all of them when there are three or fewer).
+fn three_q(mut qs: Vec<f64>, qc: Option<(f64, f64)>) -> Vec<f64> {
     qs.sort_by(f64::total_cmp);
     qs.dedup();
     if qs.len() <= 3 {
         return qs;
     }
-    vec![qs[0], qs[qs.len() / 2], qs[qs.len() - 1]]
+    let last = qs.len() - 1;
+    let interior = |q: f64| (1..last).find(|&k| qs[k] == q);
+    let middle = qc
+        .and_then(|(lo, hi)| interior(lo).or_else(|| interior(hi)))
+        .unwrap_or(qs.len() / 2);
+    vec![qs[0], qs[middle], qs[last]]
 }
 
 /// Add P(ϑ) at three Q for each φ (at the sweep's smallest rate, the paper's
@@ -81,15 +88,24 @@ pub(super) fn add_sweep_figures(f: &mut Figures, rows: &[Row], pdfs: &[AnglePdf]
         for a in pdfs.iter().filter(|a| a.rate == rate) {
             by_phi.entry(key(a.phi)).or_default().push(a);
         }
+        let located = super::qc::locate(rows);
         for runs in by_phi.values() {
             let phi = runs[0].phi;
-            let qs = three_q(runs.iter().map(|a| a.q).collect());
+            let qc = located
+                .iter()
+                .find(|p| key(p.phi) == key(phi) && key(p.rate) == key(rate))
+                .map(|p| (p.lo, p.hi));
+            let qs = three_q(runs.iter().map(|a| a.q).collect(), qc);
             let series = runs
                 .iter()
                 .filter(|a| qs.contains(&a.q))
                 .enumerate()
                 .map(|(k, a)| XySeries {
-                    label: format!("Q = {}", a.q),
+                    label: match qc {
+                        Some((lo, _)) if a.q <= lo => format!("Q = {} (below Q_c)", a.q),
+                        Some((_, hi)) if a.q >= hi => format!("Q = {} (above Q_c)", a.q),
+                        _ => format!("Q = {}", a.q),
+                    },
                     points: a.points.iter().map(|(x, y)| (*x, *y, 0.0)).collect(),
                     markers_only: false,
                     colour: k,
@@ -97,7 +113,10 @@ pub(super) fn add_sweep_figures(f: &mut Figures, rows: &[Row], pdfs: &[AnglePdf]
                 .collect();
             f.add(
                 &XyFigure {
-                    title: format!("P(ϑ) at φ = {phi}, three Q (Figs. 8, 18)"),
+                    title: match qc {
+                        Some((lo, hi)) => format!("P(ϑ) at φ = {phi}, Q_c between {lo} and {hi} (Figs. 8, 18)"),
+                        None => format!("P(ϑ) at φ = {phi}, three Q (Figs. 8, 18)"),
+                    },
                     x_desc: "ϑ (degrees), Eq. 27".into(),
                     y_desc: "P(ϑ) (1/degree)".into(),
                     x_log: false,
@@ -106,7 +125,7 @@ pub(super) fn add_sweep_figures(f: &mut Figures, rows: &[Row], pdfs: &[AnglePdf]
                 },
                 &format!("theta_phi_{phi}").replace('.', "p"),
                 format!(
-                    "The collision angle ϑ (Eq. 27: the rotation that takes the relative velocity v_ij onto r_ij) at every contact making and breaking, as one histogram per degree, at φ = {phi} and γ̇ τ_e = {rate:e} for the least, a middle and the largest Q run: above Q_c collisions come from every direction, with minima at ±90°; below Q_c they are glancing, peaked at ±90° (vagberg-sheared-disks Figs. 8 for CD, 18 for CDrot). Making events lie at |ϑ| > 90°, breaking events at |ϑ| < 90°."
+                    "The collision angle ϑ (Eq. 27: the rotation that takes the relative velocity v_ij onto r_ij) at every contact making and breaking, as one histogram per degree, at φ = {phi} and γ̇ τ_e = {rate:e} for the least Q run, the one nearest Q_c (where the grid brackets it from the drop of P^el, Fig. 3; else a middle one) and the largest: above Q_c collisions come from every direction, with minima at ±90°; below Q_c they are glancing, peaked at ±90° (vagberg-sheared-disks Figs. 8 for CD, 18 for CDrot). Making events lie at |ϑ| > 90°, breaking events at |ϑ| < 90°."
                 ),
             )?;
         }
@@ -129,7 +148,7 @@ pub(super) fn add_sweep_figures(f: &mut Figures, rows: &[Row], pdfs: &[AnglePdf]
         &XyFigure {
             title: "P(ϑ = 90°) against Q (Figs. 9, 19)".into(),
             x_desc: "Q".into(),
-            y_desc: "P(90°) (1/degree)".into(),
+            y_desc: "P(ϑ = 90°) (1/degree)".into(),
             x_log: true,
             y_log: false,
             series,
@@ -173,7 +192,7 @@ pub(super) fn add_run_figure(f: &mut Figures, file: &Path) -> Result<()> {
     .collect();
     f.add(
         &XyFigure {
-            title: "P(ϑ), ϑ of Eq. 27, at contact making and breaking (Figs. 7–8, 18)".into(),
+            title: "P(ϑ), ϑ of Eq. 27, at contact making and breaking (Figs. 8, 18)".into(),
             x_desc: "ϑ (degrees)".into(),
             y_desc: "P(ϑ) (1/degree)".into(),
             x_log: false,
@@ -191,7 +210,17 @@ mod tests {
 
     #[test]
     fn three_q_keeps_the_ends_and_a_middle() {
-        assert_eq!(three_q(vec![5.0, 1.0]), [1.0, 5.0]);
-        assert_eq!(three_q(vec![20.0, 1.0, 5.0, 2.0, 1.0]), [1.0, 5.0, 20.0]);
+        assert_eq!(three_q(vec![5.0, 1.0], None), [1.0, 5.0]);
+        assert_eq!(
+            three_q(vec![20.0, 1.0, 5.0, 2.0, 1.0], None),
+            [1.0, 5.0, 20.0]
+        );
+        // Q_c bracketed: the bracket's lower end, or its upper one when the lower is
+        // the least Q run.
+        let qs = vec![0.3, 1.0, 2.0, 5.0, 10.0, 100.0];
+        assert_eq!(three_q(qs.clone(), Some((1.0, 2.0))), [0.3, 1.0, 100.0]);
+        assert_eq!(three_q(qs.clone(), Some((0.3, 1.0))), [0.3, 1.0, 100.0]);
+        assert_eq!(three_q(qs.clone(), Some((10.0, 100.0))), [0.3, 10.0, 100.0]);
+        assert_eq!(three_q(qs, None), [0.3, 5.0, 100.0]);
     }
 }

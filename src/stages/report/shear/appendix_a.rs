@@ -8,7 +8,7 @@
 //!   γ̇_1 < γ̇_2 the grid's two lowest rates (the paper: 1e-6 and 1e-5), vanishes above a
 //!   Q and rises from zero as Q decreases below it. That Q is Q_c where the runs below it
 //!   are Newtonian (the paper's φ ≳ 0.8) and Q* where they are Bagnoldian (φ ≲ 0.8).
-//! - **B_p^el at two rates (Fig. 33).** B_p^el = P^el/(γ̇ τ_e)² (Eq. 20) is independent of
+//! - **B_p^el at two rates (Fig. 33).** B_p^el = P^el/(γ̇ τ_e)² (Eq. 19) is independent of
 //!   the rate in Bagnoldian flow and ∝ 1/(γ̇ τ_e) in Newtonian flow. At each Q,
 //!   D_B(φ) = B_p^el(γ̇_1) − B_p^el(γ̇_2) vanishes below φ_c(Q) and rises from zero above.
 //! - **The onset** (the paper: "the intersection of the dashed lines"): with u = −ln Q
@@ -27,7 +27,7 @@ use super::classify::Class;
 use super::{Classification, Figures, Row, key};
 use crate::error::Result;
 use crate::rng::Rng;
-use crate::stages::report::render::curves::{XyFigure, XySeries};
+use crate::stages::report::render::curves::{Annotated, Overlay, XyFigure, XySeries};
 use crate::stages::report::render::html::Block;
 use std::collections::BTreeMap;
 
@@ -102,7 +102,7 @@ pub fn z_curves(rows: &[Row]) -> Vec<Curve> {
     )
 }
 
-/// D_B(φ) = B_p^el(γ̇_1) − B_p^el(γ̇_2) at each Q (Fig. 33; B_p^el of Eq. 20 is `b_p_el`).
+/// D_B(φ) = B_p^el(γ̇_1) − B_p^el(γ̇_2) at each Q (Fig. 33; B_p^el of Eq. 19 is `b_p_el`).
 pub fn b_curves(rows: &[Row]) -> Vec<Curve> {
     differences(rows, &|r| r.get("b_p_el"), false)
 }
@@ -322,7 +322,12 @@ fn fmt_ci(ci: (f64, f64)) -> String {
 }
 
 /// Figs. 32, 33 and the Appendix A lines on the (φ, Q) plane (Fig. 17), with the rule.
-pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> Result<()> {
+pub(super) fn add_figures(
+    f: &mut Figures,
+    rows: &[Row],
+    c: &Classification,
+    phi_j: f64,
+) -> Result<()> {
     let (zc, bc) = (z_curves(rows), b_curves(rows));
     if zc.is_empty() && bc.is_empty() {
         return Ok(());
@@ -369,7 +374,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> 
                 series: series(&bc, "Q"),
             },
             "appendix_a_b",
-            format!("B_p1^el − B_p2^el = P^el/(γ̇_1 τ_e)² − P^el/(γ̇_2 τ_e)² (Eq. 20) against φ at each Q (vagberg-sheared-disks Appendix A, Fig. 33): zero in Bagnoldian flow (φ < φ_c), rising above φ_c where B_p^el ∝ 1/γ̇. {rule}"),
+            format!("B_p1^el − B_p2^el = P^el/(γ̇_1 τ_e)² − P^el/(γ̇_2 τ_e)² (Eq. 19) against φ at each Q (vagberg-sheared-disks Appendix A, Fig. 33): zero in Bagnoldian flow (φ < φ_c), rising above φ_c where B_p^el ∝ 1/γ̇. {rule}"),
         )?;
     }
     let mut lines = Vec::new();
@@ -401,16 +406,22 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], c: &Classification) -> 
     }
     if !lines.is_empty() {
         f.add(
-            &XyFigure {
-                title: "Q_c, Q* and φ_c by Appendix A on the (φ, Q) plane (Fig. 17)".into(),
-                x_desc: "φ".into(),
-                y_desc: "Q".into(),
-                x_log: false,
-                y_log: true,
-                series: lines,
+            &Annotated {
+                xy: XyFigure {
+                    title: "Q_c, Q* and φ_c by Appendix A on the (φ, Q) plane (Fig. 17)".into(),
+                    x_desc: "φ".into(),
+                    y_desc: "Q".into(),
+                    x_log: false,
+                    y_log: true,
+                    series: lines,
+                },
+                overlay: Overlay {
+                    vlines: vec![(format!("φ_J = {phi_j:.4}"), phi_j)],
+                    ..Overlay::default()
+                },
             },
             "appendix_a_lines",
-            "The lines of the CDrot phase diagram located by the Appendix A criteria (vagberg-sheared-disks Fig. 17): Q_c(φ) where D_Z rises below a Q whose smaller-Q runs are Newtonian, Q*(φ) where they are Bagnoldian (the crossover from weakly to strongly inelastic Bagnoldian flow), φ_c(Q) where D_B rises. The runs' class is the slope of ln p against ln γ̇ over every rate (the classification below). Intervals in the table.".into(),
+            "The lines of the CDrot phase diagram located by the Appendix A criteria (vagberg-sheared-disks Fig. 17): Q_c(φ) where D_Z rises below a Q whose smaller-Q runs are Newtonian, Q*(φ) where they are Bagnoldian (the crossover from weakly to strongly inelastic Bagnoldian flow), φ_c(Q) where D_B rises. The runs' class is the slope of ln p against ln γ̇ over every rate (the classification below). Intervals in the table; dashed: φ_J.".into(),
         )?;
     }
     let mut table = Vec::new();

@@ -12,7 +12,7 @@
 use super::{Figures, Row, key};
 use crate::error::Result;
 use crate::rng::Rng;
-use crate::stages::report::render::curves::{XyFigure, XySeries};
+use crate::stages::report::render::curves::{Annotated, Overlay, XyFigure, XySeries};
 use crate::stages::report::render::html::Block;
 use std::collections::BTreeMap;
 
@@ -197,10 +197,19 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], phi_j: &PhiJ) -> Result
             points: pts
                 .iter()
                 .filter(|p| p.rate == rate)
-                .map(|p| (p.phi, p.estimate(), 0.5 * (p.hi - p.lo)))
+                .map(|p| (p.phi, p.estimate(), 0.0))
                 .collect(),
             markers_only: true,
             colour: k,
+        })
+        .collect();
+    // Each bracket as drawn: from one Q of the grid to the next (not symmetric about
+    // the marker, which is their geometric mean).
+    let brackets = pts
+        .iter()
+        .map(|p| {
+            let k = rates.iter().position(|&r| r == p.rate).unwrap_or(0);
+            (p.phi, p.lo, p.hi, k)
         })
         .collect();
     if let Some(l) = &law {
@@ -220,17 +229,24 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row], phi_j: &PhiJ) -> Result
         });
     }
     f.add(
-        &XyFigure {
-            title: "Q_c(φ) from the drop of P^el (Fig. 3)".into(),
-            x_desc: "φ".into(),
-            y_desc: "Q_c".into(),
-            x_log: false,
-            y_log: true,
-            series,
+        &Annotated {
+            xy: XyFigure {
+                title: "Q_c(φ) from the drop of P^el (Fig. 3)".into(),
+                x_desc: "φ".into(),
+                y_desc: "Q_c".into(),
+                x_log: false,
+                y_log: true,
+                series,
+            },
+            overlay: Overlay {
+                brackets,
+                vlines: vec![(format!("φ_J = {:.4}", phi_j.value), phi_j.value)],
+                ..Overlay::default()
+            },
         },
         "q_c",
         format!(
-            "Q_c at each (φ, γ̇): between the two consecutive Q of the grid where P^el·Q falls the most (by at least {MIN_DROP}×, P^el itself falling), marked at their geometric mean with the bracket as bars (vagberg-sheared-disks Figs. 1, 3). The line: Q_c = Q_0 + c (φ_J − φ)^−x fitted at the lowest rate with {}.",
+            "Q_c at each (φ, γ̇): between the two consecutive Q of the grid where P^el·Q falls the most (by at least {MIN_DROP}×, P^el itself falling), marked at their geometric mean, the bracket drawn as a bar from one Q to the other (vagberg-sheared-disks Figs. 1, 3); dashed: φ_J. The line: Q_c = Q_0 + c (φ_J − φ)^−x fitted at the lowest rate with {}.",
             phi_j.describe()
         ),
     )?;
