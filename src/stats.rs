@@ -282,6 +282,50 @@ pub fn power_law(x: &[f64], y: &[f64]) -> Option<PowerLaw> {
     })
 }
 
+/// y = a + b x by least squares, with the 95 % interval of the intercept a (Student's t
+/// on n − 2 degrees of freedom; NaN with two points).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LineFit {
+    pub intercept: f64,
+    pub slope: f64,
+    pub intercept_interval: [f64; 2],
+    pub n: usize,
+}
+
+/// [`LineFit`] of the finite points; None with fewer than two or one x.
+pub fn line_fit(x: &[f64], y: &[f64]) -> Option<LineFit> {
+    let p: Vec<(f64, f64)> = x
+        .iter()
+        .zip(y)
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .map(|(a, b)| (*a, *b))
+        .collect();
+    let n = p.len();
+    if n < 2 {
+        return None;
+    }
+    let xm = p.iter().map(|q| q.0).sum::<f64>() / n as f64;
+    let ym = p.iter().map(|q| q.1).sum::<f64>() / n as f64;
+    let sxx: f64 = p.iter().map(|q| (q.0 - xm).powi(2)).sum();
+    if !(sxx > 0.0) {
+        return None;
+    }
+    let b = p.iter().map(|q| (q.0 - xm) * (q.1 - ym)).sum::<f64>() / sxx;
+    let a = ym - b * xm;
+    let half = if n > 2 {
+        let s2 = p.iter().map(|q| (q.1 - a - b * q.0).powi(2)).sum::<f64>() / (n - 2) as f64;
+        t_95(n - 2) * (s2 * (1.0 / n as f64 + xm * xm / sxx)).sqrt()
+    } else {
+        f64::NAN
+    };
+    Some(LineFit {
+        intercept: a,
+        slope: b,
+        intercept_interval: [a - half, a + half],
+        n,
+    })
+}
+
 #[cfg(test)]
 mod power_law_tests {
     use super::*;
@@ -320,5 +364,37 @@ mod power_law_tests {
             .sum();
         let half = 4.30 * (resid / 2.0 / 5.0).sqrt();
         assert!((p.interval[1] - b - half).abs() < 1e-12, "{p:?}");
+    }
+}
+
+#[cfg(test)]
+mod line_fit_tests {
+    use super::*;
+
+    /// By hand: (0, 1), (1, 2), (2, 2), (3, 4): x̄ = 1.5, ȳ = 2.25, Sxx = 5, Sxy = 4.5,
+    /// b = 0.9, a = 0.9; residuals 0.1, 0.2, −0.7, 0.4, s² = 0.7/2 = 0.35; the
+    /// intercept's standard error √(0.35 (1/4 + 2.25/5)) = √0.245, times t(2) = 4.30.
+    #[test]
+    fn a_line_and_its_intercept_interval_by_hand() {
+        let f = line_fit(&[0.0, 1.0, 2.0, 3.0], &[1.0, 2.0, 2.0, 4.0]).unwrap();
+        assert!(
+            (f.slope - 0.9).abs() < 1e-12 && (f.intercept - 0.9).abs() < 1e-12,
+            "{f:?}"
+        );
+        let half = 4.30 * 0.245f64.sqrt();
+        assert!(
+            (f.intercept_interval[1] - 0.9 - half).abs() < 1e-12,
+            "{f:?}"
+        );
+        assert!((f.intercept_interval[0] - 0.9 + half).abs() < 1e-12);
+        assert_eq!(f.n, 4);
+        assert!(line_fit(&[1.0, 1.0], &[0.0, 1.0]).is_none());
+        assert!(line_fit(&[1.0], &[0.0]).is_none());
+        assert!(
+            line_fit(&[0.0, 1.0], &[1.0, 3.0])
+                .unwrap()
+                .intercept_interval[0]
+                .is_nan()
+        );
     }
 }

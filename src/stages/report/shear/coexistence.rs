@@ -1,14 +1,16 @@
 //! Shear-band coexistence (vagberg-sheared-disks Sec. IV, Figs. 24–25, 28, 35–36).
 //!
 //! - **Band values of one run** (text beside Figs. 28 and 36): from the steady-window
-//!   profiles φ(y) and γ̇(y) (equal bins of y), the Bagnoldian band is where φ(y) lies
-//!   below the run's mean φ; f = w_B/L_y is its share of the bins, and φ*_B, φ*_N are the
-//!   mean φ(y) over the bins of each band, so that φ = f φ*_B + (1 − f) φ*_N holds exactly.
-//!   Likewise from γ̇(y): the Bagnoldian band is where γ̇(y) exceeds the mean γ̇, f′ its
-//!   share, and γ̇*_B, γ̇*_N the band means, so that γ̇ = f′ γ̇*_B + (1 − f′) γ̇*_N. f and f′
-//!   differ where the interface is wide compared with L_y, as the paper finds. In a
-//!   homogeneous run the split only divides noise: the values mean something where R_v
-//!   is large.
+//!   profiles φ(y) and γ̇(y) (equal bins of the periodic y), the Bagnoldian band is where
+//!   φ(y) lies below the run's mean φ and f = w_B/L_y is its share of the bins; φ*_B and
+//!   φ*_N are the paper's values "in the center of the Bagnoldian and Newtonian bands
+//!   (i.e. away from the interface)": the mean φ(y) over each band's centre, its bins
+//!   at least half as far from the other band as its deepest bin. Then
+//!   f φ*_B + (1 − f) φ*_N equals the mean φ only for sharp interfaces; the report gives
+//!   both. Likewise from γ̇(y): the Bagnoldian band is where γ̇(y) exceeds the mean γ̇, f′
+//!   its share, γ̇*_B and γ̇*_N its centre values. f and f′ differ where the interface is
+//!   wide compared with L_y, as the paper finds. In a homogeneous run the split only
+//!   divides noise: the values mean something where R_v is large.
 //! - **φ_B and φ_N of a sweep** (Figs. 24–25, 35): at each (Q, γ̇), the runs along φ with
 //!   R_v = ⟨δv_x²⟩/⟨v_y²⟩ (Eq. 37) above [`R_V_BANDED`] are shear banded (R_v ≈ 1 in
 //!   homogeneous flow); φ_B is bracketed between the last unbanded φ below the banded
@@ -135,7 +137,7 @@ pub fn measures(rows: &[Row]) -> Vec<Measures> {
 
 impl Measures {
     /// φ as a fractional index of the grid (k at grid[k], linear between).
-    fn index(&self, phi: f64) -> f64 {
+    pub(super) fn index(&self, phi: f64) -> f64 {
         let g = &self.grid;
         match g.windows(2).position(|w| phi <= w[1]) {
             Some(k) => k as f64 + ((phi - g[k]) / (g[k + 1] - g[k])).max(0.0),
@@ -187,38 +189,75 @@ impl Measures {
 /// One run's band values.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Bands {
+    /// φ(y) in the centre of the Bagnoldian and Newtonian bands (away from the
+    /// interfaces): φ*_B, φ*_N.
     pub phi_b: f64,
     pub phi_n: f64,
+    /// w_B/L_y: the share of y where φ(y) lies below the mean φ.
     pub f: f64,
+    /// f φ*_B + (1 − f) φ*_N, to hold against the mean φ (they differ by the
+    /// interfaces' weight).
+    pub phi_lever: f64,
+    /// γ̇(y) τ_e in the centre of each band (the Bagnoldian one where γ̇(y) exceeds the
+    /// mean), its share f′, and f′ γ̇*_B + (1 − f′) γ̇*_N.
     pub gdot_b: f64,
     pub gdot_n: f64,
     pub f_prime: f64,
+    pub gdot_lever: f64,
 }
 
-/// Band values from profiles φ(y) and γ̇(y) in equal bins; `None` when a profile is
-/// empty, not finite, or flat (no bin on one side of its mean).
-pub fn bands(phi: &[f64], gdot: &[f64]) -> Option<Bands> {
-    let split = |v: &[f64], below: bool| -> Option<(f64, f64, f64)> {
-        if v.is_empty() || v.iter().any(|x| !x.is_finite()) {
-            return None;
-        }
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        let (b, n): (Vec<f64>, Vec<f64>) = v.iter().partition(|&&x| (x < mean) == below);
-        if b.is_empty() || n.is_empty() {
-            return None;
-        }
-        let avg = |s: &[f64]| s.iter().sum::<f64>() / s.len() as f64;
-        Some((avg(&b), avg(&n), b.len() as f64 / v.len() as f64))
+/// The centre value of each side of a periodic profile split at its mean: a bin's depth
+/// is its distance (in bins, across the periodic boundary of the Lees–Edwards box) to
+/// the nearest bin on the other side; a side's centre is its bins at least half as deep
+/// as its deepest (the middle half to two thirds of a band). Returns (centre of the side `below` the
+/// mean selects, centre of the other, that side's share of the bins); `None` for an
+/// empty, broken or flat profile.
+fn split_centres(v: &[f64], below: bool) -> Option<(f64, f64, f64)> {
+    if v.is_empty() || v.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    let n = v.len();
+    let mean = v.iter().sum::<f64>() / n as f64;
+    let side: Vec<bool> = v.iter().map(|&x| (x < mean) == below).collect();
+    let count = side.iter().filter(|&&b| b).count();
+    if count == 0 || count == n {
+        return None;
+    }
+    let depth: Vec<usize> = (0..n)
+        .map(|i| {
+            (1..=n / 2)
+                .find(|&d| side[(i + d) % n] != side[i] || side[(i + n - d) % n] != side[i])
+                .unwrap_or(n)
+        })
+        .collect();
+    let centre = |which: bool| {
+        let deepest = (0..n)
+            .filter(|&i| side[i] == which)
+            .map(|i| depth[i])
+            .max()?;
+        let core: Vec<f64> = (0..n)
+            .filter(|&i| side[i] == which && 2 * depth[i] >= deepest)
+            .map(|i| v[i])
+            .collect();
+        Some(core.iter().sum::<f64>() / core.len() as f64)
     };
-    let (phi_b, phi_n, f) = split(phi, true)?;
-    let (gdot_b, gdot_n, f_prime) = split(gdot, false)?;
+    Some((centre(true)?, centre(false)?, count as f64 / n as f64))
+}
+
+/// Band values from profiles φ(y) and γ̇(y) in equal bins of the periodic y; `None`
+/// when a profile is empty, not finite, or flat (no bin on one side of its mean).
+pub fn bands(phi: &[f64], gdot: &[f64]) -> Option<Bands> {
+    let (phi_b, phi_n, f) = split_centres(phi, true)?;
+    let (gdot_b, gdot_n, f_prime) = split_centres(gdot, false)?;
     Some(Bands {
         phi_b,
         phi_n,
         f,
+        phi_lever: f * phi_b + (1.0 - f) * phi_n,
         gdot_b,
         gdot_n,
         f_prime,
+        gdot_lever: f_prime * gdot_b + (1.0 - f_prime) * gdot_n,
     })
 }
 
@@ -279,15 +318,20 @@ fn fmt(x: f64) -> String {
 
 /// One run's band values under its profiles (φ(y), γ̇(y) in equal bins).
 pub(super) fn add_run(f: &mut Figures, phi: &[f64], gdot: &[f64]) {
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     f.blocks.push(Block::Paragraph(match bands(phi, gdot) {
         Some(b) => format!(
-            "Band values (vagberg-sheared-disks, text beside Figs. 28 and 36): the Bagnoldian band is where φ(y) lies below the mean φ — f = w_B/L_y = {:.2}, φ*_B = {}, φ*_N = {} (φ = f φ*_B + (1 − f) φ*_N) — and, from γ̇(y) above the mean γ̇, f′ = {:.2}, γ̇*_B τ_e = {}, γ̇*_N τ_e = {}. They describe shear bands only where R_v (summary above) is large, well above {R_V_BANDED}; in homogeneous flow the split divides noise.",
+            "Band values (vagberg-sheared-disks, text beside Figs. 28 and 36: the values in the centre of each band, away from the interface): the Bagnoldian band is where φ(y) lies below the mean φ, f = w_B/L_y = {:.2}; in each band's centre (its bins at least half as far from the other band as its deepest) φ*_B = {}, φ*_N = {} (f φ*_B + (1 − f) φ*_N = {} against the mean φ = {}: the difference is the interfaces' weight). From γ̇(y) above its mean: f′ = {:.2}, γ̇*_B τ_e = {}, γ̇*_N τ_e = {} (f′ γ̇*_B + (1 − f′) γ̇*_N = {} against {}). They describe shear bands only where R_v (summary above) is large, well above {R_V_BANDED}; in homogeneous flow the split divides noise.",
             b.f,
             fmt(b.phi_b),
             fmt(b.phi_n),
+            fmt(b.phi_lever),
+            fmt(mean(phi)),
             b.f_prime,
             fmt(b.gdot_b),
-            fmt(b.gdot_n)
+            fmt(b.gdot_n),
+            fmt(b.gdot_lever),
+            fmt(mean(gdot)),
         ),
         None => "Band values: none (a profile is flat or incomplete).".into(),
     }));
@@ -565,17 +609,36 @@ mod tests {
             "{b:?}"
         );
         assert!(close(b.gdot_b, 4e-5) && close(b.gdot_n, 1e-5) && b.f_prime == 0.25);
+        // A sharp interface: the lever rule holds exactly.
         let mean = phi.iter().sum::<f64>() / 20.0;
-        assert!((b.f * b.phi_b + (1.0 - b.f) * b.phi_n - mean).abs() < 1e-12);
-        // A wide interface moves f′ away from f.
+        assert!((b.phi_lever - mean).abs() < 1e-12);
+        // A wide interface moves f′ away from f. The Bagnoldian band by γ̇ is now bins
+        // 0–6 (4e-5 ×5, 3.5e-5, 3e-5), depths 1, 2, 3, 4, 3, 2, 1: its centre, the bins
+        // at least 2 deep, is 1–5, mean (4 × 4e-5 + 3.5e-5)/5 = 3.9e-5; the interface's
+        // outer bin (3e-5) is left out, as are the edges of the Newtonian band.
         let mut g2 = gdot.clone();
         g2[5] = 3.5e-5;
         g2[6] = 3e-5;
         let b2 = bands(&phi, &g2).unwrap();
         assert_eq!(b2.f, 0.25);
         assert_eq!(b2.f_prime, 0.35);
+        assert!(close(b2.gdot_b, 3.9e-5) && close(b2.gdot_n, 1e-5), "{b2:?}");
+        // So the lever rule misses the mean γ̇ by the interface's weight.
         let gm = g2.iter().sum::<f64>() / 20.0;
-        assert!((b2.f_prime * b2.gdot_b + (1.0 - b2.f_prime) * b2.gdot_n - gm).abs() < 1e-18);
+        assert!((b2.gdot_lever - gm).abs() > 1e-7, "{b2:?}");
+        // The band centres, by hand: a Bagnoldian band across the periodic boundary
+        // (bins 18, 19, 0, 1, 2) whose edges (18, 2) sit near the mean; its middle half
+        // is bins 19, 0, 1 (depths 2, 3, 2 of a deepest 3; the edges are 1 deep).
+        let mut p3 = vec![0.81; 20];
+        for (k, v) in [(18, 0.80), (19, 0.78), (0, 0.77), (1, 0.78), (2, 0.80)] {
+            p3[k] = v;
+        }
+        let b3 = bands(&p3, &gdot).unwrap();
+        assert!(
+            close(b3.phi_b, (0.78 + 0.77 + 0.78) / 3.0) && close(b3.phi_n, 0.81),
+            "{b3:?}"
+        );
+        assert_eq!(b3.f, 0.25);
         // Flat or broken profiles have no bands.
         assert_eq!(bands(&[0.8; 20], &gdot), None);
         assert_eq!(bands(&[], &[]), None);

@@ -18,7 +18,7 @@
 //!   measures the band values in the bands' profiles; this reads them off μ along the
 //!   contours, as its Fig. 34 also allows. Beside them φ_B(γ̇) and φ_N(γ̇) from R_v.
 
-use super::coexistence::{R_V_BANDED, boundaries, measures};
+use super::coexistence::{R_V_BANDED, boundaries};
 use super::{Figures, Row, key};
 use crate::error::Result;
 use crate::stages::report::render::curves::{XyFigure, XySeries};
@@ -166,7 +166,7 @@ pub fn maxwell(pts: &[ContourPoint]) -> Option<Maxwell> {
 
 /// The Q the figures are drawn at: the one nearest the paper's Q = 1 (in ln Q) whose
 /// runs span at least two rates.
-fn pick_q(rows: &[Row]) -> Option<f64> {
+pub(super) fn pick_q(rows: &[Row]) -> Option<f64> {
     let mut rates: BTreeMap<i64, (f64, Vec<i64>)> = BTreeMap::new();
     for r in rows {
         let e = rates.entry(key(r.q)).or_insert_with(|| (r.q, Vec::new()));
@@ -185,7 +185,8 @@ fn opt(x: Option<f64>) -> String {
     x.map_or("–".into(), |v| format!("{v:.4}"))
 }
 
-/// Figs. 25, 34 and 35 at the Q nearest 1, with the rules.
+/// Figs. 34 and 35 at the Q nearest 1, with the rules (Fig. 25 with the contour is
+/// `phase_boundaries`').
 pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
     let Some(q) = pick_q(rows) else {
         return Ok(());
@@ -198,79 +199,7 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
     };
     let c = contour(rows, q, p0);
     let mx = maxwell(&c);
-    // Fig. 25: the boundaries by each measure and the contour, in the (φ, γ̇) plane.
-    let ms: Vec<_> = measures(rows)
-        .into_iter()
-        .filter(|m| key(m.q) == key(q))
-        .collect();
     let mid = |b: Option<(f64, f64)>| b.map(|(x, y)| 0.5 * (x + y));
-    let mut plane = Vec::new();
-    let mut push = |label: &str, pts: Vec<(f64, f64, f64)>, colour: usize, markers: bool| {
-        if !pts.is_empty() {
-            plane.push(XySeries {
-                label: label.into(),
-                points: pts,
-                markers_only: markers,
-                colour,
-            });
-        }
-    };
-    type Pick = fn(&super::coexistence::Measures) -> Option<f64>;
-    // One colour per measure and side, so the three measures can be told apart.
-    let picks: [(&str, Pick, usize); 6] = [
-        (
-            "φ_B, R_v (Fig. 24)",
-            |m| {
-                m.r_v
-                    .as_ref()
-                    .and_then(|b| b.phi_b)
-                    .map(|(x, y)| 0.5 * (x + y))
-            },
-            0,
-        ),
-        (
-            "φ_N, R_v (Fig. 24)",
-            |m| {
-                m.r_v
-                    .as_ref()
-                    .and_then(|b| b.phi_n)
-                    .map(|(x, y)| 0.5 * (x + y))
-            },
-            1,
-        ),
-        ("φ_B, P^el kink (Fig. 22)", |m| m.p_el.and_then(|x| x.0), 2),
-        ("φ_N, P^el kink (Fig. 22)", |m| m.p_el.and_then(|x| x.1), 3),
-        ("φ_B, μ switch (Fig. 23)", |m| m.mu.and_then(|x| x.0), 4),
-        ("φ_N, μ switch (Fig. 23)", |m| m.mu.and_then(|x| x.1), 5),
-    ];
-    for (label, pick, colour) in picks {
-        push(
-            label,
-            ms.iter()
-                .filter_map(|m| pick(m).map(|phi| (phi, m.rate, 0.0)))
-                .collect(),
-            colour,
-            true,
-        );
-    }
-    push(
-        &format!("P = {p0:.3e}"),
-        c.iter().map(|p| (p.phi, p.rate, 0.0)).collect(),
-        6,
-        false,
-    );
-    f.add(
-        &XyFigure {
-            title: format!("Coexistence boundaries and a constant-P contour in the (φ, dγ/dt) plane, Q = {q} (Fig. 25)"),
-            x_desc: "φ".into(),
-            y_desc: "dγ/dt τ_e".into(),
-            x_log: false,
-            y_log: true,
-            series: plane,
-        },
-        "coexistence_plane",
-        format!("φ_B(γ̇) and φ_N(γ̇) by the three measures (R_v: the middle of its bracket; the P^el kinks; the μ switch — rules in the table above) and the contour of constant P = {p0:.3e} (the run pressure at Q = {q} crossed at the most φ; the paper's is 2 × 10⁻⁵), γ̇ interpolated in ln P against ln γ̇ between neighbouring rates of each φ (vagberg-sheared-disks Fig. 25)."),
-    )?;
     // Fig. 34: μ along the contour.
     let banded = |p: &ContourPoint| p.r_v.is_some_and(|r| r > R_V_BANDED);
     for (against, x_of, x_log, file, panel) in [

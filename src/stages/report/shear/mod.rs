@@ -16,6 +16,8 @@ pub mod coexistence;
 pub mod contour;
 mod elastic;
 pub mod jamming;
+pub mod paper_figures;
+pub mod phase_boundaries;
 pub mod qc;
 pub mod ramp;
 pub mod run_figures;
@@ -418,7 +420,7 @@ pub fn sweep_section(
     let flow = |quantity: &str| series_along(&data.rows, Along::Rate, quantity, "", false, None);
     f.add(
         &XyFigure {
-            title: "Flow curves: η_p = p/(k_d dγ/dt) (Figs. 2, 11, 16)".into(),
+            title: "Flow curves: η_p = p/(k_d dγ/dt) against dγ/dt".into(),
             x_desc: "dγ/dt · τ_e".into(),
             y_desc: "η_p = p / (k_d dγ/dt)".into(),
             x_log: true,
@@ -426,11 +428,11 @@ pub fn sweep_section(
             series: flow("eta_p"),
         },
         "eta_p",
-        "η_p = p/(k_d γ̇) against γ̇ τ_e for each φ (and Q), run errors as bars: flat where the flow is Newtonian (p ∝ γ̇), rising as γ̇⁻¹ where it is Bagnoldian (vagberg-sheared-disks Figs. 2, 11, 16).".into(),
+        "η_p = p/(k_d γ̇) of the total pressure against γ̇ τ_e for each φ (and Q), run errors as bars: flat where the flow is Newtonian (p ∝ γ̇), proportional to γ̇ where it is Bagnoldian (p ∝ γ̇²). The paper draws the elastic part η_p^el against Q and φ (Figs. 2, 11, 16; below).".into(),
     )?;
     f.add(
         &XyFigure {
-            title: "Flow curves: B_p = p/(dγ/dt)² (Figs. 2, 11, 16)".into(),
+            title: "Flow curves: B_p = p/(m (dγ/dt)²) against dγ/dt".into(),
             x_desc: "dγ/dt · τ_e".into(),
             y_desc: "B_p = p / (dγ/dt)²  (m = d_s = 1)".into(),
             x_log: true,
@@ -438,7 +440,7 @@ pub fn sweep_section(
             series: flow("b_p"),
         },
         "b_p",
-        "B_p = p/(m γ̇²) against γ̇ τ_e for each φ (and Q): flat where the flow is Bagnoldian (p ∝ γ̇²), falling as γ̇⁻¹ where it is Newtonian (vagberg-sheared-disks Figs. 2, 11, 16).".into(),
+        "B_p = p/(m γ̇²) of the total pressure against γ̇ τ_e for each φ (and Q): flat where the flow is Bagnoldian (p ∝ γ̇²), proportional to 1/γ̇ where it is Newtonian. The paper draws the elastic part B_p^el against Q and φ (Figs. 2, 11, 16; below).".into(),
     )?;
     // Against φ: one colour per (Q, γ̇).
     let mut colour_of = BTreeMap::new();
@@ -456,21 +458,21 @@ pub fn sweep_section(
     ));
     f.add(
         &XyFigure {
-            title: "Z and 2 τ_dur ν_coll (Figs. 4–5, 12–13)".into(),
+            title: "Z and 2 τ_dur ν_coll against φ".into(),
             x_desc: "φ".into(),
-            y_desc: "contacts per particle".into(),
+            y_desc: "Z, 2 τ_dur ν_coll (contacts per particle)".into(),
             x_log: false,
             y_log: false,
             series: zs,
         },
         "z",
-        "The contact number Z (filled, line) and 2 τ_dur ν_coll (open) against φ: two independent measurements (contacts counted; durations, censoring-aware, times collision rates) that agree where the contacts are binary collisions and their durations are measured without bias (vagberg-sheared-disks Figs. 4–5, 12–13).".into(),
+        "The contact number Z (filled, line) and 2 τ_dur ν_coll (open) against φ: two independent measurements (contacts counted; durations, censoring-aware, times collision rates) that agree where the contacts are binary collisions and their durations are measured without bias (Eq. 25; the paper draws them against Q, Figs. 4–5, 12–13, below when the grid has several Q).".into(),
     )?;
     for (quantity, file, title, y, log, caption) in [
         (
             "mu",
             "mu",
-            "Macroscopic friction μ = σ/p (Fig. 23)",
+            "Macroscopic friction μ = σ/p against φ (Fig. 23)",
             "μ = σ / p",
             false,
             "μ = σ/p against φ for each (Q, γ̇) (vagberg-sheared-disks Fig. 23).",
@@ -478,15 +480,15 @@ pub fn sweep_section(
         (
             "theta_dot_over_gamma_dot",
             "rotation",
-            "Rotation ⟨ω⟩/(dγ/dt) (Fig. 20)",
-            "⟨ω⟩ / (dγ/dt)",
+            "⟨θ̇_i⟩/(dγ/dt) against φ (Fig. 20a)",
+            "⟨θ̇_i⟩ / (dγ/dt)",
             false,
-            "The mean spin in units of dγ/dt against φ: −1/2 is the rotation of the affine flow, which dilute CDrot disks follow (vagberg-sheared-disks Fig. 20).",
+            "The mean spin ⟨θ̇_i⟩ in units of γ̇ against φ: −1/2 is the rotation of the affine flow, which dilute CDrot disks follow (vagberg-sheared-disks Fig. 20(a)).",
         ),
         (
             "r_v",
             "r_v",
-            "R_v = ⟨δv_x²⟩/⟨v_y²⟩ (Fig. 24)",
+            "R_v = ⟨δv_x²⟩/⟨v_y²⟩ against φ (Fig. 24)",
             "R_v",
             true,
             "R_v = ⟨δv_x²⟩/⟨v_y²⟩ (Eqs. 35–37) against φ: 1 for isotropic velocity fluctuations, large where shear bands form (vagberg-sheared-disks Fig. 24).",
@@ -607,7 +609,7 @@ pub fn sweep_section(
                 .collect();
             f.add(
                 &PhaseFigure {
-                    title: format!("Phase diagram in (φ, dγ/dt) at Q = {q} (Figs. 17, 25)"),
+                    title: format!("Slope classes in the (φ, dγ/dt) plane at Q = {q}"),
                     x_desc: "φ".into(),
                     y_desc: "dγ/dt τ_e (geometric mean of the two rates)".into(),
                     y_log: true,
@@ -616,13 +618,13 @@ pub fn sweep_section(
                     bands,
                 },
                 &format!("phase_phi_rate_q{}", slug(&q.to_string())),
-                format!("Each (φ, neighbouring rates) at Q = {q} classified from the local slope of ln p against ln γ̇; shaded: the transition φ_c bracketed by the grid (vagberg-sheared-disks Fig. 17 for CDrot, the (φ, γ̇) plane of Fig. 25)."),
+                format!("Each (φ, neighbouring rates) at Q = {q} classified from the local slope of ln p against ln γ̇; shaded: the transition φ_c bracketed by the grid. The paper's own diagrams are Fig. 17 (the (φ, Q) plane, by Appendix A) and Fig. 25 (this plane with the coexistence region), both below when the grid allows."),
             )?;
         }
         if qs.len() > 1 {
             f.add(
                 &PhaseFigure {
-                    title: "Phase diagram in (φ, Q) (Figs. 3, 17)".into(),
+                    title: "Slope classes in the (φ, Q) plane".into(),
                     x_desc: "φ".into(),
                     y_desc: "Q".into(),
                     y_log: true,
@@ -631,17 +633,21 @@ pub fn sweep_section(
                     bands: Vec::new(),
                 },
                 "phase_phi_q",
-                "Each (φ, Q) classified from the slope of ln p against ln γ̇ over all the grid's rates (vagberg-sheared-disks Fig. 3 for CD, Q_c(φ); Fig. 17 for CDrot, φ_c(Q)).".into(),
+                "Each (φ, Q) classified from the slope of ln p against ln γ̇ over all the grid's rates, beside the paper's own lines (Q_c(φ) from the drop of P^el, Fig. 3; Q_c, Q* and φ_c by Appendix A, Fig. 17; below).".into(),
             )?;
         }
     }
     let phi_j = jamming::estimate(&data.rows);
     f.blocks.push(Block::Paragraph(jamming::paragraph(&phi_j)));
     qc::add_figures(&mut f, &data.rows, &phi_j)?;
-    appendix_a::add_figures(&mut f, &data.rows, &c)?;
+    appendix_a::add_figures(&mut f, &data.rows, &c, phi_j.value)?;
     coexistence::add_sweep(&mut f, &data.rows);
+    let mu_j = stress_space::mu_j(&data.rows);
+    phase_boundaries::add_figures(&mut f, &data.rows, &c, phi_j.value, &mu_j)?;
+    f.blocks
+        .push(Block::Paragraph(stress_space::mu_j_paragraph(&mu_j)));
     contour::add_figures(&mut f, &data.rows)?;
-    stress_space::add_figures(&mut f, &data.rows, &c, &phi_j)?;
+    stress_space::add_figures(&mut f, &data.rows)?;
     Ok(Section {
         id: format!("sweep-{}", slug(label)),
         title: format!("Sweep {label}: flow curves and phase diagram"),
@@ -725,4 +731,111 @@ pub fn shear_section(
         title: format!("Sheared disks {label}"),
         blocks: f.blocks,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A planted CDrot-like sweep over φ 0.76–0.84, Q 1–300 and three rates: Newtonian
+    /// below Q_c(φ) = 0.5 + 0.3 (φ_J − φ)^−1.1 and Bagnoldian above (a jump in P^el),
+    /// banded (R_v = 10) at Q = 1 over φ 0.79–0.81 at the lowest rate and at 0.80 at the
+    /// middle one, with every summary quantity the report draws.
+    fn planted() -> SweepData {
+        let mut rows = Vec::new();
+        let mut angles = Vec::new();
+        let phis: Vec<f64> = (0..9).map(|k| (76 + k) as f64 / 100.0).collect();
+        let qs = [1.0, 3.0, 10.0, 30.0, 100.0, 300.0];
+        let rates = [1e-5, 1e-4, 1e-3];
+        for &phi in &phis {
+            for &q in &qs {
+                let q_c = 0.5 + 0.3 * (jamming::PHI_J_PAPER - phi).powf(-1.1);
+                let newtonian = q < q_c;
+                for &rate in &rates {
+                    let p_el: f64 = if newtonian {
+                        (50.0 * (phi - 0.76)).exp() * rate / q
+                    } else {
+                        1e3 * q * (30.0 * (phi - 0.76)).exp() * rate * rate
+                    };
+                    let p = 1.1 * p_el;
+                    let banded = q == 1.0
+                        && ((rate == 1e-5 && (0.785..0.815).contains(&phi))
+                            || (rate == 1e-4 && (phi - 0.80).abs() < 1e-9));
+                    let z = if newtonian { 3.5 } else { 2e3 * rate };
+                    let mut v = BTreeMap::new();
+                    let mut put = |k: &str, m: f64| {
+                        v.insert(k.to_string(), (m, 0.01 * m.abs()));
+                    };
+                    put("p", p);
+                    put("sigma", 0.3 * p);
+                    put("mu", 0.3 + 0.1 * rate.sqrt());
+                    put("p_el", p_el);
+                    put("eta_p", p * q / rate);
+                    put("b_p", p / (rate * rate));
+                    put("eta_p_el", p_el * q / rate);
+                    put("b_p_el", p_el / (rate * rate));
+                    put("z", z);
+                    put("two_tau_dur_nu_coll", z);
+                    put("r_v", if banded { 10.0 } else { 1.0 });
+                    put("theta_dot_over_gamma_dot", -0.5);
+                    put("theta_dot_over_gamma_dot_var", 0.1 + phi);
+                    put("tau_dur", if newtonian { 100.0 } else { 1.0 });
+                    put("nu_coll", rate * 3.0);
+                    put("p_theta_90", if newtonian { 0.01 } else { 0.001 });
+                    put("v_n_rms", if newtonian { 0.1 } else { 2.0 });
+                    put("v_t_rms", 2.0);
+                    rows.push(Row { phi, q, rate, v });
+                }
+                angles.push(angles::AnglePdf {
+                    phi,
+                    q,
+                    rate: 1e-5,
+                    points: (0..100)
+                        .map(|k| (-178.2 + 3.6 * k as f64, 0.0028))
+                        .collect(),
+                });
+            }
+        }
+        let grid = rows.iter().map(|r| (r.phi, r.q, r.rate)).collect();
+        SweepData {
+            rows,
+            grid,
+            missing: Vec::new(),
+            model: "cdrot".into(),
+            n: Some(1024),
+            strain: Some(5.0),
+            angles,
+        }
+    }
+
+    /// Every figure of a sweep's section that cites a figure of vagberg-sheared-disks
+    /// plots that figure's quantity against its axis (`paper_figures::check`), and the
+    /// figures the paper's coexistence, transitions and collision sections need are
+    /// all drawn.
+    #[test]
+    fn every_figure_titled_with_a_papers_figure_shows_that_figures_quantity() {
+        let dir = std::env::temp_dir().join(format!("pp-shear-figs-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut figures = Vec::new();
+        sweep_section("planted", &planted(), &dir, &dir, &mut figures).unwrap();
+        let wrong: Vec<String> = figures
+            .iter()
+            .filter_map(|f| paper_figures::check(&f.labels).err())
+            .collect();
+        assert!(wrong.is_empty(), "{wrong:#?}");
+        let mut cited: Vec<u32> = figures
+            .iter()
+            .flat_map(|f| paper_figures::cited(&f.labels.title))
+            .collect();
+        cited.sort();
+        cited.dedup();
+        for n in [
+            1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 22, 23, 24, 25, 26,
+            29, 30, 32, 33,
+        ] {
+            assert!(cited.contains(&n), "no figure cites Fig. {n}: {cited:?}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -1,44 +1,74 @@
 //! A sweep's figures on the paper's remaining axes (vagberg-sheared-disks): Z beside
-//! 2τ_dur ν_coll against Q (Figs. 4–5, 12–13), Σ against γ̇ (Fig. 30), the (P, γ̇)
-//! plane (Fig. 26) and the (P, Σ) plane with the yield line Σ = μ_J P (Fig. 29). In the
-//! units of the runs (d_s = m = τ_e = 1) the dimensionless P = p τ_e²/m and
-//! Σ = σ τ_e²/m (Eq. 18) are the summaries' `p` and `sigma`.
+//! 2τ_dur ν_coll against Q (Figs. 4–5, 12–13), Σ against γ̇ (Fig. 30), and μ_J, the
+//! friction at jamming, fitted for the yield line Σ = μ_J P of Fig. 29 (drawn by
+//! `phase_boundaries`). In the units of the runs (d_s = m = τ_e = 1) the dimensionless
+//! P = p τ_e²/m and Σ = σ τ_e²/m (Eq. 18) are the summaries' `p` and `sigma`.
 
 use super::classify::Class;
-use super::jamming::PhiJ;
+use super::coexistence::R_V_BANDED;
 use super::{Classification, Figures, Row, key, series_along, versus_q};
 use crate::error::Result;
 use crate::stages::report::render::curves::{XyFigure, XySeries};
-use crate::stages::report::render::html::Block;
 use std::collections::BTreeMap;
 
-/// Runs within this of φ_J (`jamming::estimate`: from the grid, else the paper's 0.8433)
-/// count for μ_J.
-pub const PHI_J_WINDOW: f64 = 0.01;
+/// The μ_J fit uses at most this many runs, those of smallest inertial number.
+pub const MU_J_RUNS: usize = 8;
 
-/// μ_J, the macroscopic friction at jamming, and its standard error: the mean of
-/// μ = Σ/P over the runs at the grid's lowest strain rate with |φ − φ_J| ≤ 0.01 (μ
-/// approaches μ_J there as γ̇ → 0), the error from their spread, or from the runs' own
-/// errors when there is one run. `None` when no run is that close to φ_J.
-pub fn mu_j(rows: &[Row], phi_j: f64) -> Option<(f64, f64, usize)> {
-    let lowest = rows.iter().map(|r| r.rate).min_by(f64::total_cmp)?;
-    let mus: Vec<(f64, f64)> = rows
+/// μ_J, the macroscopic friction at jamming, fitted with its 95 % interval.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MuJ {
+    pub value: f64,
+    pub interval: [f64; 2],
+    /// dμ/dI of the fit.
+    pub slope: f64,
+    /// The runs fitted, and the largest I among them.
+    pub runs: usize,
+    pub i_max: f64,
+}
+
+/// The inertial number of a run, I = γ̇ τ_e / √P: I = γ̇ d √(ρ/p) of dense granular
+/// flow (GDR MiDi 2004) in the runs' units (d_s = m = τ_e = 1, so ρ = m/d_s² = 1 and
+/// P = p τ_e²/m, Eq. 18).
+pub fn inertial_number(r: &Row) -> Option<f64> {
+    let p = r.get("p")?.0;
+    (p > 0.0).then(|| r.rate / p.sqrt())
+}
+
+/// μ_J fitted as the intercept of μ(I) = μ_J + c I over the [`MU_J_RUNS`] runs of
+/// smallest I (at least three): μ = Σ/P tends to μ_J as I → 0, which dense flow reaches
+/// by γ̇ → 0 at jamming (μ(I) rheology is linear in I at small I). The interval is the
+/// intercept's Student interval. `None` with fewer than three runs or one I.
+pub fn mu_j(rows: &[Row]) -> Option<MuJ> {
+    let mut pts: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| r.rate == lowest && (r.phi - phi_j).abs() <= PHI_J_WINDOW)
-        .filter_map(|r| r.get("mu"))
+        .filter_map(|r| Some((inertial_number(r)?, r.get("mu")?.0)))
+        .filter(|(i, mu)| i.is_finite() && mu.is_finite())
         .collect();
-    let n = mus.len();
-    if n == 0 {
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    pts.truncate(MU_J_RUNS);
+    if pts.len() < 3 {
         return None;
     }
-    let mean = mus.iter().map(|m| m.0).sum::<f64>() / n as f64;
-    let err = if n > 1 {
-        let var = mus.iter().map(|m| (m.0 - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-        (var / n as f64).sqrt()
-    } else {
-        mus[0].1
-    };
-    Some((mean, err, n))
+    let (x, y): (Vec<f64>, Vec<f64>) = pts.iter().copied().unzip();
+    let fit = crate::stats::line_fit(&x, &y)?;
+    Some(MuJ {
+        value: fit.intercept,
+        interval: fit.intercept_interval,
+        slope: fit.slope,
+        runs: fit.n,
+        i_max: x[x.len() - 1],
+    })
+}
+
+/// The μ_J paragraph.
+pub fn mu_j_paragraph(m: &Option<MuJ>) -> String {
+    match m {
+        Some(m) => format!(
+            "μ_J = {:.4} [{:.4}, {:.4}] (95 %): the intercept of μ = μ_J + c I, c = {:.3}, fitted over the {} runs of smallest inertial number I = γ̇ τ_e/√P (up to I = {:.3e}; μ(I) is linear at small I and μ → μ_J as I → 0, reached by γ̇ → 0 at jamming). The paper quotes μ_J ≈ 0.1 from its earlier work (vagberg-sheared-disks, text beside Fig. 29).",
+            m.value, m.interval[0], m.interval[1], m.slope, m.runs, m.i_max
+        ),
+        None => "μ_J not fitted: it needs three runs with a pressure and a friction μ, at two inertial numbers or more, so the yield line Σ = μ_J P is not drawn.".into(),
+    }
 }
 
 /// The class of each (φ, Q) over all its rates.
@@ -52,7 +82,7 @@ fn classes(c: &Classification) -> BTreeMap<(i64, i64), Class> {
 
 /// The runs as points (x, y) split by the class of their (φ, Q): one marker series
 /// per class.
-fn by_class(
+pub(super) fn by_class(
     rows: &[Row],
     c: &Classification,
     xy: &dyn Fn(&Row) -> Option<(f64, f64)>,
@@ -87,12 +117,8 @@ fn by_class(
     .collect()
 }
 
-pub(super) fn add_figures(
-    f: &mut Figures,
-    rows: &[Row],
-    c: &Classification,
-    phi_j: &PhiJ,
-) -> Result<()> {
+/// Z beside 2τ_dur ν_coll against Q (Figs. 4–5, 12–13) and Σ against γ̇ (Fig. 30).
+pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
     let qs = {
         let mut v: Vec<i64> = rows.iter().map(|r| key(r.q)).collect();
         v.sort();
@@ -123,7 +149,7 @@ pub(super) fn add_figures(
             &XyFigure {
                 title: "Z and 2 τ_dur ν_coll against Q (Figs. 4–5, 12–13)".into(),
                 x_desc: "Q".into(),
-                y_desc: "contacts per particle".into(),
+                y_desc: "Z, 2 τ_dur ν_coll (contacts per particle)".into(),
                 x_log: true,
                 y_log: false,
                 series,
@@ -132,8 +158,23 @@ pub(super) fn add_figures(
             "The contact number Z (lines) and 2 τ_dur ν_coll (markers) against Q for each (φ, γ̇), with the isostatic Z_iso = 4: Z drops sharply where the rheology turns from Newtonian (small Q) to Bagnoldian (vagberg-sheared-disks Figs. 4–5 for CD, 12–13 for CDrot).".into(),
         )?;
     }
-    let sigma = series_along(rows, super::Along::Rate, "sigma", "", false, None);
+    let mut sigma = series_along(rows, super::Along::Rate, "sigma", "", false, None);
     if !sigma.is_empty() {
+        // The banded runs, ringed: along γ̇ at one φ they lie between γ̇_B and γ̇_N.
+        let banded: Vec<(f64, f64, f64)> = rows
+            .iter()
+            .filter(|r| r.get("r_v").is_some_and(|v| v.0 > R_V_BANDED))
+            .filter_map(|r| r.get("sigma").map(|s| (r.rate, s.0, 0.0)))
+            .collect();
+        let n = sigma.len();
+        if !banded.is_empty() {
+            sigma.push(XySeries {
+                label: format!("shear banded (R_v > {R_V_BANDED})"),
+                points: banded,
+                markers_only: true,
+                colour: n,
+            });
+        }
         f.add(
             &XyFigure {
                 title: "Σ against dγ/dt (Fig. 30)".into(),
@@ -144,65 +185,9 @@ pub(super) fn add_figures(
                 series: sigma,
             },
             "sigma_vs_rate",
-            "The dimensionless shear stress Σ against γ̇ τ_e for each (φ, Q): Σ ∝ γ̇ where Newtonian, ∝ γ̇² where Bagnoldian, flat through a shear-banded coexistence region (vagberg-sheared-disks Fig. 30 at φ = 0.802).".into(),
+            format!("The dimensionless shear stress Σ against γ̇ τ_e for each (φ, Q): Σ ∝ γ̇ where Newtonian, ∝ γ̇² where Bagnoldian, flat through a shear-banded coexistence region, whose runs (R_v > {R_V_BANDED}) are ringed: along γ̇ at one φ they lie between the paper's γ̇_B and γ̇_N (vagberg-sheared-disks Fig. 30 at φ = 0.802)."),
         )?;
     }
-    let plane = by_class(rows, c, &|r| Some((r.get("p")?.0, r.rate)));
-    if !plane.is_empty() {
-        f.add(
-            &XyFigure {
-                title: "Phase diagram in the (P, dγ/dt) plane (Fig. 26)".into(),
-                x_desc: "P = p τ_e² / m".into(),
-                y_desc: "dγ/dt · τ_e".into(),
-                x_log: true,
-                y_log: true,
-                series: plane,
-            },
-            "p_rate_plane",
-            "Every run at its pressure P and strain rate, coloured by the class of its (φ, Q) over all the grid's rates (the slope classification above): at fixed P the Newtonian runs lie at small γ̇, the Bagnoldian ones at large γ̇ (vagberg-sheared-disks Fig. 26, Q = 1; the coexistence region between them needs the band analysis, not done here).".into(),
-        )?;
-    }
-    let mut stress = by_class(rows, c, &|r| Some((r.get("p")?.0, r.get("sigma")?.0)));
-    if stress.is_empty() {
-        return Ok(());
-    }
-    let line = mu_j(rows, phi_j.value);
-    if let Some((mu, _, _)) = line {
-        let ps: Vec<f64> = stress
-            .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.0))
-            .collect();
-        let lo = ps.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = ps.iter().copied().fold(0.0, f64::max);
-        stress.push(XySeries {
-            label: format!("Σ = μ_J P, μ_J = {mu:.3}"),
-            points: vec![(lo, mu * lo, 0.0), (hi, mu * hi, 0.0)],
-            markers_only: false,
-            colour: 3,
-        });
-    }
-    f.add(
-        &XyFigure {
-            title: "Phase diagram in the (P, Σ) plane with Σ = μ_J P (Fig. 29)".into(),
-            x_desc: "P = p τ_e² / m".into(),
-            y_desc: "Σ = σ τ_e² / m".into(),
-            x_log: true,
-            y_log: true,
-            series: stress,
-        },
-        "p_sigma_plane",
-        "Every run at its pressure P and shear stress Σ, coloured by class, with the yield stress line Σ = μ_J P: runs at the lowest rates and φ near φ_J approach it (vagberg-sheared-disks Fig. 29).".into(),
-    )?;
-    f.blocks.push(Block::Paragraph(match line {
-        Some((mu, err, n)) => format!(
-            "μ_J = {mu:.4} ± {err:.4}: the mean of μ = Σ/P over the {n} run(s) at the grid's lowest strain rate with |φ − φ_J| ≤ {PHI_J_WINDOW} ({}), the error from their spread (from the run's own error when there is one). A rule, not a fit to γ̇ → 0: at a finite rate μ lies above μ_J.",
-            phi_j.describe()
-        ),
-        None => format!(
-            "μ_J not estimated: no run lies within {PHI_J_WINDOW} of φ_J at the grid's lowest strain rate, so the yield line Σ = μ_J P is not drawn ({}).",
-            phi_j.describe()
-        ),
-    }));
     Ok(())
 }
 
@@ -210,30 +195,53 @@ pub(super) fn add_figures(
 mod tests {
     use super::*;
 
-    fn row(phi: f64, rate: f64, mu: f64) -> Row {
+    /// A run with pressure P and friction μ at rate γ̇: I = γ̇/√P.
+    fn row(rate: f64, p: f64, mu: f64) -> Row {
         Row {
-            phi,
+            phi: 0.8,
             q: 1.0,
             rate,
-            v: [("mu".to_string(), (mu, 0.01))].into(),
+            v: [("mu".to_string(), (mu, 0.01)), ("p".to_string(), (p, 0.0))].into(),
         }
     }
 
+    /// μ = 0.1 + 2 I exactly on the eight runs of smallest I (I = 0.01 … 0.08, P = 1e-4
+    /// so γ̇ = I/100), and far off the line at larger I (left out): μ_J = 0.1 with no
+    /// width, c = 2.
     #[test]
-    fn mu_j_averages_the_slowest_runs_near_jamming() {
-        let rows = [
-            row(0.84, 1e-5, 0.10),
-            row(0.845, 1e-5, 0.12),
-            row(0.80, 1e-5, 0.5),
-            row(0.84, 1e-4, 0.3),
-        ];
-        let (mu, err, n) = mu_j(&rows, 0.8433).unwrap();
-        assert_eq!(n, 2);
-        assert!((mu - 0.11).abs() < 1e-12);
-        // Sample standard deviation 0.01414 over √2.
-        assert!((err - 0.01).abs() < 1e-12, "{err}");
-        assert_eq!(mu_j(&rows[2..3], 0.8433), None);
-        let (_, err, n) = mu_j(&rows[..1], 0.8433).unwrap();
-        assert_eq!((n, err), (1, 0.01));
+    fn mu_j_is_the_intercept_of_mu_against_the_inertial_number() {
+        let mut rows: Vec<Row> = (1..=8)
+            .map(|k| {
+                let i = 0.01 * k as f64;
+                row(i / 100.0, 1e-4, 0.1 + 2.0 * i)
+            })
+            .collect();
+        rows.push(row(0.5 / 100.0, 1e-4, 5.0));
+        rows.push(row(0.9 / 100.0, 1e-4, -3.0));
+        let m = mu_j(&rows).unwrap();
+        assert!(
+            (m.value - 0.1).abs() < 1e-12 && (m.slope - 2.0).abs() < 1e-9,
+            "{m:?}"
+        );
+        assert!((m.interval[1] - m.interval[0]).abs() < 1e-9, "{m:?}");
+        assert_eq!(m.runs, MU_J_RUNS);
+        assert!((m.i_max - 0.08).abs() < 1e-12);
+        assert!((inertial_number(&rows[0]).unwrap() - 0.01).abs() < 1e-15);
+        // Scatter widens the interval around the same intercept: ±0.01 alternating.
+        let noisy: Vec<Row> = (1..=8)
+            .map(|k| {
+                let i = 0.01 * k as f64;
+                row(
+                    i / 100.0,
+                    1e-4,
+                    0.1 + 2.0 * i + if k % 2 == 0 { 0.01 } else { -0.01 },
+                )
+            })
+            .collect();
+        let m = mu_j(&noisy).unwrap();
+        assert!(m.interval[0] < m.value && m.value < m.interval[1], "{m:?}");
+        assert!(m.interval[0] < 0.1 && 0.1 < m.interval[1], "{m:?}");
+        // Two runs: no fit.
+        assert_eq!(mu_j(&rows[..2]), None);
     }
 }
