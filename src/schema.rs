@@ -75,6 +75,7 @@ pub const SCHEMA_FILES: &[(&str, &str)] = &[
         "collision_angles",
         include_str!("../data_schema/collision_angles.schema.json"),
     ),
+    ("sweep", include_str!("../data_schema/sweep.schema.json")),
     (
         "sweep_angles",
         include_str!("../data_schema/sweep_angles.schema.json"),

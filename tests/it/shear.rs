@@ -138,6 +138,23 @@ fn contact_number_matches_two_tau_nu_and_disks_roll_at_minus_half_the_rate() {
     ] {
         assert!(s[k].mean > 0.0 && s[k].err >= 0.0, "{k}");
     }
+    // The transport coefficients as the paper defines them (Eqs. 19, 20; Fig. 2):
+    // B = P/(γ̇ τ_e)², η = P/(γ̇ τ_0) with τ_0 = τ_e/Q (k_d = 1/Q), in units τ_e = m = 1.
+    let (rate, q) = (opt.rate, opt.q);
+    for (b, eta, of) in [("b_p", "eta_p", "p"), ("b_p_el", "eta_p_el", "p_el")] {
+        let pm = s[of].mean;
+        let close = |a: f64, want: f64| ((a - want) / want).abs() < 1e-12;
+        assert!(
+            close(s[b].mean, pm / (rate * rate)),
+            "{b} = {} against {of}/γ̇²",
+            s[b].mean
+        );
+        assert!(
+            close(s[eta].mean, pm * q / rate),
+            "{eta} = {} against {of} Q/γ̇",
+            s[eta].mean
+        );
+    }
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     for k in [
