@@ -259,26 +259,11 @@ pub fn power_law(x: &[f64], y: &[f64]) -> Option<PowerLaw> {
         .filter(|(a, b)| **a > 0.0 && **b > 0.0 && a.is_finite() && b.is_finite())
         .map(|(a, b)| (a.ln(), b.ln()))
         .collect();
-    let n = p.len();
-    if n < 2 {
-        return None;
-    }
-    let xm = p.iter().map(|q| q.0).sum::<f64>() / n as f64;
-    let ym = p.iter().map(|q| q.1).sum::<f64>() / n as f64;
-    let sxx: f64 = p.iter().map(|q| (q.0 - xm).powi(2)).sum();
-    if !(sxx > 0.0) {
-        return None;
-    }
-    let b = p.iter().map(|q| (q.0 - xm) * (q.1 - ym)).sum::<f64>() / sxx;
-    let half = if n > 2 {
-        let ssr: f64 = p.iter().map(|q| (q.1 - ym - b * (q.0 - xm)).powi(2)).sum();
-        t_95(n - 2) * (ssr / (n - 2) as f64 / sxx).sqrt()
-    } else {
-        f64::NAN
-    };
+    let r = Regression::of(&p)?;
+    let half = r.t_half(r.s2 / r.sxx);
     Some(PowerLaw {
-        exponent: b,
-        interval: [b - half, b + half],
+        exponent: r.b,
+        interval: [r.b - half, r.b + half],
     })
 }
 
@@ -300,30 +285,60 @@ pub fn line_fit(x: &[f64], y: &[f64]) -> Option<LineFit> {
         .filter(|(a, b)| a.is_finite() && b.is_finite())
         .map(|(a, b)| (*a, *b))
         .collect();
-    let n = p.len();
-    if n < 2 {
-        return None;
-    }
-    let xm = p.iter().map(|q| q.0).sum::<f64>() / n as f64;
-    let ym = p.iter().map(|q| q.1).sum::<f64>() / n as f64;
-    let sxx: f64 = p.iter().map(|q| (q.0 - xm).powi(2)).sum();
-    if !(sxx > 0.0) {
-        return None;
-    }
-    let b = p.iter().map(|q| (q.0 - xm) * (q.1 - ym)).sum::<f64>() / sxx;
-    let a = ym - b * xm;
-    let half = if n > 2 {
-        let s2 = p.iter().map(|q| (q.1 - a - b * q.0).powi(2)).sum::<f64>() / (n - 2) as f64;
-        t_95(n - 2) * (s2 * (1.0 / n as f64 + xm * xm / sxx)).sqrt()
-    } else {
-        f64::NAN
-    };
+    let r = Regression::of(&p)?;
+    let half = r.t_half(r.s2 * (1.0 / r.n as f64 + r.xm * r.xm / r.sxx));
     Some(LineFit {
-        intercept: a,
-        slope: b,
-        intercept_interval: [a - half, a + half],
-        n,
+        intercept: r.a,
+        slope: r.b,
+        intercept_interval: [r.a - half, r.a + half],
+        n: r.n,
     })
+}
+
+/// Ordinary least squares y = a + b x of finite points: what the two fits above share.
+struct Regression {
+    a: f64,
+    b: f64,
+    n: usize,
+    xm: f64,
+    sxx: f64,
+    /// The residual variance; NaN with two points (no scatter to judge).
+    s2: f64,
+}
+
+impl Regression {
+    fn of(p: &[(f64, f64)]) -> Option<Regression> {
+        let n = p.len();
+        if n < 2 {
+            return None;
+        }
+        let xm = p.iter().map(|q| q.0).sum::<f64>() / n as f64;
+        let ym = p.iter().map(|q| q.1).sum::<f64>() / n as f64;
+        let sxx: f64 = p.iter().map(|q| (q.0 - xm).powi(2)).sum();
+        if !(sxx > 0.0) {
+            return None;
+        }
+        let b = p.iter().map(|q| (q.0 - xm) * (q.1 - ym)).sum::<f64>() / sxx;
+        let a = ym - b * xm;
+        let s2 = if n > 2 {
+            p.iter().map(|q| (q.1 - a - b * q.0).powi(2)).sum::<f64>() / (n - 2) as f64
+        } else {
+            f64::NAN
+        };
+        Some(Regression {
+            a,
+            b,
+            n,
+            xm,
+            sxx,
+            s2,
+        })
+    }
+
+    /// Half the 95 % Student interval of an estimate whose variance is `var`.
+    fn t_half(&self, var: f64) -> f64 {
+        t_95(self.n.saturating_sub(2)) * var.sqrt()
+    }
 }
 
 #[cfg(test)]

@@ -421,17 +421,8 @@ pub(super) fn add_figures(
         .collect();
     if !with_ps.is_empty() {
         let mut series = series_of(&with_ps, &|p| Some((p.p?, p.sigma?)));
-        if let Some(m) = mu_j {
-            let ps: Vec<f64> = with_ps.iter().filter_map(|p| p.p).collect();
-            let lo = ps.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = ps.iter().copied().fold(0.0, f64::max);
-            series.push(XySeries {
-                label: format!("Σ = μ_J P, μ_J = {:.3}", m.value),
-                points: vec![(lo, m.value * lo, 0.0), (hi, m.value * hi, 0.0)],
-                markers_only: false,
-                colour: 6,
-            });
-        }
+        let ps: Vec<f64> = with_ps.iter().filter_map(|p| p.p).collect();
+        series.extend(yield_line(mu_j, &ps, 6));
         f.add(
             &Annotated {
                 xy: XyFigure {
@@ -453,6 +444,20 @@ pub(super) fn add_figures(
     }
     f.blocks.push(Block::Paragraph(contour_check(rows, q)));
     Ok(())
+}
+
+/// The yield-stress line Σ = μ_J P across the pressures `ps` (none without μ_J or a
+/// positive pressure).
+fn yield_line(mu_j: &Option<MuJ>, ps: &[f64], colour: usize) -> Option<XySeries> {
+    let m = mu_j.as_ref()?;
+    let ps = ps.iter().copied().filter(|p| *p > 0.0 && p.is_finite());
+    let (lo, hi) = ps.fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p), b.max(p)));
+    (hi > 0.0).then(|| XySeries {
+        label: format!("Σ = μ_J P, μ_J = {:.3}", m.value),
+        points: vec![(lo, m.value * lo, 0.0), (hi, m.value * hi, 0.0)],
+        markers_only: false,
+        colour,
+    })
 }
 
 /// Every run in the (P, γ̇) and (P, Σ) planes by the slope class of its (φ, Q): what
@@ -482,20 +487,11 @@ fn runs_by_class(
     if stress.is_empty() {
         return Ok(());
     }
-    if let Some(m) = mu_j {
-        let ps: Vec<f64> = stress
-            .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.0))
-            .collect();
-        let lo = ps.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = ps.iter().copied().fold(0.0, f64::max);
-        stress.push(XySeries {
-            label: format!("Σ = μ_J P, μ_J = {:.3}", m.value),
-            points: vec![(lo, m.value * lo, 0.0), (hi, m.value * hi, 0.0)],
-            markers_only: false,
-            colour: 3,
-        });
-    }
+    let ps: Vec<f64> = stress
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0))
+        .collect();
+    stress.extend(yield_line(mu_j, &ps, 3));
     f.add(
         &XyFigure {
             title: "Runs in the (P, Σ) plane by slope class, with Σ = μ_J P".into(),
