@@ -276,14 +276,18 @@ fn draw_xy<DB: DrawingBackend>(
                 .legend(|(x, y)| Cross::new((x, y), 6, BLACK.stroke_width(3)));
         }
     }
+    legend(&mut chart)
+}
+
+/// The series' legend box, as every chart here draws it.
+fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>) -> Result<(), String> {
     chart
         .configure_series_labels()
         .label_font((FONT_FAMILY, 13))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
-        .map_err(s)?;
-    Ok(())
+        .map_err(s)
 }
 
 type Chart<'a, DB> = ChartContext<
@@ -428,14 +432,7 @@ impl Figure for PhaseFigure {
                 .label(name.clone())
                 .legend(move |(x, y)| Circle::new((x, y), 6, c.filled()));
         }
-        chart
-            .configure_series_labels()
-            .label_font((FONT_FAMILY, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(s)?;
-        Ok(())
+        legend(&mut chart)
     }
 }
 

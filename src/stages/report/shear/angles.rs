@@ -73,7 +73,7 @@ fn three_q(mut qs: Vec<f64>, qc: Option<(f64, f64)>) -> Vec<f64> {
         return qs;
     }
     let last = qs.len() - 1;
-    let interior = |q: f64| (1..last).find(|&k| qs[k] == q);
+    let interior = |q: f64| (1..last).find(|&k| key(qs[k]) == key(q));
     let middle = qc
         .and_then(|(lo, hi)| interior(lo).or_else(|| interior(hi)))
         .unwrap_or(qs.len() / 2);
@@ -102,8 +102,14 @@ pub(super) fn add_sweep_figures(f: &mut Figures, rows: &[Row], pdfs: &[AnglePdf]
                 .enumerate()
                 .map(|(k, a)| XySeries {
                     label: match qc {
-                        Some((lo, _)) if a.q <= lo => format!("Q = {} (below Q_c)", a.q),
-                        Some((_, hi)) if a.q >= hi => format!("Q = {} (above Q_c)", a.q),
+                        Some((lo, _)) if key(a.q) == key(lo) => {
+                            format!("Q = {} (just below Q_c)", a.q)
+                        }
+                        Some((_, hi)) if key(a.q) == key(hi) => {
+                            format!("Q = {} (just above Q_c)", a.q)
+                        }
+                        Some((lo, _)) if a.q < lo => format!("Q = {} (below Q_c)", a.q),
+                        Some((_, hi)) if a.q > hi => format!("Q = {} (above Q_c)", a.q),
                         _ => format!("Q = {}", a.q),
                     },
                     points: a.points.iter().map(|(x, y)| (*x, *y, 0.0)).collect(),

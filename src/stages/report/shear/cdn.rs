@@ -12,9 +12,10 @@
 //!   slopes run from the critical exponent to 2 whatever the model), or the slope says
 //!   the pressure tends to a yield pressure (s + 2e below 1/2, `jamming`'s rule: jammed at
 //!   this size, whose jamming point lies below the large-system φ_J);
-//! - *undecided*: the lowest rates' slope is neither decided Bagnoldian nor below it;
+//! - *undecided*: the lowest rates' slope is neither decided Bagnoldian nor decided
+//!   outside [1.5, 2.5];
 //! - *against the claim*: a decided slope below Bagnold's, below jamming — a Newtonian
-//!   CDn, say, which would fail here (the test plants one).
+//!   CDn, say, which would fail here (the test plants one) — or above it.
 
 use super::Classification;
 use super::classify::{Class, SIGMAS};
@@ -74,9 +75,10 @@ fn groups(c: &Classification) -> Groups {
             } else {
                 g.soft_core.push(text);
             }
-        } else if l.slope + SIGMAS * l.err >= 1.5 {
+        } else if l.slope + SIGMAS * l.err >= 1.5 && l.slope - SIGMAS * l.err <= 2.5 {
             g.undecided.push(text);
         } else {
+            // Decided below Bagnold's (say Newtonian) or above it: not Bagnoldian.
             g.against.push(text);
         }
     }
@@ -215,6 +217,12 @@ mod tests {
             jammed.contains("outside the claim") && jammed.ends_with("below jamming."),
             "{jammed}"
         );
+        // A decided slope above Bagnold's (2.8 ± 0.1) is against the claim too.
+        let steep = check(&c(vec![
+            at(0.78, "all", hi, 2.8, 0.1),
+            at(0.78, "local", lo, 2.8, 0.1),
+        ]));
+        assert!(steep.contains("against the claim: φ = 0.78"), "{steep}");
         assert!(check(&c(Vec::new())).contains("not made"));
     }
 }

@@ -165,7 +165,7 @@ pub fn paragraph(j: &PhiJ) -> String {
         )
     };
     format!(
-        "{}. Rule: at each (φ, Q) the slope s of ln P^el against ln γ̇ between the grid's two lowest rates — P^el vanishing with γ̇ (s ≥ 1) below jamming, tending to a yield pressure (s → 0) above — flowing when s − {SIGMAS}e > {SLOPE_SPLIT}, jammed when s + {SIGMAS}e < {SLOPE_SPLIT}; at each Q φ_J lies between the largest flowing φ below the smallest jammed φ and that φ, and the brackets of all Q are intersected (φ_J does not depend on Q). At finite rates the slope just below φ_J is already small, so the bracket leans low. Used by the Q_c fit and μ_J below.{brackets}",
+        "{}. Rule: at each (φ, Q) the slope s of ln P^el against ln γ̇ between the grid's two lowest rates — P^el vanishing with γ̇ (s ≥ 1) below jamming, tending to a yield pressure (s → 0) above — flowing when s − {SIGMAS}e > {SLOPE_SPLIT}, jammed when s + {SIGMAS}e < {SLOPE_SPLIT}; at each Q φ_J lies between the largest flowing φ below the smallest jammed φ and that φ, and the brackets of all Q are intersected (φ_J does not depend on Q). At finite rates the slope just below φ_J is already small, so the bracket leans low. Used by the Q_c fit below.{brackets}",
         j.describe()
     )
 }

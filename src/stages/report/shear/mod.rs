@@ -642,7 +642,7 @@ pub fn sweep_section(
     qc::add_figures(&mut f, &data.rows, &phi_j)?;
     appendix_a::add_figures(&mut f, &data.rows, &c, phi_j.value)?;
     coexistence::add_sweep(&mut f, &data.rows);
-    let mu_j = stress_space::mu_j(&data.rows);
+    let mu_j = stress_space::mu_j(&data.rows, &c);
     phase_boundaries::add_figures(&mut f, &data.rows, &c, phi_j.value, &mu_j)?;
     f.blocks
         .push(Block::Paragraph(stress_space::mu_j_paragraph(&mu_j)));

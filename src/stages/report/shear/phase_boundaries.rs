@@ -216,9 +216,12 @@ pub fn contour_check(rows: &[Row], q: f64) -> String {
     }
     let (lo, hi, rate) = (c[a - 1].phi, c[a].phi, c[a].rate);
     let on_contour = 0.5 * (lo + hi);
+    let has_phi_b = |m: &Measures| {
+        m.r_v.as_ref().and_then(|b| b.phi_b).is_some() || m.p_el.and_then(|x| x.0).is_some()
+    };
     let nearest = measures(rows)
         .into_iter()
-        .filter(|m| key(m.q) == key(q))
+        .filter(|m| key(m.q) == key(q) && has_phi_b(m))
         .min_by(|x, y| {
             (x.rate / rate)
                 .ln()
@@ -226,7 +229,9 @@ pub fn contour_check(rows: &[Row], q: f64) -> String {
                 .total_cmp(&(y.rate / rate).ln().abs())
         });
     let Some(m) = nearest else {
-        return format!("{CHECK}: not made at Q = {q}, no measure finds a boundary at any rate.");
+        return format!(
+            "{CHECK}: not made at Q = {q}, neither R_v nor the P^el kink finds a φ_B at any rate."
+        );
     };
     let mut said = vec![format!(
         "the contour P = {p0:.3e} enters the banded stretch between φ = {lo} and {hi} (φ_B ≈ {on_contour:.4}, at γ̇ τ_e ≈ {rate:.2e})"
@@ -319,7 +324,13 @@ pub(super) fn add_figures(
     phi_j: f64,
     mu_j: &Option<MuJ>,
 ) -> Result<()> {
-    let Some(q) = pick_q(rows) else {
+    // The Q nearest 1 with two rates (the contour needs them), else with one.
+    let Some(q) = pick_q(rows).or_else(|| {
+        rows.iter()
+            .map(|r| r.q)
+            .filter(|q| *q > 0.0)
+            .min_by(|a, b| a.ln().abs().total_cmp(&b.ln().abs()))
+    }) else {
         return Ok(());
     };
     let pts = points(rows, q);
@@ -446,10 +457,10 @@ pub(super) fn add_figures(
     Ok(())
 }
 
-/// The yield-stress line Σ = μ_J P across the pressures `ps` (none without μ_J or a
-/// positive pressure).
+/// The yield-stress line Σ = μ_J P across the pressures `ps` (none without a positive
+/// μ_J or a positive pressure).
 fn yield_line(mu_j: &Option<MuJ>, ps: &[f64], colour: usize) -> Option<XySeries> {
-    let m = mu_j.as_ref()?;
+    let m = mu_j.as_ref().filter(|m| m.value > 0.0)?;
     let ps = ps.iter().copied().filter(|p| *p > 0.0 && p.is_finite());
     let (lo, hi) = ps.fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p), b.max(p)));
     (hi > 0.0).then(|| XySeries {
@@ -530,8 +541,11 @@ mod tests {
     /// hand: R_v's φ_B = 0.785, φ_N = 0.815 at 1e-5, and 0.795, 0.805 at 1e-4; the region
     /// is the four corners; the end point lies between 1e-4 and 1e-3 at φ = 0.80; P at
     /// φ_B = 0.785, 1e-5 is the geometric mean of P at 0.78 and 0.79. P = γ̇² e^k at the
-    /// k-th φ, so the contour P = 1e-8 e^4 (crossed at all nine φ) runs through γ̇ =
-    /// 1e-4 e^((4 − k)/2) and meets the banded stretch at φ = 0.80 alone.
+    /// k-th φ: the run pressures 1e-6, 1e-8 e^4 and 1e-10 e^8 are each crossed at all
+    /// nine φ, and 1e-6 is the nearest the paper's 2e-5, so the contour is P = 1e-6,
+    /// through γ̇ = 1e-3 e^(−k/2): at φ = 0.79 γ̇ = 2.2e-4 (R_v 1, between 1e-4 and 1e-3),
+    /// at 0.80 γ̇ = 1.35e-4 (R_v 8.8 interpolated in ln γ̇): it enters the banded stretch
+    /// between 0.79 and 0.80, at the grid rate 1e-4 where R_v brackets φ_B the same.
     fn planted() -> Vec<Row> {
         let mut rows = Vec::new();
         for k in 0..9 {
@@ -609,9 +623,9 @@ mod tests {
     #[test]
     fn the_contour_check_names_agreement_within_a_grid_step() {
         let rows = planted();
+        assert_eq!(choose_p(&rows, 1.0), Some(1e-6));
         let text = contour_check(&rows, 1.0);
         assert!(text.starts_with("Check — the constant-P contour"), "{text}");
-        // It enters between 0.79 and 0.80 at γ̇ = 1e-4, where R_v brackets φ_B the same.
         assert!(text.contains("between φ = 0.79 and 0.8"), "{text}");
         assert!(
             text.contains("R_v at γ̇ τ_e = 1.0e-4 puts it at 0.7950 (0.0 grid steps away: agrees)"),

@@ -35,12 +35,17 @@ pub fn inertial_number(r: &Row) -> Option<f64> {
 }
 
 /// μ_J fitted as the intercept of μ(I) = μ_J + c I over the [`MU_J_RUNS`] runs of
-/// smallest I (at least three): μ = Σ/P tends to μ_J as I → 0, which dense flow reaches
-/// by γ̇ → 0 at jamming (μ(I) rheology is linear in I at small I). The interval is the
-/// intercept's Student interval. `None` with fewer than three runs or one I.
-pub fn mu_j(rows: &[Row]) -> Option<MuJ> {
+/// smallest I (at least three) among the runs whose (φ, Q) flows Bagnoldian over all
+/// its rates (`c`): in inertial (Bagnoldian) flow μ depends on I alone, I = 1/√B_p is
+/// fixed as γ̇ → 0 at each φ and falls to 0 as φ → φ_J, where μ → μ_J (μ(I) rheology,
+/// linear at small I; frictionless disks give μ_J ≈ 0.1). Newtonian runs are left out:
+/// there I ∝ √γ̇ → 0 while μ stays at μ(φ), which is not μ_J. The interval is the
+/// intercept's Student interval. `None` with fewer than three such runs or one I.
+pub fn mu_j(rows: &[Row], c: &Classification) -> Option<MuJ> {
+    let cls = classes(c);
     let mut pts: Vec<(f64, f64)> = rows
         .iter()
+        .filter(|r| cls.get(&(key(r.phi), key(r.q))) == Some(&Class::Bagnoldian))
         .filter_map(|r| Some((inertial_number(r)?, r.get("mu")?.0)))
         .filter(|(i, mu)| i.is_finite() && mu.is_finite())
         .collect();
@@ -64,10 +69,20 @@ pub fn mu_j(rows: &[Row]) -> Option<MuJ> {
 pub fn mu_j_paragraph(m: &Option<MuJ>) -> String {
     match m {
         Some(m) => format!(
-            "μ_J = {:.4} [{:.4}, {:.4}] (95 %): the intercept of μ = μ_J + c I, c = {:.3}, fitted over the {} runs of smallest inertial number I = γ̇ τ_e/√P (up to I = {:.3e}; μ(I) is linear at small I and μ → μ_J as I → 0, reached by γ̇ → 0 at jamming). The paper quotes μ_J ≈ 0.1 from its earlier work (vagberg-sheared-disks, text beside Fig. 29).",
-            m.value, m.interval[0], m.interval[1], m.slope, m.runs, m.i_max
+            "μ_J = {:.4} [{:.4}, {:.4}] (95 %): the intercept of μ = μ_J + c I, c = {:.3}, fitted over the {} runs of smallest inertial number I = γ̇ τ_e/√P (up to I = {:.3e}) among those whose (φ, Q) flows Bagnoldian over all its rates (there μ depends on I alone and tends to μ_J as I → 0 at jamming; Newtonian runs, whose μ stays at μ(φ) as γ̇ → 0, are left out).{} The paper quotes μ_J ≈ 0.1 from its earlier work (vagberg-sheared-disks, text beside Fig. 29).",
+            m.value,
+            m.interval[0],
+            m.interval[1],
+            m.slope,
+            m.runs,
+            m.i_max,
+            if m.value > 0.0 {
+                ""
+            } else {
+                " Not positive, so the yield line Σ = μ_J P is not drawn."
+            }
         ),
-        None => "μ_J not fitted: it needs three runs with a pressure and a friction μ, at two inertial numbers or more, so the yield line Σ = μ_J P is not drawn.".into(),
+        None => "μ_J not fitted: it needs three runs in Bagnoldian flow with a pressure and a friction μ, at two inertial numbers or more, so the yield line Σ = μ_J P is not drawn.".into(),
     }
 }
 
@@ -205,11 +220,40 @@ mod tests {
         }
     }
 
-    /// μ = 0.1 + 2 I exactly on the eight runs of smallest I (I = 0.01 … 0.08, P = 1e-4
-    /// so γ̇ = I/100), and far off the line at larger I (left out): μ_J = 0.1 with no
-    /// width, c = 2.
+    /// Every (φ, Q) of `rows` classified `class` over all rates.
+    fn all_as(rows: &[Row], class: Class) -> Classification {
+        let mut slopes = Vec::new();
+        for r in rows {
+            if !slopes.iter().any(|s: &super::super::Classified| {
+                key(s.phi) == key(r.phi) && key(s.q) == key(r.q)
+            }) {
+                slopes.push(super::super::Classified {
+                    phi: r.phi,
+                    q: r.q,
+                    scope: "all",
+                    slope: super::super::classify::Slope {
+                        slope: 2.0,
+                        err: 0.0,
+                        rate_lo: 1e-5,
+                        rate_hi: 1e-3,
+                        class,
+                        note: String::new(),
+                    },
+                });
+            }
+        }
+        Classification {
+            slopes,
+            transitions: Vec::new(),
+        }
+    }
+
+    /// μ = 0.1 + 2 I exactly on the eight Bagnoldian runs of smallest I (I = 0.01 …
+    /// 0.08, P = 1e-4 so γ̇ = I/100), and far off the line at larger I (left out):
+    /// μ_J = 0.1 with no width, c = 2. Runs of a Newtonian (φ, Q), however small their
+    /// I, are left out.
     #[test]
-    fn mu_j_is_the_intercept_of_mu_against_the_inertial_number() {
+    fn mu_j_is_the_intercept_of_mu_against_the_inertial_number_in_bagnoldian_flow() {
         let mut rows: Vec<Row> = (1..=8)
             .map(|k| {
                 let i = 0.01 * k as f64;
@@ -218,7 +262,8 @@ mod tests {
             .collect();
         rows.push(row(0.5 / 100.0, 1e-4, 5.0));
         rows.push(row(0.9 / 100.0, 1e-4, -3.0));
-        let m = mu_j(&rows).unwrap();
+        let bagnold = all_as(&rows, Class::Bagnoldian);
+        let m = mu_j(&rows, &bagnold).unwrap();
         assert!(
             (m.value - 0.1).abs() < 1e-12 && (m.slope - 2.0).abs() < 1e-9,
             "{m:?}"
@@ -227,6 +272,18 @@ mod tests {
         assert_eq!(m.runs, MU_J_RUNS);
         assert!((m.i_max - 0.08).abs() < 1e-12);
         assert!((inertial_number(&rows[0]).unwrap() - 0.01).abs() < 1e-15);
+        // Newtonian runs at another φ with the smallest I of all and μ = 0.5: left out.
+        let mut with_newtonian = rows.clone();
+        let newtonian: Vec<Row> = (1..=4)
+            .map(|k| Row {
+                phi: 0.83,
+                ..row(1e-6 * k as f64, 1e-4, 0.5)
+            })
+            .collect();
+        with_newtonian.extend(newtonian.iter().cloned());
+        let mut c = bagnold.clone();
+        c.slopes.extend(all_as(&newtonian, Class::Newtonian).slopes);
+        assert_eq!(mu_j(&with_newtonian, &c), Some(m.clone()));
         // Scatter widens the interval around the same intercept: ±0.01 alternating.
         let noisy: Vec<Row> = (1..=8)
             .map(|k| {
@@ -238,10 +295,11 @@ mod tests {
                 )
             })
             .collect();
-        let m = mu_j(&noisy).unwrap();
+        let m = mu_j(&noisy, &all_as(&noisy, Class::Bagnoldian)).unwrap();
         assert!(m.interval[0] < m.value && m.value < m.interval[1], "{m:?}");
         assert!(m.interval[0] < 0.1 && 0.1 < m.interval[1], "{m:?}");
-        // Two runs: no fit.
-        assert_eq!(mu_j(&rows[..2]), None);
+        // Two runs, or none Bagnoldian: no fit.
+        assert_eq!(mu_j(&rows[..2], &bagnold), None);
+        assert_eq!(mu_j(&rows, &all_as(&rows, Class::Newtonian)), None);
     }
 }
