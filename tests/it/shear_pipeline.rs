@@ -363,9 +363,11 @@ fn report_of_a_sweep_draws_p_el_and_the_collision_times() {
     {
         assert_figure(&out, &fig);
     }
-    // No (φ, Q) Bagnoldian over its rates (p ∝ γ̇^1.5): μ_J is not fitted, and why.
+    // No run within 0.02 of φ_J (φ ≤ 0.82): μ_J is not fitted, and why.
     assert!(
-        html.contains("μ_J not fitted: it needs three runs in Bagnoldian flow"),
+        html.contains(
+            "μ_J not fitted: it needs three runs within 0.02 of φ_J = 0.8433, the paper's, held"
+        ),
         "μ_J"
     );
     assert!(

@@ -642,10 +642,19 @@ pub fn sweep_section(
     qc::add_figures(&mut f, &data.rows, &phi_j)?;
     appendix_a::add_figures(&mut f, &data.rows, &c, phi_j.value)?;
     coexistence::add_sweep(&mut f, &data.rows);
-    let mu_j = stress_space::mu_j(&data.rows, &c);
+    let mu_j = stress_space::mu_j(&data.rows, phi_j.value);
     phase_boundaries::add_figures(&mut f, &data.rows, &c, phi_j.value, &mu_j)?;
-    f.blocks
-        .push(Block::Paragraph(stress_space::mu_j_paragraph(&mu_j)));
+    let phi_j_short = match phi_j.held_because {
+        Some(_) => format!("{:.4}, the paper's, held", phi_j.value),
+        None => format!(
+            "{:.4} [{:.4}, {:.4}] from the grid",
+            phi_j.value, phi_j.lo, phi_j.hi
+        ),
+    };
+    f.blocks.push(Block::Paragraph(stress_space::mu_j_paragraph(
+        &mu_j,
+        &phi_j_short,
+    )));
     contour::add_figures(&mut f, &data.rows)?;
     stress_space::add_figures(&mut f, &data.rows)?;
     Ok(Section {

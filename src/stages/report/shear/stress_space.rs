@@ -13,6 +13,8 @@ use std::collections::BTreeMap;
 
 /// The μ_J fit uses at most this many runs, those of smallest inertial number.
 pub const MU_J_RUNS: usize = 8;
+/// Runs within this of φ_J count for μ_J.
+pub const MU_J_WINDOW: f64 = 0.02;
 
 /// μ_J, the macroscopic friction at jamming, fitted with its 95 % interval.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +26,8 @@ pub struct MuJ {
     /// The runs fitted, and the largest I among them.
     pub runs: usize,
     pub i_max: f64,
+    /// The φ_J the window was centred on.
+    pub phi_j: f64,
 }
 
 /// The inertial number of a run, I = γ̇ τ_e / √P: I = γ̇ d √(ρ/p) of dense granular
@@ -34,18 +38,18 @@ pub fn inertial_number(r: &Row) -> Option<f64> {
     (p > 0.0).then(|| r.rate / p.sqrt())
 }
 
-/// μ_J fitted as the intercept of μ(I) = μ_J + c I over the [`MU_J_RUNS`] runs of
-/// smallest I (at least three) among the runs whose (φ, Q) flows Bagnoldian over all
-/// its rates (`c`): in inertial (Bagnoldian) flow μ depends on I alone, I = 1/√B_p is
-/// fixed as γ̇ → 0 at each φ and falls to 0 as φ → φ_J, where μ → μ_J (μ(I) rheology,
-/// linear at small I; frictionless disks give μ_J ≈ 0.1). Newtonian runs are left out:
-/// there I ∝ √γ̇ → 0 while μ stays at μ(φ), which is not μ_J. The interval is the
+/// μ_J fitted as the intercept of μ = μ_J + c I over the [`MU_J_RUNS`] runs of
+/// smallest inertial number I (at least three) among those within [`MU_J_WINDOW`] of
+/// `phi_j`: μ_J is μ at jamming as γ̇ → 0, and near φ_J both the Newtonian and the
+/// Bagnoldian branch reach it as I → 0 (I ∝ γ̇^(1 − q/2) there, q ≈ 0.3 the critical
+/// exponent of p, so nearly linear in γ̇; just above φ_J the yield stress ratio of
+/// frictionless disks lies close to μ_J). Runs far from φ_J are left out: below it a
+/// Newtonian run's I → 0 while μ stays at μ(φ), not μ_J. The interval is the
 /// intercept's Student interval. `None` with fewer than three such runs or one I.
-pub fn mu_j(rows: &[Row], c: &Classification) -> Option<MuJ> {
-    let cls = classes(c);
+pub fn mu_j(rows: &[Row], phi_j: f64) -> Option<MuJ> {
     let mut pts: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| cls.get(&(key(r.phi), key(r.q))) == Some(&Class::Bagnoldian))
+        .filter(|r| (r.phi - phi_j).abs() <= MU_J_WINDOW + 1e-12)
         .filter_map(|r| Some((inertial_number(r)?, r.get("mu")?.0)))
         .filter(|(i, mu)| i.is_finite() && mu.is_finite())
         .collect();
@@ -62,14 +66,15 @@ pub fn mu_j(rows: &[Row], c: &Classification) -> Option<MuJ> {
         slope: fit.slope,
         runs: fit.n,
         i_max: x[x.len() - 1],
+        phi_j,
     })
 }
 
-/// The μ_J paragraph.
-pub fn mu_j_paragraph(m: &Option<MuJ>) -> String {
+/// The μ_J paragraph; `phi_j` says where φ_J came from.
+pub fn mu_j_paragraph(m: &Option<MuJ>, phi_j: &str) -> String {
     match m {
         Some(m) => format!(
-            "μ_J = {:.4} [{:.4}, {:.4}] (95 %): the intercept of μ = μ_J + c I, c = {:.3}, fitted over the {} runs of smallest inertial number I = γ̇ τ_e/√P (up to I = {:.3e}) among those whose (φ, Q) flows Bagnoldian over all its rates (there μ depends on I alone and tends to μ_J as I → 0 at jamming; Newtonian runs, whose μ stays at μ(φ) as γ̇ → 0, are left out).{} The paper quotes μ_J ≈ 0.1 from its earlier work (vagberg-sheared-disks, text beside Fig. 29).",
+            "μ_J = {:.4} [{:.4}, {:.4}] (95 %): the intercept of μ = μ_J + c I, c = {:.3}, fitted over the {} runs of smallest inertial number I = γ̇ τ_e/√P (up to I = {:.3e}) within {MU_J_WINDOW} of φ_J = {phi_j}: near φ_J both rheologies reach μ_J as γ̇ → 0, I → 0; runs further away are left out (a Newtonian run's μ stays at μ(φ) as γ̇ → 0).{} The paper quotes μ_J ≈ 0.1 from its earlier work (vagberg-sheared-disks, text beside Fig. 29).",
             m.value,
             m.interval[0],
             m.interval[1],
@@ -82,7 +87,9 @@ pub fn mu_j_paragraph(m: &Option<MuJ>) -> String {
                 " Not positive, so the yield line Σ = μ_J P is not drawn."
             }
         ),
-        None => "μ_J not fitted: it needs three runs in Bagnoldian flow with a pressure and a friction μ, at two inertial numbers or more, so the yield line Σ = μ_J P is not drawn.".into(),
+        None => format!(
+            "μ_J not fitted: it needs three runs within {MU_J_WINDOW} of φ_J = {phi_j}, with a pressure and a friction μ, at two inertial numbers or more, so the yield line Σ = μ_J P is not drawn."
+        ),
     }
 }
 
@@ -220,50 +227,25 @@ mod tests {
         }
     }
 
-    /// Every (φ, Q) of `rows` classified `class` over all rates.
-    fn all_as(rows: &[Row], class: Class) -> Classification {
-        let mut slopes = Vec::new();
-        for r in rows {
-            if !slopes.iter().any(|s: &super::super::Classified| {
-                key(s.phi) == key(r.phi) && key(s.q) == key(r.q)
-            }) {
-                slopes.push(super::super::Classified {
-                    phi: r.phi,
-                    q: r.q,
-                    scope: "all",
-                    slope: super::super::classify::Slope {
-                        slope: 2.0,
-                        err: 0.0,
-                        rate_lo: 1e-5,
-                        rate_hi: 1e-3,
-                        class,
-                        note: String::new(),
-                    },
-                });
-            }
-        }
-        Classification {
-            slopes,
-            transitions: Vec::new(),
-        }
-    }
-
-    /// μ = 0.1 + 2 I exactly on the eight Bagnoldian runs of smallest I (I = 0.01 …
+    /// μ = 0.1 + 2 I exactly on the eight runs of smallest I at φ = 0.835 (I = 0.01 …
     /// 0.08, P = 1e-4 so γ̇ = I/100), and far off the line at larger I (left out):
-    /// μ_J = 0.1 with no width, c = 2. Runs of a Newtonian (φ, Q), however small their
-    /// I, are left out.
+    /// μ_J = 0.1 with no width, c = 2. Runs further than 0.02 from φ_J, however small
+    /// their I, are left out.
     #[test]
-    fn mu_j_is_the_intercept_of_mu_against_the_inertial_number_in_bagnoldian_flow() {
+    fn mu_j_is_the_intercept_of_mu_against_the_inertial_number_near_jamming() {
+        let near = |rate: f64, p: f64, mu: f64| Row {
+            phi: 0.835,
+            ..row(rate, p, mu)
+        };
         let mut rows: Vec<Row> = (1..=8)
             .map(|k| {
                 let i = 0.01 * k as f64;
-                row(i / 100.0, 1e-4, 0.1 + 2.0 * i)
+                near(i / 100.0, 1e-4, 0.1 + 2.0 * i)
             })
             .collect();
-        rows.push(row(0.5 / 100.0, 1e-4, 5.0));
-        rows.push(row(0.9 / 100.0, 1e-4, -3.0));
-        let bagnold = all_as(&rows, Class::Bagnoldian);
-        let m = mu_j(&rows, &bagnold).unwrap();
+        rows.push(near(0.5 / 100.0, 1e-4, 5.0));
+        rows.push(near(0.9 / 100.0, 1e-4, -3.0));
+        let m = mu_j(&rows, 0.8433).unwrap();
         assert!(
             (m.value - 0.1).abs() < 1e-12 && (m.slope - 2.0).abs() < 1e-9,
             "{m:?}"
@@ -272,34 +254,26 @@ mod tests {
         assert_eq!(m.runs, MU_J_RUNS);
         assert!((m.i_max - 0.08).abs() < 1e-12);
         assert!((inertial_number(&rows[0]).unwrap() - 0.01).abs() < 1e-15);
-        // Newtonian runs at another φ with the smallest I of all and μ = 0.5: left out.
-        let mut with_newtonian = rows.clone();
-        let newtonian: Vec<Row> = (1..=4)
-            .map(|k| Row {
-                phi: 0.83,
-                ..row(1e-6 * k as f64, 1e-4, 0.5)
-            })
-            .collect();
-        with_newtonian.extend(newtonian.iter().cloned());
-        let mut c = bagnold.clone();
-        c.slopes.extend(all_as(&newtonian, Class::Newtonian).slopes);
-        assert_eq!(mu_j(&with_newtonian, &c), Some(m.clone()));
+        // Newtonian runs at φ = 0.80 with the smallest I of all and μ = 0.5: left out.
+        let mut with_far = rows.clone();
+        with_far.extend((1..=4).map(|k| row(1e-6 * k as f64, 1e-4, 0.5)));
+        assert_eq!(mu_j(&with_far, 0.8433), Some(m.clone()));
         // Scatter widens the interval around the same intercept: ±0.01 alternating.
         let noisy: Vec<Row> = (1..=8)
             .map(|k| {
                 let i = 0.01 * k as f64;
-                row(
+                near(
                     i / 100.0,
                     1e-4,
                     0.1 + 2.0 * i + if k % 2 == 0 { 0.01 } else { -0.01 },
                 )
             })
             .collect();
-        let m = mu_j(&noisy, &all_as(&noisy, Class::Bagnoldian)).unwrap();
+        let m = mu_j(&noisy, 0.8433).unwrap();
         assert!(m.interval[0] < m.value && m.value < m.interval[1], "{m:?}");
         assert!(m.interval[0] < 0.1 && 0.1 < m.interval[1], "{m:?}");
-        // Two runs, or none Bagnoldian: no fit.
-        assert_eq!(mu_j(&rows[..2], &bagnold), None);
-        assert_eq!(mu_j(&rows, &all_as(&rows, Class::Newtonian)), None);
+        // Two runs, or none near φ_J: no fit.
+        assert_eq!(mu_j(&rows[..2], 0.8433), None);
+        assert_eq!(mu_j(&rows, 0.80), None);
     }
 }
