@@ -205,13 +205,7 @@ fn draw_xy<DB: DrawingBackend>(
             .chain(marked.iter().map(|m| m.1)),
         yl,
     );
-    let mut chart = ChartBuilder::on(root)
-        .caption(&fig.title, (FONT_FAMILY, 20))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(80)
-        .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
-        .map_err(s)?;
+    let mut chart = frame(root, &fig.title, xr, yr)?;
     let (xs, ys) = (xr.1 - xr.0, yr.1 - yr.0);
     chart
         .configure_mesh()
@@ -277,6 +271,22 @@ fn draw_xy<DB: DrawingBackend>(
         }
     }
     legend(&mut chart)
+}
+
+/// A titled chart over the ranges (axis coordinates), as every chart here has it.
+fn frame<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    xr: (f64, f64),
+    yr: (f64, f64),
+) -> Result<Chart<'a, DB>, String> {
+    ChartBuilder::on(root)
+        .caption(title, (FONT_FAMILY, 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(80)
+        .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
+        .map_err(s)
 }
 
 /// The series' legend box, as every chart here draws it.
@@ -391,13 +401,7 @@ impl Figure for PhaseFigure {
             false,
         );
         let yr = range(pts.iter().map(|p| p.1), self.y_log);
-        let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, (FONT_FAMILY, 20))
-            .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(80)
-            .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
-            .map_err(s)?;
+        let mut chart = frame(root, &self.title, xr, yr)?;
         let (yl, ys) = (self.y_log, yr.1 - yr.0);
         chart
             .configure_mesh()

@@ -156,6 +156,14 @@ mod tests {
         }
     }
 
+    /// One (φ, Q = 1): its slope over all rates (3e-5–1e-2) and between its two lowest.
+    fn pair(phi: f64, all: (f64, f64), lowest: (f64, f64)) -> Vec<Classified> {
+        vec![
+            at(phi, "all", (3e-5, 1e-2), all.0, all.1),
+            at(phi, "local", (3e-5, 1e-4), lowest.0, lowest.1),
+        ]
+    }
+
     /// The groups, as CDn sweeps at N = 256 and 1024 gave them: φ = 0.80 Bagnoldian;
     /// φ = 0.82 Bagnoldian at its lowest rates, slope 1.1 between 1e-3 and 1e-2 (soft
     /// core); φ = 0.84 near the paper's φ_J; φ = 0.76 straddling 3/2; and two that are
@@ -164,10 +172,7 @@ mod tests {
     #[test]
     fn each_point_is_named_in_its_group() {
         let (lo, mid, hi, top) = ((3e-5, 1e-4), (1e-4, 1e-3), (3e-5, 1e-2), (1e-3, 1e-2));
-        let good = check(&c(vec![
-            at(0.80, "all", hi, 2.0, 0.1),
-            at(0.80, "local", lo, 2.0, 0.2),
-        ]));
+        let good = check(&c(pair(0.80, (2.0, 0.1), (2.0, 0.2))));
         assert!(
             good.contains("1 of 1") && good.ends_with("below jamming."),
             "{good}"
@@ -199,29 +204,20 @@ mod tests {
         );
         assert!(mixed.ends_with("below jamming."), "{mixed}");
         // Newtonian at the lowest rates far below jamming: against the claim.
-        let against = check(&c(vec![
-            at(0.78, "all", hi, 1.0, 0.05),
-            at(0.78, "local", lo, 1.0, 0.05),
-        ]));
+        let against = check(&c(pair(0.78, (1.0, 0.05), (1.0, 0.05))));
         assert!(
             against.contains("against the claim: φ = 0.78") && against.ends_with("Does not hold."),
             "{against}"
         );
         // A yield pressure at this size (slope 0.2 ± 0.1 at the lowest rates) below the
         // paper's φ_J: jammed at this size, outside the claim.
-        let jammed = check(&c(vec![
-            at(0.83, "all", hi, 0.3, 0.05),
-            at(0.83, "local", lo, 0.2, 0.1),
-        ]));
+        let jammed = check(&c(pair(0.83, (0.3, 0.05), (0.2, 0.1))));
         assert!(
             jammed.contains("outside the claim") && jammed.ends_with("below jamming."),
             "{jammed}"
         );
         // A decided slope above Bagnold's (2.8 ± 0.1) is against the claim too.
-        let steep = check(&c(vec![
-            at(0.78, "all", hi, 2.8, 0.1),
-            at(0.78, "local", lo, 2.8, 0.1),
-        ]));
+        let steep = check(&c(pair(0.78, (2.8, 0.1), (2.8, 0.1))));
         assert!(steep.contains("against the claim: φ = 0.78"), "{steep}");
         assert!(check(&c(Vec::new())).contains("not made"));
     }

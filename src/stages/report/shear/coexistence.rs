@@ -148,7 +148,6 @@ impl Measures {
     /// Where two measures of the same boundary lie more than one grid step apart, in
     /// words (empty when they agree or cannot be compared).
     pub fn disagreements(&self) -> Vec<String> {
-        let mid = |b: Option<(f64, f64)>| b.map(|(a, c)| 0.5 * (a + c));
         let est: [(&str, Option<f64>, Option<f64>); 3] = [
             (
                 "R_v",
@@ -184,6 +183,11 @@ impl Measures {
         }
         out
     }
+}
+
+/// The middle of a bracket.
+pub(super) fn mid(b: Option<(f64, f64)>) -> Option<f64> {
+    b.map(|(a, c)| 0.5 * (a + c))
 }
 
 /// One run's band values.

@@ -18,7 +18,7 @@
 //!   measures the band values in the bands' profiles; this reads them off μ along the
 //!   contours, as its Fig. 34 also allows. Beside them φ_B(γ̇) and φ_N(γ̇) from R_v.
 
-use super::coexistence::{R_V_BANDED, boundaries};
+use super::coexistence::{R_V_BANDED, boundaries, mid};
 use super::{Figures, Row, key};
 use crate::error::Result;
 use crate::stages::report::render::curves::{XyFigure, XySeries};
@@ -199,7 +199,6 @@ pub(super) fn add_figures(f: &mut Figures, rows: &[Row]) -> Result<()> {
     };
     let c = contour(rows, q, p0);
     let mx = maxwell(&c);
-    let mid = |b: Option<(f64, f64)>| b.map(|(x, y)| 0.5 * (x + y));
     // Fig. 34: μ along the contour.
     let banded = |p: &ContourPoint| p.r_v.is_some_and(|r| r > R_V_BANDED);
     for (against, x_of, x_log, file, panel) in [

@@ -17,7 +17,7 @@
 //!   of its points; φ_B there is compared with R_v's and the P^el kink's at the grid
 //!   rate nearest the contour's, within one step of that rate's φ grid.
 
-use super::coexistence::{Boundaries, Measures, R_V_BANDED, boundaries, measures};
+use super::coexistence::{Boundaries, Measures, R_V_BANDED, boundaries, measures, mid};
 use super::contour::{choose_p, contour, pick_q};
 use super::stress_space::{MuJ, by_class};
 use super::{Classification, Figures, Row, key};
@@ -79,10 +79,6 @@ pub fn along_phi(rows: &[Row], q: f64, rate: f64, phi: f64, quantity: &str) -> O
     let w = pts.windows(2).find(|w| w[0].0 < phi && phi < w[1].0)?;
     let t = (phi - w[0].0) / (w[1].0 - w[0].0);
     Some((w[0].1.ln() + t * (w[1].1.ln() - w[0].1.ln())).exp())
-}
-
-fn mid(b: Option<(f64, f64)>) -> Option<f64> {
-    b.map(|(x, y)| 0.5 * (x + y))
 }
 
 /// Every boundary point at `q`, rates ascending.
@@ -561,6 +557,17 @@ mod tests {
         rows
     }
 
+    /// The same runs with R_v = 1 everywhere: nothing banded.
+    fn unbanded(rows: &[Row]) -> Vec<Row> {
+        rows.iter()
+            .cloned()
+            .map(|mut r| {
+                r.v.insert("r_v".into(), (1.0, 0.0));
+                r
+            })
+            .collect()
+    }
+
     #[test]
     fn boundaries_region_and_end_point_by_hand() {
         let rows = planted();
@@ -605,14 +612,7 @@ mod tests {
         let top: Vec<Row> = rows.iter().filter(|r| r.rate < 1e-3).cloned().collect();
         assert_eq!(end_point(&top, 1.0).unwrap().above, None);
         // Nothing banded: no end point; along_phi is exact at a run.
-        let flat: Vec<Row> = rows
-            .iter()
-            .cloned()
-            .map(|mut r| {
-                r.v.insert("r_v".into(), (1.0, 0.0));
-                r
-            })
-            .collect();
+        let flat = unbanded(&rows);
         assert_eq!(end_point(&flat, 1.0), None);
         assert_eq!(
             along_phi(&rows, 1.0, 1e-4, 0.80, "p"),
@@ -633,19 +633,33 @@ mod tests {
         );
         assert!(text.ends_with("Holds where the data allow."), "{text}");
         // No banded run: the check says it is not made, and why.
-        let flat: Vec<Row> = rows
-            .iter()
-            .cloned()
-            .map(|mut r| {
-                r.v.insert("r_v".into(), (1.0, 0.0));
-                r
-            })
-            .collect();
+        let flat = unbanded(&rows);
         let text = contour_check(&flat, 1.0);
         assert!(
             text.contains("not made at Q = 1, the contour P = ")
                 && text.contains("meets no banded run"),
             "{text}"
         );
+        // A P^el kink two and a half grid steps below the contour's φ_B: ln P^el at
+        // γ̇ τ_e = 1e-4 rises by 1 a step but by 20 from φ = 0.77 to 0.78, so the kink's
+        // φ_B is 0.77 against the contour's 0.795. The check names it and fails.
+        let kinked: Vec<Row> = rows
+            .iter()
+            .cloned()
+            .map(|mut r| {
+                if r.rate == 1e-4 {
+                    let k = ((r.phi - 0.76) * 100.0).round();
+                    let ln = k + if k >= 2.0 { 19.0 } else { 0.0 };
+                    r.v.insert("p_el".into(), (ln.exp() * 1e-12, 0.0));
+                }
+                r
+            })
+            .collect();
+        let text = contour_check(&kinked, 1.0);
+        assert!(
+            text.contains("the P^el kink at γ̇ τ_e = 1.0e-4 puts it at 0.7700 (2.5 grid steps away: does not agree)"),
+            "{text}"
+        );
+        assert!(text.ends_with("Does not hold here."), "{text}");
     }
 }
