@@ -761,6 +761,81 @@ fn re_sorting_into_cell_order_keeps_the_physics_and_every_contact() {
     assert!(worst < 1e-9, "positions drift apart by {worst}");
 }
 
+/// The virial a sample reads, computed in ranges of grains (on the steps' threads)
+/// and summed in order, against the straight loop's one pass: the same sums and
+/// contact count bit for bit, for any split and thread count.
+#[test]
+fn the_virial_in_ranges_gives_the_straight_loops_sums_bit_for_bit() {
+    use pillar_pipe::dem::shear::pairs::{PairParams, pair_loop, sum_virial, virial_terms};
+    use pillar_pipe::dem::shear::params::{Collisions, Virial};
+    let mut s = ShearSim::new(params(700, 0.84, Dissipation::Cdrot, 1e-2));
+    for _ in 0..300 {
+        s.step();
+    }
+    let got = s.virial();
+    let b = s.boundary();
+    let pp = PairParams::new(&s.p, s.l, b.offset(), s.time);
+    let g = &s.g;
+    let st = (
+        &g.x[..],
+        &g.y[..],
+        &g.vx[..],
+        &g.vy[..],
+        &g.omega[..],
+        &g.radius[..],
+    );
+    // The Verlet list (the near list's pairs and more, in the same order: the same
+    // contacts in the same order as the near list `virial` reads).
+    let (start, js) = (&s.list.start[..], &s.list.j[..]);
+    let n = g.len();
+    let (mut fx, mut fy, mut tq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut coll, mut want) = (Collisions::default(), Virial::default());
+    pair_loop::<false, true>(
+        st,
+        start,
+        js,
+        &mut [],
+        &pp,
+        &mut fx,
+        &mut fy,
+        &mut tq,
+        &mut coll,
+        &mut want,
+    );
+    assert!(
+        want.contacts > n,
+        "a dense packing: {} contacts",
+        want.contacts
+    );
+    let bits = |v: &Virial| {
+        let t: Vec<u64> = v.el.iter().chain(&v.dis).map(|x| x.to_bits()).collect();
+        (t, v.contacts)
+    };
+    assert_eq!(bits(&got), bits(&want));
+    for cuts in [
+        vec![0, n],
+        vec![0, 1, n],
+        vec![0, 350, 351, n],
+        vec![0, 100, 400, 650, n],
+    ] {
+        let terms: Vec<Vec<[f64; 8]>> = cuts
+            .windows(2)
+            .map(|w| {
+                let mut out = vec![[1.0; 8]];
+                virial_terms(st, (start, js), &pp, w[0]..w[1], &mut out);
+                out
+            })
+            .collect();
+        let sum = sum_virial(terms.iter().map(|t| &t[..]));
+        assert_eq!(bits(&sum), bits(&want), "{cuts:?}");
+    }
+    for threads in [2, 3] {
+        let mut t = s.clone();
+        t.threads = threads;
+        assert_eq!(bits(&t.virial()), bits(&want), "{threads} threads");
+    }
+}
+
 /// The vectorised two-pass kernel (`shear_slots`, each instruction-set version) against
 /// the straight loop (`shear_pairs::pair_loop`): every model and exponent, a dense and a
 /// dilute packing, long enough for contacts to make and break and the list to be

@@ -22,7 +22,7 @@ use crate::dem::base::grains::{Grains, LARGE, SMALL};
 use crate::dem::base::verlet::{Boundary, PairList};
 use crate::dem::shear::integrate::{Packed, Quad, correct, predict};
 use crate::dem::shear::near::Slots;
-use crate::dem::shear::pairs::{PairParams, pair_loop};
+use crate::dem::shear::pairs::{PairParams, pair_loop, sum_virial, virial_terms};
 use crate::dem::shear::slots::evaluate;
 #[cfg(target_arch = "x86_64")]
 use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
@@ -310,6 +310,10 @@ impl ShearSim {
     /// with the straight kernel, the Verlet list), made valid for the state first: the
     /// same sums, in the same order, as the straight loop over every pair.
     pub fn virial(&mut self) -> Virial {
+        // Ranges of grains on the steps' threads, summed in order: the sums of one
+        // pass, bit for bit (`pairs::virial_terms`), for any number of threads.
+        let threads = self.threads_stepping();
+        let team = self.par.lend_team(threads, self.step);
         let b = self.boundary();
         let g = &self.g;
         let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
@@ -328,15 +332,23 @@ impl ShearSim {
             self.slots.sync(&mut self.list, &g.radius, (&g.x, &g.y), b);
             (&self.slots.start[..], &self.slots.j[..self.slots.len()])
         };
-        let n = g.len();
-        let (mut fx, mut fy, mut tq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let (mut coll, mut vir) = (Collisions::default(), Virial::default());
-        // No history is read or written without HISTORY.
-        let no_hist = &mut [];
-        pair_loop::<false, true>(
-            st, start, js, no_hist, &pp, &mut fx, &mut fy, &mut tq, &mut coll, &mut vir,
-        );
-        vir
+        let ranges = crate::dem::base::verlet::even_ranges(g.len(), threads);
+        let (pp, list) = (&pp, (start, js));
+        let terms = crate::dem::backend::team::chunked(team.as_deref(), ranges, |grains| {
+            let mut out = Vec::new();
+            virial_terms(st, list, pp, grains, &mut out);
+            out
+        });
+        sum_virial(terms.iter().map(|t| &t[..]))
+    }
+
+    /// Threads the steps run on: [`ShearSim::threads_for_run`] where the packed steps
+    /// run, else one.
+    pub(crate) fn threads_stepping(&self) -> usize {
+        let packed = cfg!(target_arch = "x86_64")
+            && self.kernel == ShearKernel::Slots
+            && Packed::used_for(&self.p);
+        if packed { self.threads_for_run() } else { 1 }
     }
 
     /// One step of Eqs. 21–24.

@@ -7,7 +7,6 @@
 
 use crate::dem::base::verlet::PairList;
 use crate::dem::shear::ShearSim;
-use std::collections::HashMap;
 
 /// Steps between re-sorts (a sort costs about as much as a few steps at any N).
 pub const RESORT_EVERY: u64 = 1000;
@@ -30,21 +29,14 @@ impl ShearSim {
         if order.iter().enumerate().all(|(k, &i)| k == i) {
             return false;
         }
-        // History of every pair slot that holds some, under the new indices.
+        // The contacts' histories under the new indices, as a half list (j > i, rows
+        // ascending) the build below carries them from, pair by pair, as any build
+        // carries the previous list's.
         let mut new_of = vec![0u32; n];
         for (k, &i) in order.iter().enumerate() {
             new_of[i] = k as u32;
         }
-        let l = &self.list;
-        let mut history: HashMap<(u32, u32), f64> = HashMap::new();
-        for i in 0..n.min(l.start.len().saturating_sub(1)) {
-            for k in l.start[i] as usize..l.start[i + 1] as usize {
-                if l.shear[k] != 0.0 {
-                    let (a, b) = (new_of[i], new_of[l.j[k] as usize]);
-                    history.insert((a.min(b), a.max(b)), l.shear[k]);
-                }
-            }
-        }
+        self.list = remapped_history(&mut self.list, &new_of);
         self.g.permute(&order);
         self.pred.inv_m.clear();
         self.pred.inv_i.clear();
@@ -52,17 +44,60 @@ impl ShearSim {
             *v = order.iter().map(|&i| v[i]).collect();
         }
         let builds = self.list.builds;
-        let mut list = PairList::new(self.list.skin);
-        list.build(&self.g.x, &self.g.y, &self.g.radius, self.boundary());
-        for i in 0..n {
-            for k in list.start[i] as usize..list.start[i + 1] as usize {
-                if let Some(&h) = history.get(&(i as u32, list.j[k])) {
-                    list.shear[k] = h;
-                }
-            }
-        }
-        list.builds = builds + 1;
-        self.list = list;
+        // On the steps' threads where they run (the same list for any number).
+        self.list.spare.team = self.par.lend_team(self.threads_stepping(), self.step);
+        let b = self.boundary();
+        let g = &self.g;
+        self.list.build(&g.x, &g.y, &g.radius, b);
+        self.list.spare.team = None;
+        self.list.builds = builds + 1;
         true
     }
+}
+
+/// The pairs of `list` that hold a tangential spring, under the new indices `new_of`
+/// (old index → new), as a half list in CSR form (partners ascending) with those
+/// springs: what a build needs to carry each contact's history to the new order (a
+/// row-by-row merge, no hashing). Its skin and build count are `list`'s, its
+/// buffers `list`'s spares.
+fn remapped_history(list: &mut PairList, new_of: &[u32]) -> PairList {
+    let n = new_of.len();
+    let rows = n.min(list.start.len().saturating_sub(1));
+    let mut out = PairList::new(list.skin);
+    out.builds = list.builds;
+    out.spare = std::mem::take(&mut list.spare);
+    let list = &*list;
+    // Counted by row, placed, then each row (a few pairs) sorted.
+    let held = || {
+        (0..rows).flat_map(move |i| {
+            (list.start[i] as usize..list.start[i + 1] as usize)
+                .filter(|&k| list.shear[k] != 0.0)
+                .map(move |k| {
+                    let (a, b) = (new_of[i], new_of[list.j[k] as usize]);
+                    (a.min(b), a.max(b), list.shear[k])
+                })
+        })
+    };
+    out.start = vec![0; n + 1];
+    for (a, _, _) in held() {
+        out.start[a as usize + 1] += 1;
+    }
+    for a in 0..n {
+        out.start[a + 1] += out.start[a];
+    }
+    let total = out.start[n] as usize;
+    let mut next: Vec<u32> = out.start[..n].to_vec();
+    let mut row = vec![(0u32, 0.0f64); total];
+    for (a, b, h) in held() {
+        let at = &mut next[a as usize];
+        row[*at as usize] = (b, h);
+        *at += 1;
+    }
+    for a in 0..n {
+        // One entry per pair: a half list holds each pair once.
+        row[out.start[a] as usize..out.start[a + 1] as usize].sort_unstable_by_key(|e| e.0);
+    }
+    out.j = row.iter().map(|e| e.0).collect();
+    out.shear = row.iter().map(|e| e.1).collect();
+    out
 }

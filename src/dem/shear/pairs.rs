@@ -128,3 +128,62 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
         *out_vir = vir;
     }
 }
+
+/// The virial terms of the contacts of grains `grains` (their slots of the half list
+/// `start`, `js`) into `out` (cleared), in slot order: per contact f^el ⊗ r_ij, then
+/// f^dis ⊗ r_ij (Eqs. 12–13, each xx, xy, yx, yy), as `pair_loop` with `VIRIAL` adds
+/// them. [`sum_virial`] over every grain's terms in order gives its sums bit for bit,
+/// however the grains were split (ranges computed apart, on any threads).
+pub fn virial_terms(
+    (x, y, vx, vy, w, r): StateSlices,
+    (start, js): (&[u32], &[u32]),
+    pp: &PairParams,
+    grains: std::ops::Range<usize>,
+    out: &mut Vec<[f64; 8]>,
+) {
+    out.clear();
+    let (law, shear_v, image) = (&pp.law, pp.shear_v, pp.image);
+    for i in grains {
+        for &j in &js[start[i] as usize..start[i + 1] as usize] {
+            let j = j as usize;
+            let (dx, dy, img) = image.with_index(x[i] - x[j], y[i] - y[j]);
+            let m = Motion {
+                dvx: vx[i] - vx[j] - img * shear_v,
+                dvy: vy[i] - vy[j],
+                w_i: w[i],
+                w_j: w[j],
+            };
+            let mut no_history = 0.0;
+            let Some(c) = law.pair((dx, dy), (r[i], r[j]), m, &mut no_history, 0.0) else {
+                continue;
+            };
+            let (ex, ey) = (c.f_n * c.n.0, c.f_n * c.n.1);
+            let (ddx, ddy) = c.dis;
+            out.push([
+                ex * dx,
+                ex * dy,
+                ey * dx,
+                ey * dy,
+                ddx * dx,
+                ddx * dy,
+                ddy * dx,
+                ddy * dy,
+            ]);
+        }
+    }
+}
+
+/// The virial of the contacts whose terms ([`virial_terms`]) are `parts`, in order.
+pub fn sum_virial<'a>(parts: impl IntoIterator<Item = &'a [[f64; 8]]>) -> Virial {
+    let mut vir = Virial::default();
+    for terms in parts {
+        vir.contacts += terms.len();
+        for t in terms {
+            for a in 0..4 {
+                vir.el[a] += t[a];
+                vir.dis[a] += t[4 + a];
+            }
+        }
+    }
+    vir
+}

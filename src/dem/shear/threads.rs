@@ -56,6 +56,9 @@ pub struct ShearThreads {
     solo_until: u64,
     /// Length of the next fall-back (doubling while the machine stays busy).
     solo_len: u64,
+    /// The last window looked busy (one busy window alone, its share a little under
+    /// `FALLBACK_SHARE`, was seen on an idle VM; two in a row were not).
+    busy_before: bool,
     /// Threaded steps since the team's long waits were last looked at.
     window: u64,
     /// Steps that ran on one thread after falling back.
@@ -64,10 +67,19 @@ pub struct ShearThreads {
     in_steps: (f64, f64),
     /// Never fall back on its own (tests).
     pub(crate) no_fallback: bool,
+    /// The grains' split among the threads (see [`ShearThreads::rebalance`]).
+    bounds: Vec<usize>,
 }
 
-/// Every this many threaded steps, a busy machine sends the next `solo_len` steps to
-/// one thread, as the pillar's `advance` does: with a core taken by other work, a
+/// Steps timed on every part since the last re-balance below which it keeps the
+/// bounds (the median of fewer says little).
+const BALANCE_MIN_STEPS: usize = 3;
+/// Fraction of the way to the measured balance a re-balance moves the bounds (each
+/// measurement is a few tens of steps on a machine that is never quite quiet).
+const BALANCE_GAIN: f64 = 0.5;
+
+/// Every this many threaded steps the steps are looked at; two busy windows in a row
+/// send the next `solo_len` steps to one thread, as the pillar's `advance` does: with a core taken by other work, a
 /// share waits for the thread that took it to get its core back, several times a step
 /// (0.5–0.7× one thread measured at N = 16,384 and 65,536 with another program busy on
 /// one of two cores). Busy means more than `FALLBACK_LONG_WAITS` long waits of the
@@ -75,7 +87,8 @@ pub struct ShearThreads {
 /// during the steps (the process's CPU time over wall time and threads: a thread that
 /// works or spins counts; one waiting for its core does not: measured 0.44–0.6 per
 /// window with a core taken, 0.8–1.1 on the idle machine, a few quiet windows down
-/// to 0.72).
+/// to 0.72, and on an idle AMD guest down to 0.69, with runs of `bench shear` that
+/// fell back once for 256 steps on one busy window alone).
 const FALLBACK_WINDOW: u64 = 32;
 const FALLBACK_LONG_WAITS: usize = 8;
 const FALLBACK_SHARE: f64 = 0.65;
@@ -126,6 +139,12 @@ impl ShearThreads {
         }
     }
 
+    /// The team for `threads` threads to lend to work between steps (a re-sort's list
+    /// build), when the steps run on more than one; none on one or while fallen back.
+    pub(crate) fn lend_team(&mut self, threads: usize, step: u64) -> Option<Arc<Team>> {
+        (threads > 1 && step >= self.solo_until).then(|| self.team(threads))
+    }
+
     /// Whether the step after `step` runs on one thread (a fall-back is on); counts it.
     pub(crate) fn solo(&mut self, step: u64) -> bool {
         let solo = step < self.solo_until;
@@ -158,7 +177,11 @@ impl ShearThreads {
     /// their cores (the process's CPU time over the steps' wall time and threads).
     fn after_window(&mut self, step: u64, long_waits: usize, share: f64) {
         let busy = long_waits > FALLBACK_LONG_WAITS || share < FALLBACK_SHARE;
-        if busy && !self.no_fallback {
+        // A second busy window in a row, or the first after a fall-back (the machine
+        // still busy).
+        let confirmed = busy && (self.busy_before || self.solo_len > SOLO_FIRST);
+        self.busy_before = busy;
+        if confirmed && !self.no_fallback {
             let len = self.solo_len.clamp(SOLO_FIRST, SOLO_MAX);
             self.solo_until = step + len;
             self.solo_len = (2 * len).min(SOLO_MAX);
@@ -175,6 +198,41 @@ impl ShearThreads {
     /// Threads of the team the last threaded step ran on (0 without one).
     pub fn team_threads(&self) -> usize {
         self.team.as_ref().map_or(0, |t| t.size())
+    }
+
+    /// The split of n grains among `threads` threads: the current one, or an even one
+    /// for another n or thread count.
+    fn bounds_for(&mut self, n: usize, threads: usize) -> Vec<usize> {
+        if self.bounds.len() != threads + 1 || self.bounds.last() != Some(&n) {
+            self.bounds = bounds(n, threads);
+            self.parts.iter_mut().for_each(|p| p.times.clear());
+        }
+        self.bounds.clone()
+    }
+
+    /// At a new selection of the near list (when the threads' tables are made again
+    /// anyway): move the split towards equal time on every thread, from each part's
+    /// median seconds of work a step since the last re-balance (a median, so that one
+    /// step held up by the host does not move the split the wrong way, as the
+    /// pillar's threads found). A part may cost more a grain for its contacts, its
+    /// imports or its thread's core (a host that gives one core less time); any split
+    /// gives the same numbers.
+    fn rebalance(&mut self) -> Vec<usize> {
+        let measured =
+            self.parts.len() + 1 == self.bounds.len()
+                && self.parts.iter().zip(self.bounds.windows(2)).all(|(p, w)| {
+                    (p.lo, p.hi) == (w[0], w[1]) && p.times.len() >= BALANCE_MIN_STEPS
+                });
+        if measured {
+            let busy: Vec<f64> = self
+                .parts
+                .iter_mut()
+                .map(|p| crate::stats::median_select(&mut p.times))
+                .collect();
+            self.bounds = balanced(&self.bounds, &busy, BALANCE_GAIN);
+            self.parts.iter_mut().for_each(|p| p.times.clear());
+        }
+        self.bounds.clone()
     }
 
     /// The tables for the current selection of `slots` and split `bounds`, each made
@@ -239,6 +297,10 @@ struct Part {
     imports: Slots,
     acc: Vec<Quad>,
     log: Vec<Event>,
+    /// Seconds its shares took in the current step, and in each step since the last
+    /// re-balance (with these `lo`, `hi`).
+    busy: f64,
+    times: Vec<f64>,
     /// Never written (evaluations without tracking do not count).
     no_coll: Collisions,
 }
@@ -256,6 +318,40 @@ fn bounds(n: usize, threads: usize) -> Vec<usize> {
             }
         })
         .collect()
+}
+
+/// `bounds` (from 0 to n, ascending) moved `gain` of the way to where each part's
+/// work would take equal time, the work of a part's grains being `busy` (its seconds)
+/// spread evenly over them; each boundary a multiple of eight, each part at least
+/// eight grains (as in [`bounds`]). Unchanged when a part's time is not positive.
+fn balanced(bounds: &[usize], busy: &[f64], gain: f64) -> Vec<usize> {
+    let parts = bounds.len() - 1;
+    let n = bounds[parts];
+    let total: f64 = busy.iter().sum();
+    if busy.len() != parts || !busy.iter().all(|&b| b > 0.0 && b.is_finite()) || n < 8 * parts {
+        return bounds.to_vec();
+    }
+    let mut out = bounds.to_vec();
+    let (mut t, mut before) = (0, 0.0);
+    for (k, b) in out.iter_mut().enumerate().take(parts).skip(1) {
+        let want = total * k as f64 / parts as f64;
+        while before + busy[t] < want && t + 1 < parts {
+            before += busy[t];
+            t += 1;
+        }
+        let len = (bounds[t + 1] - bounds[t]) as f64;
+        let at = bounds[t] as f64 + (want - before) / busy[t] * len;
+        let moved = *b as f64 + gain * (at - *b as f64);
+        *b = (moved.round().max(0.0) as usize) & !7;
+    }
+    // Each part at least eight grains, from the first boundary up and the last down.
+    for k in 1..parts {
+        out[k] = out[k].max(out[k - 1] + 8);
+    }
+    for k in (1..parts).rev() {
+        out[k] = out[k].min((out[k + 1] - 8) & !7);
+    }
+    out
 }
 
 /// Cut `v` at `bounds` (ascending, from 0 to `v.len()`).
@@ -348,7 +444,7 @@ impl ShearSim {
         // For the fall-back's watch (two system calls a step of tens of microseconds
         // or more).
         let (clock, cpu) = (std::time::Instant::now(), cpu_seconds());
-        let bounds = bounds(n, threads);
+        let mut bounds = self.par.bounds_for(n, threads);
         let team = self.par.team(threads);
         // The Verlet list's rebuilds and the near list's selections, inside the syncs
         // below, run on the same threads.
@@ -393,6 +489,8 @@ impl ShearSim {
             answers.iter().try_fold(false, |a, s| s.map(|s| a | s))
         };
         if !self.slots.current(&self.list, n, b, strayed) {
+            // The tables are made again below: the time to move the split.
+            bounds = self.par.rebalance();
             let pr = &mut self.pred;
             pr.x.clear();
             pr.y.clear();
@@ -449,6 +547,7 @@ impl ShearSim {
                 .zip(now_vel);
             for ((((((((part, x), y), th), vx), vy), w), np), nv) in per {
                 jobs.push(move || {
+                    let clock = std::time::Instant::now();
                     let lo = part.lo;
                     let (mut tested, mut far) = (true, false);
                     let mut correct = |range: std::ops::Range<usize>,
@@ -480,6 +579,7 @@ impl ShearSim {
                     unsafe {
                         part_forces::<false>((&packed.pos, &packed.vel), part, pp, &mut correct)
                     };
+                    part.busy += clock.elapsed().as_secs_f64();
                     (tested, far)
                 });
             }
@@ -515,6 +615,7 @@ impl ShearSim {
                 .zip(tq)
                 .map(|(((part, fx), fy), tq)| {
                     move || {
+                        let clock = std::time::Instant::now();
                         if !synced {
                             part.own.copy_history(slots, part.k0);
                         }
@@ -529,6 +630,9 @@ impl ShearSim {
                         // SAFETY: AVX2 present; `packed_now` holds the n grains at
                         // t + Δt, which the near list was just made valid for.
                         unsafe { part_forces::<true>(state, part, pp, &mut unpack) };
+                        // The step's last phase.
+                        let busy = std::mem::take(&mut part.busy);
+                        part.times.push(busy + clock.elapsed().as_secs_f64());
                     }
                 })
                 .collect();
@@ -564,13 +668,16 @@ mod tests {
     use super::*;
     use crate::dem::shear::{Dissipation, ShearParams};
 
-    /// Busy windows send the next steps to one thread, for twice as long each time in
-    /// a row up to `SOLO_MAX`; a quiet window starts over.
+    /// Two busy windows in a row send the next steps to one thread, then each busy
+    /// window after a fall-back, for twice as long each time up to `SOLO_MAX`; a quiet
+    /// window starts over.
     #[test]
     fn busy_windows_fall_back_for_longer_and_longer() {
         let mut par = ShearThreads::default();
         par.after_window(100, FALLBACK_LONG_WAITS, FALLBACK_SHARE);
         assert_eq!(par.solo_until, 0, "at the threshold: no fall-back");
+        par.after_window(68, FALLBACK_LONG_WAITS + 1, 1.0);
+        assert_eq!(par.solo_until, 0, "one busy window: no fall-back");
         par.after_window(100, FALLBACK_LONG_WAITS + 1, 1.0);
         assert_eq!(par.solo_until, 100 + SOLO_FIRST);
         assert!(par.solo(99 + SOLO_FIRST) && !par.solo(100 + SOLO_FIRST));
@@ -581,11 +688,14 @@ mod tests {
             assert_eq!(par.solo_until - step, (SOLO_FIRST << k).min(SOLO_MAX));
             step = par.solo_until + FALLBACK_WINDOW;
         }
-        // A quiet window starts over; a busy one by the cores' share alone falls back.
+        // A quiet window starts over; two busy ones by the cores' share alone fall
+        // back.
         par.after_window(step, 0, 1.0);
         assert!(par.solo_until < step);
         par.after_window(step, 0, FALLBACK_SHARE - 0.1);
-        assert_eq!(par.solo_until - step, SOLO_FIRST);
+        assert!(par.solo_until < step, "one busy window after a quiet one");
+        par.after_window(step + 32, 0, FALLBACK_SHARE - 0.1);
+        assert_eq!(par.solo_until - step - 32, SOLO_FIRST);
     }
 
     /// Steps sent to one thread by a fall-back, and a team rebuilt for another thread
@@ -637,6 +747,103 @@ mod tests {
         assert_eq!(one.list.shear, other.list.shear);
         assert_eq!(one.coll, other.coll);
         assert!(one.coll.begun > 0);
+    }
+
+    /// The split moves to equal time by hand: part costs 3 and 1 over equal halves put
+    /// the boundary at 2/3 of the first half (gain 1), half-way there at gain 1/2;
+    /// three parts; a part never below eight grains; no time, no move.
+    #[test]
+    fn a_re_balance_moves_the_split_towards_equal_time() {
+        use super::balanced;
+        assert_eq!(balanced(&[0, 1000, 2000], &[3.0, 1.0], 1.0), [0, 664, 2000]);
+        assert_eq!(balanced(&[0, 1000, 2000], &[3.0, 1.0], 0.5), [0, 832, 2000]);
+        assert_eq!(
+            balanced(&[0, 1000, 2000], &[1.0, 1.0], 0.5),
+            [0, 1000, 2000]
+        );
+        // Thirds of 4: 1 + 1/3 in the second part, 2 + 2/3 in the third.
+        assert_eq!(
+            balanced(&[0, 800, 1600, 2400], &[1.0, 1.0, 2.0], 1.0),
+            [0, 1064, 1864, 2400]
+        );
+        assert_eq!(
+            balanced(&[0, 8, 16, 24], &[1000.0, 1.0, 1.0], 1.0),
+            [0, 8, 16, 24]
+        );
+        assert_eq!(
+            balanced(&[0, 1000, 2000], &[0.0, 1.0], 1.0),
+            [0, 1000, 2000]
+        );
+        // Grains costing 2 and 1 (a slow core's part, say): the boundary settles at
+        // a third of the grains.
+        let mut b = vec![0, 3000, 6000];
+        for _ in 0..12 {
+            let busy = [2.0 * b[1] as f64, (b[2] - b[1]) as f64];
+            b = balanced(&b, &busy, 0.5);
+        }
+        assert!((b[1] as i64 - 2000).abs() <= 8, "{b:?}");
+    }
+
+    /// Splits moved during a run (uneven, then the other way, then three threads)
+    /// give the one-thread run bit for bit.
+    #[test]
+    fn a_moved_split_gives_the_same_bits() {
+        if !std::is_x86_feature_detected!("avx2") {
+            eprintln!("SKIP: no AVX2: the steps do not run on threads here");
+            return;
+        }
+        let p = ShearParams {
+            n: 600,
+            phi: 0.84,
+            q: 1.0,
+            rate: 1e-2,
+            model: Dissipation::Cdrot,
+            alpha: 2.0,
+            dt: 0.05,
+            seed: 5,
+        };
+        let start = ShearSim::new(p);
+        let mut one = start.clone();
+        let mut other = start.clone();
+        one.threads = 1;
+        other.threads = 2;
+        other.par.no_fallback = true;
+        for k in 0..160 {
+            let set = match k {
+                40 => Some(96),
+                80 => Some(504),
+                120 => {
+                    other.threads = 3;
+                    None
+                }
+                _ => None,
+            };
+            if let Some(at) = set {
+                other.par.bounds = vec![0, at, 600];
+            }
+            one.step();
+            other.step();
+            if let Some(at) = set {
+                // The tables were split at the bounds set (the parts' times were for
+                // the old ones: no re-balance in that step).
+                let split: Vec<_> = other.par.parts.iter().map(|p| (p.lo, p.hi)).collect();
+                assert_eq!(split, [(0, at), (at, 600)]);
+            }
+        }
+        assert_eq!(other.par.team_threads(), 3);
+        assert_eq!(other.par.parts.len(), 3);
+        let bits = |s: &ShearSim| {
+            let g = &s.g;
+            [
+                &g.x, &g.y, &g.vx, &g.vy, &g.theta, &g.omega, &s.fx, &s.fy, &s.tq,
+            ]
+            .iter()
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .collect::<Vec<u64>>()
+        };
+        assert!(bits(&one) == bits(&other));
+        assert_eq!(one.list.shear, other.list.shear);
+        assert_eq!(one.coll, other.coll);
     }
 
     #[test]
