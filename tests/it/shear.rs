@@ -775,19 +775,11 @@ fn the_virial_in_ranges_gives_the_straight_loops_sums_bit_for_bit() {
     let got = s.virial();
     let b = s.boundary();
     let pp = PairParams::new(&s.p, s.l, b.offset(), s.time);
-    let g = &s.g;
-    let st = (
-        &g.x[..],
-        &g.y[..],
-        &g.vx[..],
-        &g.vy[..],
-        &g.omega[..],
-        &g.radius[..],
-    );
+    let st = s.state_slices();
     // The Verlet list (the near list's pairs and more, in the same order: the same
     // contacts in the same order as the near list `virial` reads).
     let (start, js) = (&s.list.start[..], &s.list.j[..]);
-    let n = g.len();
+    let n = s.g.len();
     let (mut fx, mut fy, mut tq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let (mut coll, mut want) = (Collisions::default(), Virial::default());
     pair_loop::<false, true>(

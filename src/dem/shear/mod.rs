@@ -265,6 +265,12 @@ impl ShearSim {
         }
     }
 
+    /// The state as the pair loops read it: x, y, v_x, v_y, ω, R.
+    pub fn state_slices(&self) -> crate::dem::shear::params::StateSlices<'_> {
+        let g = &self.g;
+        (&g.x, &g.y, &g.vx, &g.vy, &g.omega, &g.radius)
+    }
+
     /// Threads the steps run on: `threads_for_run()` where the steps run packed (the
     /// harmonic law's vector kernels), else one.
     pub fn step_threads_used(&self) -> usize {
@@ -312,19 +318,11 @@ impl ShearSim {
     pub fn virial(&mut self) -> Virial {
         // Ranges of grains on the steps' threads, summed in order: the sums of one
         // pass, bit for bit (`pairs::virial_terms`), for any number of threads.
-        let threads = self.threads_stepping();
+        let threads = self.step_threads_used();
         let team = self.par.lend_team(threads, self.step);
         let b = self.boundary();
         let g = &self.g;
         let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
-        let st = (
-            &g.x[..],
-            &g.y[..],
-            &g.vx[..],
-            &g.vy[..],
-            &g.omega[..],
-            &g.radius[..],
-        );
         let (start, js) = if self.kernel == ShearKernel::Straight {
             self.list.update(&g.x, &g.y, &g.radius, b);
             (&self.list.start[..], &self.list.j[..])
@@ -333,22 +331,13 @@ impl ShearSim {
             (&self.slots.start[..], &self.slots.j[..self.slots.len()])
         };
         let ranges = crate::dem::base::verlet::even_ranges(g.len(), threads);
-        let (pp, list) = (&pp, (start, js));
+        let (pp, list, st) = (&pp, (start, js), self.state_slices());
         let terms = crate::dem::backend::team::chunked(team.as_deref(), ranges, |grains| {
             let mut out = Vec::new();
             virial_terms(st, list, pp, grains, &mut out);
             out
         });
         sum_virial(terms.iter().map(|t| &t[..]))
-    }
-
-    /// Threads the steps run on: [`ShearSim::threads_for_run`] where the packed steps
-    /// run, else one.
-    pub(crate) fn threads_stepping(&self) -> usize {
-        let packed = cfg!(target_arch = "x86_64")
-            && self.kernel == ShearKernel::Slots
-            && Packed::used_for(&self.p);
-        if packed { self.threads_for_run() } else { 1 }
     }
 
     /// One step of Eqs. 21–24.

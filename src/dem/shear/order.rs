@@ -45,7 +45,7 @@ impl ShearSim {
         }
         let builds = self.list.builds;
         // On the steps' threads where they run (the same list for any number).
-        self.list.spare.team = self.par.lend_team(self.threads_stepping(), self.step);
+        self.list.spare.team = self.par.lend_team(self.step_threads_used(), self.step);
         let b = self.boundary();
         let g = &self.g;
         self.list.build(&g.x, &g.y, &g.radius, b);

@@ -86,14 +86,7 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
     for i in 0..x.len() {
         for k in start[i] as usize..start[i + 1] as usize {
             let j = js[k] as usize;
-            let (dx, dy, img) = image.with_index(x[i] - x[j], y[i] - y[j]);
-            // Relative velocity; j's image moves img·γ̇L faster along x.
-            let m = Motion {
-                dvx: vx[i] - vx[j] - img * shear_v,
-                dvy: vy[i] - vy[j],
-                w_i: w[i],
-                w_j: w[j],
-            };
+            let ((dx, dy), m) = separation_and_motion((x, y, vx, vy, w), (i, j), image, shear_v);
             let mut no_history = 0.0;
             let c = law.pair((dx, dy), (r[i], r[j]), m, &mut no_history, 0.0);
             if track {
@@ -129,6 +122,25 @@ pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
     }
 }
 
+/// The separation r_i − r_j of pair (i, j) (its minimum image) and their relative
+/// motion: j's image moves img·γ̇L faster along x (`shear_v` = γ̇L).
+#[inline(always)]
+fn separation_and_motion(
+    (x, y, vx, vy, w): crate::dem::shear::integrate::Slices5,
+    (i, j): (usize, usize),
+    image: MinImage,
+    shear_v: f64,
+) -> ((f64, f64), Motion) {
+    let (dx, dy, img) = image.with_index(x[i] - x[j], y[i] - y[j]);
+    let m = Motion {
+        dvx: vx[i] - vx[j] - img * shear_v,
+        dvy: vy[i] - vy[j],
+        w_i: w[i],
+        w_j: w[j],
+    };
+    ((dx, dy), m)
+}
+
 /// The virial terms of the contacts of grains `grains` (their slots of the half list
 /// `start`, `js`) into `out` (cleared), in slot order: per contact f^el ⊗ r_ij, then
 /// f^dis ⊗ r_ij (Eqs. 12–13, each xx, xy, yx, yy), as `pair_loop` with `VIRIAL` adds
@@ -146,13 +158,7 @@ pub fn virial_terms(
     for i in grains {
         for &j in &js[start[i] as usize..start[i + 1] as usize] {
             let j = j as usize;
-            let (dx, dy, img) = image.with_index(x[i] - x[j], y[i] - y[j]);
-            let m = Motion {
-                dvx: vx[i] - vx[j] - img * shear_v,
-                dvy: vy[i] - vy[j],
-                w_i: w[i],
-                w_j: w[j],
-            };
+            let ((dx, dy), m) = separation_and_motion((x, y, vx, vy, w), (i, j), image, shear_v);
             let mut no_history = 0.0;
             let Some(c) = law.pair((dx, dy), (r[i], r[j]), m, &mut no_history, 0.0) else {
                 continue;

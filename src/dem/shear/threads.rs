@@ -668,6 +668,32 @@ mod tests {
     use super::*;
     use crate::dem::shear::{Dissipation, ShearParams};
 
+    /// 600 disks at φ = 0.84, CDrot, γ̇ = 1e-2: contacts made and broken within a few
+    /// hundred steps.
+    fn dense_600(seed: u64) -> ShearSim {
+        ShearSim::new(ShearParams {
+            n: 600,
+            phi: 0.84,
+            q: 1.0,
+            rate: 1e-2,
+            model: Dissipation::Cdrot,
+            alpha: 2.0,
+            dt: 0.05,
+            seed,
+        })
+    }
+
+    /// Every grain's state and force, as bits.
+    fn bits(s: &ShearSim) -> Vec<u64> {
+        let g = &s.g;
+        [
+            &g.x, &g.y, &g.vx, &g.vy, &g.theta, &g.omega, &s.fx, &s.fy, &s.tq,
+        ]
+        .iter()
+        .flat_map(|v| v.iter().map(|x| x.to_bits()))
+        .collect()
+    }
+
     /// Two busy windows in a row send the next steps to one thread, then each busy
     /// window after a fall-back, for twice as long each time up to `SOLO_MAX`; a quiet
     /// window starts over.
@@ -706,17 +732,7 @@ mod tests {
             eprintln!("SKIP: no AVX2: the steps do not run on threads here");
             return;
         }
-        let p = ShearParams {
-            n: 600,
-            phi: 0.84,
-            q: 1.0,
-            rate: 1e-2,
-            model: Dissipation::Cdrot,
-            alpha: 2.0,
-            dt: 0.05,
-            seed: 3,
-        };
-        let start = ShearSim::new(p);
+        let start = dense_600(3);
         let run = |threads: &dyn Fn(u64) -> usize, solo_at: Option<u64>| {
             let mut s = start.clone();
             // Only the fall-back asked for below (this machine may be busy).
@@ -734,15 +750,6 @@ mod tests {
         let other = run(&|k| if k < 100 { 2 } else { 3 }, Some(40));
         assert_eq!(other.par.solo_steps, 30);
         assert_eq!(other.par.team_threads(), 3, "a new team for three threads");
-        let bits = |s: &ShearSim| {
-            let g = &s.g;
-            [
-                &g.x, &g.y, &g.vx, &g.vy, &g.theta, &g.omega, &s.fx, &s.fy, &s.tq,
-            ]
-            .iter()
-            .flat_map(|v| v.iter().map(|x| x.to_bits()))
-            .collect::<Vec<u64>>()
-        };
         assert!(bits(&one) == bits(&other));
         assert_eq!(one.list.shear, other.list.shear);
         assert_eq!(one.coll, other.coll);
@@ -792,17 +799,7 @@ mod tests {
             eprintln!("SKIP: no AVX2: the steps do not run on threads here");
             return;
         }
-        let p = ShearParams {
-            n: 600,
-            phi: 0.84,
-            q: 1.0,
-            rate: 1e-2,
-            model: Dissipation::Cdrot,
-            alpha: 2.0,
-            dt: 0.05,
-            seed: 5,
-        };
-        let start = ShearSim::new(p);
+        let start = dense_600(5);
         let mut one = start.clone();
         let mut other = start.clone();
         one.threads = 1;
@@ -832,15 +829,6 @@ mod tests {
         }
         assert_eq!(other.par.team_threads(), 3);
         assert_eq!(other.par.parts.len(), 3);
-        let bits = |s: &ShearSim| {
-            let g = &s.g;
-            [
-                &g.x, &g.y, &g.vx, &g.vy, &g.theta, &g.omega, &s.fx, &s.fy, &s.tq,
-            ]
-            .iter()
-            .flat_map(|v| v.iter().map(|x| x.to_bits()))
-            .collect::<Vec<u64>>()
-        };
         assert!(bits(&one) == bits(&other));
         assert_eq!(one.list.shear, other.list.shear);
         assert_eq!(one.coll, other.coll);
