@@ -716,6 +716,8 @@ fn re_sorting_into_cell_order_keeps_the_physics_and_every_contact() {
         a.step();
     }
     let mut b = a.clone();
+    // Its list built on two threads (the steps' team): the same list.
+    b.threads = 2;
     assert!(
         b.resort(),
         "400 steps of shear should have scrambled the order"
@@ -766,7 +768,7 @@ fn re_sorting_into_cell_order_keeps_the_physics_and_every_contact() {
 /// contact count bit for bit, for any split and thread count.
 #[test]
 fn the_virial_in_ranges_gives_the_straight_loops_sums_bit_for_bit() {
-    use pillar_pipe::dem::shear::pairs::{PairParams, pair_loop, sum_virial, virial_terms};
+    use pillar_pipe::dem::shear::pairs::{PairParams, add_virial, for_each_virial_term, pair_loop};
     use pillar_pipe::dem::shear::params::{Collisions, Virial};
     let mut s = ShearSim::new(params(700, 0.84, Dissipation::Cdrot, 1e-2));
     for _ in 0..300 {
@@ -810,15 +812,20 @@ fn the_virial_in_ranges_gives_the_straight_loops_sums_bit_for_bit() {
         vec![0, 350, 351, n],
         vec![0, 100, 400, 650, n],
     ] {
+        // Each range's terms apart (as threads make them), then added in order.
         let terms: Vec<Vec<[f64; 8]>> = cuts
             .windows(2)
             .map(|w| {
-                let mut out = vec![[1.0; 8]];
-                virial_terms(st, (start, js), &pp, w[0]..w[1], &mut out);
+                let mut out = Vec::new();
+                for_each_virial_term(st, (start, js), &pp, w[0]..w[1], |t| out.push(t));
                 out
             })
             .collect();
-        let sum = sum_virial(terms.iter().map(|t| &t[..]));
+        let mut sum = Virial::default();
+        terms
+            .iter()
+            .flatten()
+            .for_each(|&t| add_virial(&mut sum, t));
         assert_eq!(bits(&sum), bits(&want), "{cuts:?}");
     }
     for threads in [2, 3] {

@@ -168,6 +168,17 @@ impl Team {
         self.long_waits.swap(0, Ordering::Relaxed)
     }
 
+    /// `f` (jobs of this team, from thread 0) with its long waits not counted: work
+    /// lent to the team between the jobs whose waits are watched (a worker asleep
+    /// after a stretch of serial work makes the first wait long, which says nothing
+    /// about the machine).
+    pub fn uncounted<R>(&self, f: impl FnOnce() -> R) -> R {
+        let before = self.long_waits.load(Ordering::Relaxed);
+        let r = f();
+        self.long_waits.store(before, Ordering::Relaxed);
+        r
+    }
+
     /// `job(s)` for each share s in 0..`shares` (at most the team's size), share t
     /// meant for thread t (share 0 on the calling thread), a share no thread has
     /// started taken by any that is free; returns when every share is done. A panic in

@@ -22,7 +22,7 @@ use crate::dem::base::grains::{Grains, LARGE, SMALL};
 use crate::dem::base::verlet::{Boundary, PairList};
 use crate::dem::shear::integrate::{Packed, Quad, correct, predict};
 use crate::dem::shear::near::Slots;
-use crate::dem::shear::pairs::{PairParams, pair_loop, sum_virial, virial_terms};
+use crate::dem::shear::pairs::{PairParams, add_virial, for_each_virial_term, pair_loop};
 use crate::dem::shear::slots::evaluate;
 #[cfg(target_arch = "x86_64")]
 use crate::dem::shear::slots::{evaluate_packed, evaluate_packed_into};
@@ -312,14 +312,15 @@ impl ShearSim {
 
     /// The virial sums Σ f ⊗ r_ij (Eqs. 12–13) and the contact count of the current
     /// state, computed when asked: only the states the outputs sample need them, so the
-    /// step does not carry them. One pass of the straight loop over the near list (or,
-    /// with the straight kernel, the Verlet list), made valid for the state first: the
-    /// same sums, in the same order, as the straight loop over every pair.
+    /// step does not carry them. The straight loop's terms over the near list (or, with
+    /// the straight kernel, the Verlet list), made valid for the state first, in ranges
+    /// of grains on the steps' threads: the same sums, in the same order, as the
+    /// straight loop over every pair.
     pub fn virial(&mut self) -> Virial {
         // Ranges of grains on the steps' threads, summed in order: the sums of one
-        // pass, bit for bit (`pairs::virial_terms`), for any number of threads.
+        // pass, bit for bit (`pairs::for_each_virial_term`), for any number of threads.
         let threads = self.step_threads_used();
-        let team = self.par.lend_team(threads, self.step);
+        let team = self.lent_team();
         let b = self.boundary();
         let g = &self.g;
         let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
@@ -332,12 +333,40 @@ impl ShearSim {
         };
         let ranges = crate::dem::base::verlet::even_ranges(g.len(), threads);
         let (pp, list, st) = (&pp, (start, js), self.state_slices());
-        let terms = crate::dem::backend::team::chunked(team.as_deref(), ranges, |grains| {
-            let mut out = Vec::new();
-            virial_terms(st, list, pp, grains, &mut out);
-            out
-        });
-        sum_virial(terms.iter().map(|t| &t[..]))
+        // The first range sums as it goes; the others keep their terms, added after.
+        let parts = ranges.into_iter().enumerate().collect();
+        let run = || {
+            crate::dem::backend::team::chunked(team.as_deref(), parts, |(k, grains)| {
+                let (mut vir, mut terms) = (Virial::default(), Vec::new());
+                if k == 0 {
+                    for_each_virial_term(st, list, pp, grains, |t| add_virial(&mut vir, t));
+                } else {
+                    for_each_virial_term(st, list, pp, grains, |t| terms.push(t));
+                }
+                (vir, terms)
+            })
+        };
+        let parts = match team.as_deref() {
+            Some(t) => t.uncounted(run),
+            None => run(),
+        };
+        let mut parts = parts.into_iter();
+        let (mut vir, _) = parts.next().unwrap_or_default();
+        for (_, terms) in parts {
+            terms.into_iter().for_each(|t| add_virial(&mut vir, t));
+        }
+        vir
+    }
+
+    /// The steps' team, lent to work between steps (none on one thread).
+    fn lent_team(&mut self) -> Option<std::sync::Arc<crate::dem::backend::team::Team>> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let threads = self.step_threads_used();
+            self.par.lend_team(threads, self.step)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        None
     }
 
     /// One step of Eqs. 21–24.

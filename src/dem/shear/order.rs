@@ -45,10 +45,15 @@ impl ShearSim {
         }
         let builds = self.list.builds;
         // On the steps' threads where they run (the same list for any number).
-        self.list.spare.team = self.par.lend_team(self.step_threads_used(), self.step);
+        let team = self.lent_team();
+        self.list.spare.team = team.clone();
         let b = self.boundary();
         let g = &self.g;
-        self.list.build(&g.x, &g.y, &g.radius, b);
+        let mut build = || self.list.build(&g.x, &g.y, &g.radius, b);
+        match team.as_deref() {
+            Some(t) => t.uncounted(build),
+            None => build(),
+        }
         self.list.spare.team = None;
         self.list.builds = builds + 1;
         true

@@ -142,18 +142,17 @@ fn separation_and_motion(
 }
 
 /// The virial terms of the contacts of grains `grains` (their slots of the half list
-/// `start`, `js`) into `out` (cleared), in slot order: per contact f^el ⊗ r_ij, then
+/// `start`, `js`), each to `f` in slot order: per contact f^el ⊗ r_ij, then
 /// f^dis ⊗ r_ij (Eqs. 12–13, each xx, xy, yx, yy), as `pair_loop` with `VIRIAL` adds
-/// them. [`sum_virial`] over every grain's terms in order gives its sums bit for bit,
-/// however the grains were split (ranges computed apart, on any threads).
-pub fn virial_terms(
+/// them. Added in order over every grain ([`add_virial`]) they give its sums bit for
+/// bit, however the grains were split (ranges computed apart, on any threads).
+pub fn for_each_virial_term(
     (x, y, vx, vy, w, r): StateSlices,
     (start, js): (&[u32], &[u32]),
     pp: &PairParams,
     grains: std::ops::Range<usize>,
-    out: &mut Vec<[f64; 8]>,
+    mut f: impl FnMut([f64; 8]),
 ) {
-    out.clear();
     let (law, shear_v, image) = (&pp.law, pp.shear_v, pp.image);
     for i in grains {
         for &j in &js[start[i] as usize..start[i + 1] as usize] {
@@ -165,7 +164,7 @@ pub fn virial_terms(
             };
             let (ex, ey) = (c.f_n * c.n.0, c.f_n * c.n.1);
             let (ddx, ddy) = c.dis;
-            out.push([
+            f([
                 ex * dx,
                 ex * dy,
                 ey * dx,
@@ -179,17 +178,11 @@ pub fn virial_terms(
     }
 }
 
-/// The virial of the contacts whose terms ([`virial_terms`]) are `parts`, in order.
-pub fn sum_virial<'a>(parts: impl IntoIterator<Item = &'a [[f64; 8]]>) -> Virial {
-    let mut vir = Virial::default();
-    for terms in parts {
-        vir.contacts += terms.len();
-        for t in terms {
-            for a in 0..4 {
-                vir.el[a] += t[a];
-                vir.dis[a] += t[4 + a];
-            }
-        }
+/// One contact's virial terms ([`for_each_virial_term`]) added to `vir`.
+pub fn add_virial(vir: &mut Virial, t: [f64; 8]) {
+    vir.contacts += 1;
+    for a in 0..4 {
+        vir.el[a] += t[a];
+        vir.dis[a] += t[4 + a];
     }
-    vir
 }

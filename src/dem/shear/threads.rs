@@ -74,13 +74,16 @@ pub struct ShearThreads {
 /// Steps timed on every part since the last re-balance below which it keeps the
 /// bounds (the median of fewer says little).
 const BALANCE_MIN_STEPS: usize = 3;
+/// Steps kept (the latest) for a re-balance when selections are rare (low rates).
+const BALANCE_MAX_STEPS: usize = 128;
 /// Fraction of the way to the measured balance a re-balance moves the bounds (each
 /// measurement is a few tens of steps on a machine that is never quite quiet).
 const BALANCE_GAIN: f64 = 0.5;
 
 /// Every this many threaded steps the steps are looked at; two busy windows in a row
-/// send the next `solo_len` steps to one thread, as the pillar's `advance` does: with a core taken by other work, a
-/// share waits for the thread that took it to get its core back, several times a step
+/// send the next `solo_len` steps to one thread, as the pillar's `advance` does: with
+/// a core taken by other work, a share waits for the thread that took it to get its
+/// core back, several times a step
 /// (0.5–0.7× one thread measured at N = 16,384 and 65,536 with another program busy on
 /// one of two cores). Busy means more than `FALLBACK_LONG_WAITS` long waits of the
 /// calling thread, or the threads getting less than `FALLBACK_SHARE` of their cores
@@ -140,7 +143,8 @@ impl ShearThreads {
     }
 
     /// The team for `threads` threads to lend to work between steps (a re-sort's list
-    /// build), when the steps run on more than one; none on one or while fallen back.
+    /// build, a sample's virial; run it through [`Team::uncounted`]), when the steps
+    /// run on more than one; none on one or while fallen back.
     pub(crate) fn lend_team(&mut self, threads: usize, step: u64) -> Option<Arc<Team>> {
         (threads > 1 && step >= self.solo_until).then(|| self.team(threads))
     }
@@ -182,6 +186,8 @@ impl ShearThreads {
         let confirmed = busy && (self.busy_before || self.solo_len > SOLO_FIRST);
         self.busy_before = busy;
         if confirmed && !self.no_fallback {
+            // The busy windows' times would steer the next re-balance.
+            self.parts.iter_mut().for_each(|p| p.times.clear());
             let len = self.solo_len.clamp(SOLO_FIRST, SOLO_MAX);
             self.solo_until = step + len;
             self.solo_len = (2 * len).min(SOLO_MAX);
@@ -210,8 +216,9 @@ impl ShearThreads {
         self.bounds.clone()
     }
 
-    /// At a new selection of the near list (when the threads' tables are made again
-    /// anyway): move the split towards equal time on every thread, from each part's
+    /// At a new selection of the near list found by the predictor's stray test (when
+    /// the threads' tables are made again anyway; one found after the corrector keeps
+    /// the split): move the split towards equal time on every thread, from each part's
     /// median seconds of work a step since the last re-balance (a median, so that one
     /// step held up by the host does not move the split the wrong way, as the
     /// pillar's threads found). A part may cost more a grain for its contacts, its
@@ -254,8 +261,10 @@ impl ShearThreads {
             .map(|(t, p)| {
                 move || {
                     if moved {
-                        // Sums another share left (outside its range) would be read now.
+                        // Sums another share left (outside its range) would be read
+                        // now; times were for the old range.
                         p.acc.clear();
+                        p.times.clear();
                     }
                     p.lo = bounds[t];
                     p.hi = bounds[t + 1];
@@ -342,7 +351,7 @@ fn balanced(bounds: &[usize], busy: &[f64], gain: f64) -> Vec<usize> {
         let len = (bounds[t + 1] - bounds[t]) as f64;
         let at = bounds[t] as f64 + (want - before) / busy[t] * len;
         let moved = *b as f64 + gain * (at - *b as f64);
-        *b = (moved.round().max(0.0) as usize) & !7;
+        *b = 8 * (moved / 8.0).round().max(0.0) as usize;
     }
     // Each part at least eight grains, from the first boundary up and the last down.
     for k in 1..parts {
@@ -632,6 +641,9 @@ impl ShearSim {
                         unsafe { part_forces::<true>(state, part, pp, &mut unpack) };
                         // The step's last phase.
                         let busy = std::mem::take(&mut part.busy);
+                        if part.times.len() == BALANCE_MAX_STEPS {
+                            part.times.drain(..BALANCE_MAX_STEPS / 2);
+                        }
                         part.times.push(busy + clock.elapsed().as_secs_f64());
                     }
                 })

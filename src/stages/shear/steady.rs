@@ -91,7 +91,9 @@ impl Steady {
         let shear_v = sim.p.rate * l;
         let r2max = FIELD_RADIUS * FIELD_RADIUS;
         // Grid points apart (each sums its disks in order: the same numbers on any
-        // number of threads), k = c g + a.
+        // number of threads), k = c g + a; on rayon's threads unless the run asked for
+        // one, or runs inside rayon's pool already (a sweep's point, whose waiting
+        // thread could take up another whole run meanwhile).
         use rayon::prelude::*;
         let point = |k: usize| {
             let (a, c) = (k % g, k / g);
@@ -118,7 +120,11 @@ impl Steady {
             let gdot = (n >= 3.0 && den > 0.0).then(|| (n * syv - sy * sv) / den);
             (area / (std::f64::consts::PI * r2max), gdot)
         };
-        let points: Vec<_> = (0..g * g).into_par_iter().map(point).collect();
+        let points: Vec<_> = if sim.threads == 1 || rayon::current_thread_index().is_some() {
+            (0..g * g).map(point).collect()
+        } else {
+            (0..g * g).into_par_iter().map(point).collect()
+        };
         for (k, (phi, gdot)) in points.into_iter().enumerate() {
             self.field_phi[k] += phi;
             if let Some(gdot) = gdot {
