@@ -360,13 +360,15 @@ impl ShearSim {
 
     /// The steps' team, lent to work between steps (none on one thread).
     fn lent_team(&mut self) -> Option<std::sync::Arc<crate::dem::backend::team::Team>> {
+        // (The threads' cache exists only on x86_64.)
         #[cfg(target_arch = "x86_64")]
-        {
+        let team = {
             let threads = self.step_threads_used();
             self.par.lend_team(threads, self.step)
-        }
+        };
         #[cfg(not(target_arch = "x86_64"))]
-        None
+        let team = None;
+        team
     }
 
     /// One step of Eqs. 21–24.
