@@ -62,7 +62,8 @@ impl PairParams {
 /// Forces and torques of the contacts in the half list (`start`, `js`) into `fx`, `fy`,
 /// `tq` (overwritten); with `HISTORY`, per-pair history `hist` (0, or 1 + start time) and
 /// the collision counters; with `VIRIAL`, the contact count and the virial sums
-/// Σ f ⊗ r_ij into `out_vir`.
+/// Σ f ⊗ r_ij into `out_vir` (units m d_s²/τ_e²; the reference the sampled virial's
+/// ranges, [`for_each_virial_term`], are tested against).
 #[allow(clippy::too_many_arguments)]
 pub fn pair_loop<const HISTORY: bool, const VIRIAL: bool>(
     (x, y, vx, vy, w, r): StateSlices,

@@ -380,17 +380,7 @@ mod tests {
     use super::*;
 
     fn row(phi: f64, rate: f64, p: f64, mu: f64, r_v: f64) -> Row {
-        Row {
-            phi,
-            q: 1.0,
-            rate,
-            v: [
-                ("p".to_string(), (p, 0.0)),
-                ("mu".to_string(), (mu, 0.0)),
-                ("r_v".to_string(), (r_v, 0.0)),
-            ]
-            .into(),
-        }
+        Row::with(phi, 1.0, rate, &[("p", p), ("mu", mu), ("r_v", r_v)])
     }
 
     /// P = γ̇² e^{100 φ} at every φ: the contour P_0 is γ̇ = √(P_0 e^{−100 φ}), exact

@@ -44,6 +44,16 @@ pub struct Row {
 }
 
 impl Row {
+    /// A test row at (φ, Q, γ̇) with the values given (no error bars).
+    #[cfg(test)]
+    pub(crate) fn with(phi: f64, q: f64, rate: f64, values: &[(&str, f64)]) -> Row {
+        let v = values
+            .iter()
+            .map(|&(k, x)| (k.to_string(), (x, 0.0)))
+            .collect();
+        Row { phi, q, rate, v }
+    }
+
     fn get(&self, k: &str) -> Option<(f64, f64)> {
         self.v.get(k).copied().filter(|(m, _)| m.is_finite())
     }

@@ -518,18 +518,8 @@ mod tests {
     use super::*;
 
     fn row(phi: f64, rate: f64, p: f64, sigma: f64, r_v: f64) -> Row {
-        Row {
-            phi,
-            q: 1.0,
-            rate,
-            v: [
-                ("p".to_string(), (p, 0.0)),
-                ("sigma".to_string(), (sigma, 0.0)),
-                ("mu".to_string(), (sigma / p, 0.0)),
-                ("r_v".to_string(), (r_v, 0.0)),
-            ]
-            .into(),
-        }
+        let values = [("p", p), ("sigma", sigma), ("mu", sigma / p), ("r_v", r_v)];
+        Row::with(phi, 1.0, rate, &values)
     }
 
     /// A planted grid: φ 0.76–0.84 by 0.01 at rates 1e-5, 1e-4, 1e-3. Banded (R_v = 10)
