@@ -113,6 +113,12 @@ impl CheckpointClock {
         self.every > 0 && step.is_multiple_of(self.every)
     }
 
+    /// Steps from `step` to the next at which [`CheckpointClock::due_by_steps`] holds
+    /// (`None`: never).
+    pub fn steps_to_due(&self, step: u64) -> Option<u64> {
+        (self.every > 0).then(|| self.every - step % self.every)
+    }
+
     /// Whether a checkpoint is due now for the wall time or a signal.
     pub fn due_now(&self) -> bool {
         requested().is_some()

@@ -380,23 +380,17 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
     let mut s = ShearSim::new(p);
     // The headline figures on one thread, as they always were.
     s.threads = 1;
-    for _ in 0..warmup {
-        s.step();
-    }
+    shear_steps(&mut s, warmup);
     let mut unsorted = s.clone();
     unsorted.resort_every = 0;
     let t = Instant::now();
-    for _ in 0..steps {
-        unsorted.step();
-    }
+    shear_steps(&mut unsorted, steps);
     let seconds_unsorted = t.elapsed().as_secs_f64();
     // Time from the first re-sort on, as a long run sees it.
     s.resort();
     let (b0, s0) = (s.list.builds, s.slots.selections);
     let t = Instant::now();
-    for _ in 0..steps {
-        s.step();
-    }
+    shear_steps(&mut s, steps);
     let seconds = t.elapsed().as_secs_f64();
     let (one, two, same, solo) = time_shear_threads(&s, steps);
     let per = |secs: f64| secs / (n as f64 * steps as f64) * 1e9;
@@ -417,6 +411,16 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
     }
 }
 
+/// `steps` steps of `s` as `simulate shear` makes them: in calls of its default
+/// sample interval (the steps between two samples are one `ShearSim::steps` call).
+fn shear_steps(s: &mut crate::dem::shear::ShearSim, steps: u64) {
+    let every = crate::stages::shear::SAMPLE_EVERY;
+    for _ in 0..steps / every {
+        s.steps(every);
+    }
+    s.steps(steps % every);
+}
+
 /// `steps` steps from `start` on one thread and on two, alternating for
 /// `THREAD_ROUNDS` rounds: the median seconds of each, and whether every run ended in
 /// the same grains, forces and contact counts bit for bit; and the steps of the
@@ -430,9 +434,7 @@ fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, 
             let mut s = start.clone();
             s.threads = threads;
             let t = Instant::now();
-            for _ in 0..steps {
-                s.step();
-            }
+            shear_steps(&mut s, steps);
             times[k].push(t.elapsed().as_secs_f64());
             solo += s.solo_steps();
             // Its team's threads end here, not sleep on through the later rounds.

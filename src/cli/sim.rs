@@ -241,7 +241,7 @@ pub struct ShearArgs {
     #[arg(long)]
     output_every: Option<u64>,
     /// Steps between samples of the series.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = pillar_pipe::stages::shear::SAMPLE_EVERY)]
     sample_every: u64,
     /// Fraction of the run discarded before averaging.
     #[arg(long, default_value_t = 0.25)]
@@ -436,7 +436,7 @@ pub struct SweepArgs {
     #[arg(long)]
     output_every: Option<u64>,
     /// Steps between samples of the series.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = pillar_pipe::stages::shear::SAMPLE_EVERY)]
     sample_every: u64,
     /// Fraction of each run discarded before averaging.
     #[arg(long, default_value_t = 0.25)]

@@ -385,3 +385,131 @@ pub(crate) fn unpack_forces(f: &mut [Quad], (fx, fy, tq): (&mut [f64], &mut [f64
     // SAFETY: AVX2 present and every length n (checked above).
     unsafe { unpack_x4(f, fx, fy, tq) }
 }
+
+/// The state at t packed (the corrector's records: (x, y) and (v_x, v_y, ω, R)) and
+/// 1/m, 1/I of some grains: what the next step's prediction reads besides the forces.
+pub(crate) struct Packed0<'a> {
+    pub pos: &'a [Pos],
+    pub vel: &'a [Quad],
+    pub inv_m: &'a [f64],
+    pub inv_i: &'a [f64],
+}
+
+crate::avx2_entry_point! {
+/// `unpack_x4`, and from the same sums (f_0 of the next step) and the state at t
+/// (`now`, as the corrector packed it) that step's Eqs. 21–22 into `pos`, `vel`, with
+/// its stray `test`: `predict_x4`'s operations lane for lane on the same values (the
+/// sums are what `fx`, `fy`, `tq` receive, the records hold the arrays' state), so
+/// the same bits, without a pass over the arrays.
+///
+/// # Safety
+/// The processor must have AVX2, and every slice (the test's too) must have the length
+/// of `f` (`unpack_and_predict`, the one caller, asserts it).
+unsafe fn unpack_predict_x4(
+    dt: f64,
+    rotate: bool,
+    f: &mut [Quad],
+    fx: &mut [f64],
+    fy: &mut [f64],
+    tq: &mut [f64],
+    now: Packed0,
+    pos: &mut [Pos],
+    vel: &mut [Quad],
+    test: Option<StrayTest>,
+) -> Option<bool> {
+    let Packed0 { pos: now_pos, vel: now_vel, inv_m, inv_i } = now;
+    let n = f.len();
+    let body = n - n % 4;
+    // SAFETY: AVX2 present (this function's contract).
+    let mut far = unsafe { _mm256_setzero_pd() };
+    // SAFETY: i + 4 <= n for every i below, and every slice has length n.
+    unsafe {
+        let dt4 = _mm256_set1_pd(dt);
+        let add = _mm256_add_pd;
+        let mul = _mm256_mul_pd;
+        for i in (0..body).step_by(4) {
+            let p = f.as_mut_ptr().add(i).cast::<f64>();
+            let q = |k: usize| _mm256_load_pd(p.add(4 * k));
+            let (f0x, f0y, t0, _) = transpose(q(0), q(1), q(2), q(3));
+            for k in 0..4 {
+                _mm256_store_pd(p.add(4 * k), _mm256_setzero_pd());
+            }
+            st(fx, i, f0x);
+            st(fy, i, f0y);
+            st(tq, i, t0);
+            let v = now_vel.as_ptr().add(i);
+            let rec = |k: usize| _mm256_load_pd((*v.add(k)).0.as_ptr());
+            let (vxi, vyi, wi, ri) = transpose(rec(0), rec(1), rec(2), rec(3));
+            // [x0 y0 x1 y1] and [x2 y2 x3 y3] to [x0 x1 x2 x3] and [y0 y1 y2 y3].
+            let s = now_pos.as_ptr().add(i).cast::<f64>();
+            let (a, b) = (_mm256_loadu_pd(s), _mm256_loadu_pd(s.add(4)));
+            let xi = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(a, b));
+            let yi = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(a, b));
+            // From here `predict_x4`'s body.
+            let im = ld(inv_m, i);
+            let pvx = add(vxi, mul(mul(f0x, dt4), im));
+            let pvy = add(vyi, mul(mul(f0y, dt4), im));
+            let pxi = add(xi, mul(vxi, dt4));
+            let pyi = add(yi, mul(vyi, dt4));
+            let pw = if rotate {
+                add(wi, mul(mul(t0, dt4), ld(inv_i, i)))
+            } else {
+                _mm256_setzero_pd()
+            };
+            strays4(&test, i, pxi, pyi, &mut far);
+            pack4(pos, vel, i, [pxi, pyi, pvx, pvy, pw, ri]);
+        }
+    }
+    let mut tail = false;
+    for i in body..n {
+        let [f0x, f0y, t0, _] = std::mem::take(&mut f[i]).0;
+        (fx[i], fy[i], tq[i]) = (f0x, f0y, t0);
+        let ([x, y], [vx, vy, w, r]) = (now_pos[i].0, now_vel[i].0);
+        let pvx = vx + f0x * dt * inv_m[i];
+        let pvy = vy + f0y * dt * inv_m[i];
+        let (px, py) = (x + vx * dt, y + vy * dt);
+        let pw = if rotate { w + t0 * dt * inv_i[i] } else { 0.0 };
+        pos[i] = Pos([px, py]);
+        vel[i] = Quad([pvx, pvy, pw, r]);
+        tail |= strays1(&test, i, px, py);
+    }
+    // SAFETY: AVX2 present (this function's contract).
+    unsafe { answer(&test, far, tail) }
+}
+}
+
+/// [`unpack_forces`] that also makes the next step's prediction from the sums (see
+/// `unpack_predict_x4`) for the grains of `f` (any range: `now`, `out` and the test's
+/// arrays that range's): the test's answer, as [`predict_packed`]'s. Panics unless
+/// every length is `f`'s and the processor has AVX2.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn unpack_and_predict(
+    dt: f64,
+    rotate: bool,
+    f: &mut [Quad],
+    (fx, fy, tq): (&mut [f64], &mut [f64], &mut [f64]),
+    now: Packed0,
+    (pos, vel): (&mut [Pos], &mut [Quad]),
+    test: Option<StrayTest>,
+) -> Option<bool> {
+    let n = f.len();
+    let lens = [
+        fx.len(),
+        fy.len(),
+        tq.len(),
+        now.pos.len(),
+        now.vel.len(),
+        now.inv_m.len(),
+        now.inv_i.len(),
+        pos.len(),
+        vel.len(),
+    ];
+    assert!(
+        std::is_x86_feature_detected!("avx2")
+            && lens.iter().all(|&l| l == n)
+            && test.is_none_or(|t| t.x_ref.len() == n && t.y_ref.len() == n),
+        "unpack_and_predict: slices of unequal length, or no AVX2"
+    );
+    // SAFETY: AVX2 present and every length n (checked above).
+    unsafe { unpack_predict_x4(dt, rotate, f, fx, fy, tq, now, pos, vel, test) }
+}

@@ -107,6 +107,15 @@ pub struct Predicted {
     pub inv_i: Vec<f64>,
 }
 
+/// A step's prediction (Eqs. 21–22) made by the step before it, in `packed` (see
+/// [`ShearSim::steps`]): for n grains, with the near list's stray test's answer for
+/// it (`None`: no test, re-select).
+#[derive(Debug, Clone, Copy)]
+struct Ahead {
+    n: usize,
+    strayed: Option<bool>,
+}
+
 /// A state to evaluate forces at.
 struct State<'a> {
     x: &'a [f64],
@@ -373,9 +382,35 @@ impl ShearSim {
 
     /// One step of Eqs. 21–24.
     pub fn step(&mut self) {
+        self.step_ahead(None, false);
+    }
+
+    /// `k` steps: `step` k times, the same numbers bit for bit. On the packed kernels
+    /// each step but the last also makes the next one's prediction (Eqs. 21–22) as its
+    /// final force sums come out of the kernel, while they and the state are still in
+    /// the cache: a pass over the state less a step, and on threads one meeting less.
+    /// Nothing can change the state between two steps of one call, which is what lets
+    /// the prediction be carried (a step that re-sorts is never predicted ahead).
+    pub fn steps(&mut self, k: u64) {
+        let mut ahead = None;
+        for left in (0..k).rev() {
+            ahead = self.step_ahead(ahead, left > 0);
+        }
+    }
+
+    /// One step, from the prediction `ahead` made by the step before when given;
+    /// with `fuse`, returns this step's prediction of the next one where it made one.
+    fn step_ahead(&mut self, ahead: Option<Ahead>, fuse: bool) -> Option<Ahead> {
+        let mut ahead = ahead;
         if self.resort_every > 0 && self.step > 0 && self.step.is_multiple_of(self.resort_every) {
             self.resort();
+            // (Never the case: the step before would not have predicted ahead.)
+            ahead = None;
         }
+        // The next step re-sorts first: this one's prediction would be for the old
+        // order.
+        let fuse =
+            fuse && !(self.resort_every > 0 && (self.step + 1).is_multiple_of(self.resort_every));
         let n = self.g.len();
         let (g, pr) = (&self.g, &mut self.pred);
         for v in [&mut pr.x, &mut pr.y, &mut pr.vx, &mut pr.vy, &mut pr.w] {
@@ -395,17 +430,18 @@ impl ShearSim {
         }
         #[cfg(target_arch = "x86_64")]
         if self.kernel == ShearKernel::Slots && Packed::used_for(&self.p) {
-            match self.threads_for_run() {
+            let ahead = ahead.filter(|a| a.n == n && self.packed.pos.len() == n);
+            return match self.threads_for_run() {
                 // Also while the threads have fallen back (a busy machine): the same
                 // numbers.
                 t if t == 1 || self.par.solo(self.step) => {
                     self.par.history_changed();
-                    self.step_packed();
+                    self.step_packed(ahead, fuse)
                 }
-                t => self.step_threads(t),
-            }
-            return;
+                t => self.step_threads(t, ahead, fuse),
+            };
         }
+        let _ = (ahead, fuse);
         let (dt, rotate) = (self.p.dt, self.rotate);
         let (g, pr) = (&self.g, &mut self.pred);
         predict(
@@ -437,21 +473,38 @@ impl ShearSim {
             &mut g.omega,
         );
         self.evaluate(false);
+        None
     }
 
     /// The step's clock: step count, time and strain at t + Δt.
     fn advance_clock(&mut self) {
         self.step += 1;
         self.time = self.step as f64 * self.p.dt;
-        self.gamma += self.p.rate * self.p.dt;
+        self.gamma = self.next_gamma();
+    }
+
+    /// The strain the next step's clock will reach.
+    fn next_gamma(&self) -> f64 {
+        self.gamma + self.p.rate * self.p.dt
+    }
+
+    /// The boundary at the next step's strain (that step's stray test is made ahead).
+    fn next_boundary(&self) -> Boundary {
+        Boundary::LeesEdwards {
+            lx: self.l,
+            ly: self.l,
+            offset: self.next_gamma() * self.l,
+        }
     }
 
     /// `step` with the AVX2 kernel (α = 2): the same operations in the same order,
     /// the state handed between integrator and kernel packed grain by grain
     /// (`shear_integrate_avx2`). f_0 is in `pred.f0x/f0y/t0`.
     #[cfg(target_arch = "x86_64")]
-    fn step_packed(&mut self) {
-        use crate::dem::backend::shear_integrate_avx2::{Now, correct_packed, predict_packed};
+    fn step_packed(&mut self, ahead: Option<Ahead>, fuse: bool) -> Option<Ahead> {
+        use crate::dem::backend::shear_integrate_avx2::{
+            Now, Packed0, correct_packed, predict_packed, unpack_and_predict,
+        };
         let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
         // The clock first: the near list's stray test, made as the predictor writes
         // the positions, is for the boundary at t + Δt.
@@ -459,16 +512,20 @@ impl ShearSim {
         let b = self.boundary();
         let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
         let (g, pr) = (&self.g, &mut self.pred);
-        let strayed = predict_packed(
-            dt,
-            rotate,
-            (&g.x, &g.y, &g.vx, &g.vy, &g.omega),
-            &g.radius,
-            (&pr.inv_m, &pr.inv_i),
-            (&pr.f0x, &pr.f0y, &pr.t0),
-            &mut self.packed,
-            self.slots.stray_test(self.list.builds, n, b),
-        );
+        let strayed = match ahead {
+            Some(a) => a.strayed,
+            None => predict_packed(
+                dt,
+                rotate,
+                (&g.x, &g.y, &g.vx, &g.vy, &g.omega),
+                &g.radius,
+                (&pr.inv_m, &pr.inv_i),
+                (&pr.f0x, &pr.f0y, &pr.t0),
+                &mut self.packed,
+                self.slots.stray_test(self.list.builds, n, b),
+            ),
+        };
+        let b_next = self.next_boundary();
         if !self.slots.current(&self.list, n, b, strayed) {
             // The predicted positions, as arrays, only for a re-selection.
             let pr = &mut self.pred;
@@ -524,10 +581,36 @@ impl ShearSim {
         let strayed = tested.then_some(far);
         slots.sync_tested(list, &g.radius, (&g.x, &g.y), b, strayed);
         // Forces at t + Δt (f_0 of the next step), spread into the arrays range by
-        // range as they are complete.
+        // range as they are complete, and with `fuse` the next step's Eqs. 21–22 from
+        // them.
         let hist = &mut list.shear[..];
-        let forces = (&mut fx[..], &mut fy[..], &mut tq[..]);
-        evaluate_packed_into::<true>(packed_now, slots, hist, &pp, coll, forces);
+        if !fuse {
+            let forces = (&mut fx[..], &mut fy[..], &mut tq[..]);
+            evaluate_packed_into::<true>(packed_now, slots, hist, &pp, coll, forces);
+            return None;
+        }
+        let builds = list.builds;
+        let (pos, vel) = packed.reserve(n);
+        let (mut tested, mut far) = (true, false);
+        let mut predict = |r: std::ops::Range<usize>, f: &mut [Quad], s: &Slots| {
+            let test = s.stray_test(builds, n, b_next).map(|t| t.range(r.clone()));
+            tested &= test.is_some();
+            let now = Packed0 {
+                pos: &packed_now.pos[r.clone()],
+                vel: &packed_now.vel[r.clone()],
+                inv_m: &pr.inv_m[r.clone()],
+                inv_i: &pr.inv_i[r.clone()],
+            };
+            let forces = (&mut fx[r.clone()], &mut fy[r.clone()], &mut tq[r.clone()]);
+            let out = (&mut pos[r.clone()], &mut vel[r]);
+            far |= unpack_and_predict(dt, rotate, f, forces, now, out, test) == Some(true);
+        };
+        evaluate_packed::<true>(packed_now, slots, hist, &pp, coll, &mut predict);
+        slots.acc_zeroed = true;
+        Some(Ahead {
+            n,
+            strayed: tested.then_some(far),
+        })
     }
 
     /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each

@@ -23,7 +23,7 @@
 //! to the one-thread path for a while (see `FALLBACK_WINDOW`).
 
 use crate::dem::backend::shear_integrate_avx2::{
-    Now, correct_packed, predict_packed_into, unpack_forces,
+    Now, Packed0, correct_packed, predict_packed_into, unpack_and_predict, unpack_forces,
 };
 use crate::dem::backend::team::{Team, chunked};
 use crate::dem::shear::ShearSim;
@@ -447,7 +447,12 @@ impl ShearSim {
     }
 
     /// `step_packed` on `threads` threads: the same numbers.
-    pub(super) fn step_threads(&mut self, threads: usize) {
+    pub(super) fn step_threads(
+        &mut self,
+        threads: usize,
+        ahead: Option<super::Ahead>,
+        fuse: bool,
+    ) -> Option<super::Ahead> {
         let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
         assert!(std::is_x86_feature_detected!("avx2"), "no AVX2");
         // For the fall-back's watch (two system calls a step of tens of microseconds
@@ -462,8 +467,11 @@ impl ShearSim {
         let b = self.boundary();
         let pp = PairParams::new(&self.p, self.l, b.offset(), self.time);
 
-        // Eqs. 21–22, with the near list's stray test.
-        let strayed = {
+        // Eqs. 21–22, with the near list's stray test (made by the step before, or
+        // here).
+        let strayed = if let Some(a) = ahead {
+            a.strayed
+        } else {
             let (g, pr) = (&self.g, &self.pred);
             let test = self.slots.stray_test(self.list.builds, n, b);
             let (pos, vel) = self.packed.reserve(n);
@@ -602,10 +610,14 @@ impl ShearSim {
         self.par.split(&self.slots, &bounds, &team);
 
         // Forces at t + Δt (f_0 of the next step) into the arrays, part by part, the
-        // contact events logged.
-        {
+        // contact events logged; with `fuse`, the next step's Eqs. 21–22 from them.
+        let b_next = self.next_boundary();
+        let predicted = {
             let ShearSim {
+                pred: pr,
                 slots,
+                list,
+                packed,
                 packed_now,
                 par,
                 fx,
@@ -614,27 +626,48 @@ impl ShearSim {
                 ..
             } = self;
             let synced = std::mem::replace(&mut par.hist_synced, true);
-            let (slots, packed_now, pp) = (&*slots, &*packed_now, &pp);
+            let (slots, packed_now, pp, pr) = (&*slots, &*packed_now, &pp, &*pr);
+            let test = slots.stray_test(list.builds, n, b_next);
             let (fx, fy, tq) = (cut(fx, &bounds), cut(fy, &bounds), cut(tq, &bounds));
+            let (pos, vel) = packed.reserve(n);
+            let (pos, vel) = (cut(pos, &bounds), cut(vel, &bounds));
             let jobs: Vec<_> = par
                 .parts
                 .iter_mut()
                 .zip(fx)
                 .zip(fy)
                 .zip(tq)
-                .map(|(((part, fx), fy), tq)| {
+                .zip(pos)
+                .zip(vel)
+                .map(|(((((part, fx), fy), tq), pos), vel)| {
                     move || {
                         let clock = std::time::Instant::now();
                         if !synced {
                             part.own.copy_history(slots, part.k0);
                         }
                         let lo = part.lo;
-                        let mut unpack = |range: std::ops::Range<usize>,
-                                          f: &mut [Quad],
-                                          _: &Slots| {
-                            let l = range.start - lo..range.end - lo;
-                            unpack_forces(f, (&mut fx[l.clone()], &mut fy[l.clone()], &mut tq[l]));
-                        };
+                        let (mut tested, mut far) = (true, false);
+                        let mut unpack =
+                            |range: std::ops::Range<usize>, f: &mut [Quad], _: &Slots| {
+                                let l = range.start - lo..range.end - lo;
+                                let forces =
+                                    (&mut fx[l.clone()], &mut fy[l.clone()], &mut tq[l.clone()]);
+                                if !fuse {
+                                    unpack_forces(f, forces);
+                                    return;
+                                }
+                                let test = test.map(|t| t.range(range.clone()));
+                                tested &= test.is_some();
+                                let now = Packed0 {
+                                    pos: &packed_now.pos[range.clone()],
+                                    vel: &packed_now.vel[range.clone()],
+                                    inv_m: &pr.inv_m[range.clone()],
+                                    inv_i: &pr.inv_i[range.clone()],
+                                };
+                                let out = (&mut pos[l.clone()], &mut vel[l]);
+                                far |= unpack_and_predict(dt, rotate, f, forces, now, out, test)
+                                    == Some(true);
+                            };
                         let state = (&packed_now.pos[..], &packed_now.vel[..]);
                         // SAFETY: AVX2 present; `packed_now` holds the n grains at
                         // t + Δt, which the near list was just made valid for.
@@ -645,11 +678,17 @@ impl ShearSim {
                             part.times.drain(..BALANCE_MAX_STEPS / 2);
                         }
                         part.times.push(busy + clock.elapsed().as_secs_f64());
+                        (tested, far)
                     }
                 })
                 .collect();
-            on_threads(&team, jobs);
-        }
+            let answers = on_threads(&team, jobs);
+            let tested = answers.iter().all(|a| a.0);
+            fuse.then(|| super::Ahead {
+                n,
+                strayed: tested.then(|| answers.iter().any(|a| a.1)),
+            })
+        };
         self.list.spare.team = None;
         // The events, in slot order: part by part, each part's in its order.
         let ShearSim {
@@ -672,6 +711,7 @@ impl ShearSim {
         let step = self.step;
         let spent = (clock.elapsed().as_secs_f64(), cpu_seconds() - cpu);
         self.par.watch(step, &team, spent);
+        predicted
     }
 }
 
@@ -844,6 +884,66 @@ mod tests {
         assert!(bits(&one) == bits(&other));
         assert_eq!(one.list.shear, other.list.shear);
         assert_eq!(one.coll, other.coll);
+    }
+
+    /// `steps(k)`, which predicts each next step as the last forces come out (one
+    /// thread and the threads' parts), gives `step()` k times bit for bit: CDrot and
+    /// CD (spins not integrated), 1, 2 and 3 threads, calls of several lengths, with
+    /// re-selections, list rebuilds and re-sorts (every 37 steps) inside the calls.
+    #[test]
+    fn steps_predicted_ahead_give_the_single_steps_bits() {
+        if !std::is_x86_feature_detected!("avx2") {
+            eprintln!("SKIP: no AVX2: the steps are not packed, nothing is predicted ahead");
+            return;
+        }
+        for cd in [false, true] {
+            let mut start = dense_600(7);
+            start.resort_every = 37;
+            if cd {
+                start.p.model = Dissipation::Cd;
+                start.rotate = false;
+            }
+            for threads in [1, 2, 3] {
+                let mut single = start.clone();
+                single.threads = 1;
+                let mut s = start.clone();
+                s.threads = threads;
+                s.par.no_fallback = true;
+                let mut done = 0;
+                for k in [1, 5, 64, 2, 150, 3, 75] {
+                    s.steps(k);
+                    done += k;
+                    while single.step < done {
+                        single.step();
+                    }
+                    assert!(
+                        bits(&s) == bits(&single),
+                        "{threads} threads, cd {cd}, step {done}"
+                    );
+                    assert_eq!(s.list.shear, single.list.shear);
+                    assert_eq!(s.coll, single.coll);
+                }
+                assert!(s.slots.selections > 10 && s.list.builds > 2);
+                // The carried prediction was made and used: a step ahead is the
+                // packed state of the next step's prediction.
+                let ahead = s.step_ahead(None, true).expect("a prediction ahead");
+                let packed = s.packed.clone();
+                let mut again = s.clone();
+                again.packed = Default::default();
+                again.step_ahead(None, false);
+                s.step_ahead(Some(ahead), false);
+                assert!(bits(&s) == bits(&again));
+                let same = |a: &[Pos], b: &[Pos]| a.iter().zip(b).all(|(p, q)| p.0 == q.0);
+                assert!(same(&packed.pos, &again.packed.pos));
+                assert!(
+                    packed
+                        .vel
+                        .iter()
+                        .zip(&again.packed.vel)
+                        .all(|(p, q)| p.0 == q.0)
+                );
+            }
+        }
     }
 
     #[test]

@@ -81,6 +81,9 @@ pub struct ShearOptions {
     pub threads: usize,
 }
 
+/// The default steps between samples of the series (`--sample-every`).
+pub const SAMPLE_EVERY: u64 = 10;
+
 impl Default for ShearOptions {
     fn default() -> Self {
         ShearOptions {
@@ -93,7 +96,7 @@ impl Default for ShearOptions {
             dt: None,
             seed: 1,
             output_every: None,
-            sample_every: 10,
+            sample_every: SAMPLE_EVERY,
             transient: 0.25,
             blocks: 10,
             ramp: None,
@@ -405,7 +408,22 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         if sim.step >= total {
             break;
         }
-        sim.step();
+        // Up to the next step at which the loop's head has something to do (a
+        // sample, a frame, a look at the checkpoint clock, the ramp's next rate, the
+        // end), in one call: the steps of one call predict each next step ahead.
+        let rel = sim.step - step0;
+        let to_next = |every: u64| every - rel % every;
+        let mut k = (total - sim.step)
+            .min(to_next(opt.sample_every))
+            .min(to_next(out_every))
+            .min(64 - sim.step % 64);
+        if let Some(due) = clock.steps_to_due(sim.step) {
+            k = k.min(due);
+        }
+        if let Some(r) = &ramp {
+            k = k.min(to_next(r.steps_per_tau));
+        }
+        sim.steps(k);
         if let Some(r) = &ramp
             && (sim.step - step0).is_multiple_of(r.steps_per_tau)
         {
