@@ -130,3 +130,20 @@ impl CheckpointClock {
         self.last = std::time::Instant::now();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::CheckpointClock;
+
+    /// The steps to the next checkpoint by step count land on the multiples of
+    /// `every`, a full interval from one of them, never with `every` = 0.
+    #[test]
+    fn steps_to_due_lands_on_the_multiples() {
+        let c = CheckpointClock::new(50, 0.0);
+        for (step, want) in [(0, 50), (1, 49), (49, 1), (50, 50), (120, 30)] {
+            assert_eq!(c.steps_to_due(step), Some(want));
+            assert!(c.due_by_steps(step + want));
+        }
+        assert_eq!(CheckpointClock::new(0, 10.0).steps_to_due(7), None);
+    }
+}

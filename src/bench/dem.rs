@@ -378,7 +378,7 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
         seed: 1,
     };
     let mut s = ShearSim::new(p);
-    // The headline figures on one thread, as they always were.
+    // The headline figures on one thread.
     s.threads = 1;
     shear_steps(&mut s, warmup);
     let mut unsorted = s.clone();
@@ -411,8 +411,10 @@ pub fn bench_shear(n: usize, steps: u64, warmup: u64) -> ShearBench {
     }
 }
 
-/// `steps` steps of `s` as `simulate shear` makes them: in calls of its default
-/// sample interval (the steps between two samples are one `ShearSim::steps` call).
+/// `steps` steps of `s` in calls of `simulate shear`'s default sample interval: the
+/// stage makes the steps between two samples in one `ShearSim::steps` call (or fewer,
+/// cut at frames and every 64 steps for its checkpoint clock), each but the last
+/// predicting the next ahead. (Before 2026-11-29 the figures timed single `step`s.)
 fn shear_steps(s: &mut crate::dem::shear::ShearSim, steps: u64) {
     let every = crate::stages::shear::SAMPLE_EVERY;
     for _ in 0..steps / every {

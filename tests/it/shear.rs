@@ -1295,3 +1295,31 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
         "output tables differ between 1 and 3 threads"
     );
 }
+
+/// `--output-every 0` writes the first and the last frame only (a regression: the
+/// loop that steps up to the next frame once divided by it and panicked), and the
+/// series is sampled as with any interval.
+#[test]
+fn output_every_zero_writes_the_first_and_last_frames() {
+    let out = tmpdir("every0");
+    let opt = ShearOptions {
+        n: 64,
+        phi: 0.8,
+        rate: 1e-2,
+        strain: 0.1,
+        output_every: Some(0),
+        blocks: 2,
+        quiet: true,
+        ..Default::default()
+    };
+    run(&out, &opt).unwrap();
+    let frames = read_table(&out.join("tracks.parquet"), &[])
+        .unwrap()
+        .df
+        .height()
+        / 64;
+    assert_eq!(frames, 2);
+    // 0.1 / (1e-2 · 0.05) = 200 steps, a sample every 10 from step 0 to 200.
+    let series = read_table(&out.join("series.parquet"), &[]).unwrap();
+    assert_eq!(series.df.height(), 21);
+}

@@ -415,8 +415,11 @@ pub fn run(out: &Path, opt: &ShearOptions) -> Result<ShearReport> {
         let to_next = |every: u64| every - rel % every;
         let mut k = (total - sim.step)
             .min(to_next(opt.sample_every))
-            .min(to_next(out_every))
             .min(64 - sim.step % 64);
+        if out_every > 0 {
+            // (`--output-every 0`: frames at the start and the end only.)
+            k = k.min(to_next(out_every));
+        }
         if let Some(due) = clock.steps_to_due(sim.step) {
             k = k.min(due);
         }
