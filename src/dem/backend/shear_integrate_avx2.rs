@@ -99,6 +99,54 @@ unsafe fn answer(test: &Option<StrayTest>, far: __m256d, tail: bool) -> Option<b
     test.map(|_| any || tail)
 }
 
+/// Eqs. 21–22 for four grains, lane by lane: the predicted (x, y, v_x, v_y, ω) from
+/// (x, y, v_x, v_y, ω), f_0 = (f_x, f_y, T), 1/m and 1/I (read only when `rotate`; ω
+/// is 0 otherwise), `dt4` = Δt in every lane. The one body of `predict_x4` and
+/// `unpack_predict_x4` (and, lane for lane, of `predict1`), so that they make the same
+/// bits as `shear_integrate::predict`.
+///
+/// # Safety
+/// AVX present (every caller is compiled with AVX2).
+#[inline(always)]
+unsafe fn predict4(
+    dt4: __m256d,
+    rotate: bool,
+    [x, y, vx, vy, w]: [__m256d; 5],
+    [fx, fy, t]: [__m256d; 3],
+    im: __m256d,
+    ii: impl FnOnce() -> __m256d,
+) -> [__m256d; 5] {
+    // SAFETY: this function's contract.
+    unsafe {
+        let (add, mul) = (_mm256_add_pd, _mm256_mul_pd);
+        let pvx = add(vx, mul(mul(fx, dt4), im));
+        let pvy = add(vy, mul(mul(fy, dt4), im));
+        let px = add(x, mul(vx, dt4));
+        let py = add(y, mul(vy, dt4));
+        let pw = if rotate {
+            add(w, mul(mul(t, dt4), ii()))
+        } else {
+            _mm256_setzero_pd()
+        };
+        [px, py, pvx, pvy, pw]
+    }
+}
+
+/// `predict4` for one grain (the loops' tails).
+fn predict1(
+    dt: f64,
+    rotate: bool,
+    [x, y, vx, vy, w]: [f64; 5],
+    [fx, fy, t]: [f64; 3],
+    im: f64,
+    ii: f64,
+) -> [f64; 5] {
+    let pvx = vx + fx * dt * im;
+    let pvy = vy + fy * dt * im;
+    let pw = if rotate { w + t * dt * ii } else { 0.0 };
+    [x + vx * dt, y + vy * dt, pvx, pvy, pw]
+}
+
 crate::avx2_entry_point! {
 /// Eqs. 21–22 (and the spin analogue of 21), as `shear_integrate::predict`: the
 /// predicted state packed into `pos`, `vel` (with the radii `r`). Spins stay 0 when
@@ -127,34 +175,19 @@ unsafe fn predict_x4(
     // SAFETY: i + 4 <= n for every i below, and every slice has length n.
     unsafe {
         let dt4 = _mm256_set1_pd(dt);
-        let add = _mm256_add_pd;
-        let mul = _mm256_mul_pd;
         for i in (0..body).step_by(4) {
-            let (vxi, vyi) = (ld(vx, i), ld(vy, i));
-            let im = ld(inv_m, i);
-            let pvx = add(vxi, mul(mul(ld(f0x, i), dt4), im));
-            let pvy = add(vyi, mul(mul(ld(f0y, i), dt4), im));
-            let pxi = add(ld(x, i), mul(vxi, dt4));
-            let pyi = add(ld(y, i), mul(vyi, dt4));
-            let pw = if rotate {
-                add(ld(w, i), mul(mul(ld(t0, i), dt4), ld(inv_i, i)))
-            } else {
-                _mm256_setzero_pd()
-            };
-            strays4(&test, i, pxi, pyi, &mut far);
-            pack4(pos, vel, i, [pxi, pyi, pvx, pvy, pw, ld(r, i)]);
+            let state = [ld(x, i), ld(y, i), ld(vx, i), ld(vy, i), ld(w, i)];
+            let f0 = [ld(f0x, i), ld(f0y, i), ld(t0, i)];
+            let [px, py, pvx, pvy, pw] = predict4(dt4, rotate, state, f0, ld(inv_m, i), || ld(inv_i, i));
+            strays4(&test, i, px, py, &mut far);
+            pack4(pos, vel, i, [px, py, pvx, pvy, pw, ld(r, i)]);
         }
     }
     let mut tail = false;
     for i in body..n {
-        let pvx = vx[i] + f0x[i] * dt * inv_m[i];
-        let pvy = vy[i] + f0y[i] * dt * inv_m[i];
-        let (px, py) = (x[i] + vx[i] * dt, y[i] + vy[i] * dt);
-        let pw = if rotate {
-            w[i] + t0[i] * dt * inv_i[i]
-        } else {
-            0.0
-        };
+        let state = [x[i], y[i], vx[i], vy[i], w[i]];
+        let f0 = [f0x[i], f0y[i], t0[i]];
+        let [px, py, pvx, pvy, pw] = predict1(dt, rotate, state, f0, inv_m[i], inv_i[i]);
         pos[i] = Pos([px, py]);
         vel[i] = Quad([pvx, pvy, pw, r[i]]);
         tail |= strays1(&test, i, px, py);
@@ -425,8 +458,6 @@ unsafe fn unpack_predict_x4(
     // SAFETY: i + 4 <= n for every i below, and every slice has length n.
     unsafe {
         let dt4 = _mm256_set1_pd(dt);
-        let add = _mm256_add_pd;
-        let mul = _mm256_mul_pd;
         for i in (0..body).step_by(4) {
             let p = f.as_mut_ptr().add(i).cast::<f64>();
             let q = |k: usize| _mm256_load_pd(p.add(4 * k));
@@ -445,19 +476,11 @@ unsafe fn unpack_predict_x4(
             let (a, b) = (_mm256_loadu_pd(s), _mm256_loadu_pd(s.add(4)));
             let xi = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(a, b));
             let yi = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(a, b));
-            // From here `predict_x4`'s body.
+            let state = [xi, yi, vxi, vyi, wi];
             let im = ld(inv_m, i);
-            let pvx = add(vxi, mul(mul(f0x, dt4), im));
-            let pvy = add(vyi, mul(mul(f0y, dt4), im));
-            let pxi = add(xi, mul(vxi, dt4));
-            let pyi = add(yi, mul(vyi, dt4));
-            let pw = if rotate {
-                add(wi, mul(mul(t0, dt4), ld(inv_i, i)))
-            } else {
-                _mm256_setzero_pd()
-            };
-            strays4(&test, i, pxi, pyi, &mut far);
-            pack4(pos, vel, i, [pxi, pyi, pvx, pvy, pw, ri]);
+            let [px, py, pvx, pvy, pw] = predict4(dt4, rotate, state, [f0x, f0y, t0], im, || ld(inv_i, i));
+            strays4(&test, i, px, py, &mut far);
+            pack4(pos, vel, i, [px, py, pvx, pvy, pw, ri]);
         }
     }
     let mut tail = false;
@@ -465,10 +488,8 @@ unsafe fn unpack_predict_x4(
         let [f0x, f0y, t0, _] = std::mem::take(&mut f[i]).0;
         (fx[i], fy[i], tq[i]) = (f0x, f0y, t0);
         let ([x, y], [vx, vy, w, r]) = (now_pos[i].0, now_vel[i].0);
-        let pvx = vx + f0x * dt * inv_m[i];
-        let pvy = vy + f0y * dt * inv_m[i];
-        let (px, py) = (x + vx * dt, y + vy * dt);
-        let pw = if rotate { w + t0 * dt * inv_i[i] } else { 0.0 };
+        let state = [x, y, vx, vy, w];
+        let [px, py, pvx, pvy, pw] = predict1(dt, rotate, state, [f0x, f0y, t0], inv_m[i], inv_i[i]);
         pos[i] = Pos([px, py]);
         vel[i] = Quad([pvx, pvy, pw, r]);
         tail |= strays1(&test, i, px, py);

@@ -385,10 +385,10 @@ impl ShearSim {
         self.step_ahead(None, false);
     }
 
-    /// `k` steps: `step` k times, the same numbers bit for bit. On the packed kernels
-    /// each step but the last also makes the next one's prediction (Eqs. 21–22) as its
-    /// final force sums come out of the kernel, while they and the state are still in
-    /// the cache: a pass over the state less a step, and on threads one meeting less.
+    /// `k` steps: `step` k times, the same numbers bit for bit. On threads (the packed
+    /// kernels) each step but the last also makes the next one's prediction (Eqs.
+    /// 21–22) as its final force sums come out of the kernel: the threads then meet
+    /// once less a step, and the state is read once less.
     /// Nothing can change the state between two steps of one call, which is what lets
     /// the prediction be carried (a step that re-sorts is never predicted ahead).
     pub fn steps(&mut self, k: u64) {
@@ -436,7 +436,7 @@ impl ShearSim {
                 // numbers.
                 t if t == 1 || self.par.solo(self.step) => {
                     self.par.history_changed();
-                    self.step_packed(ahead, fuse)
+                    self.step_packed(ahead)
                 }
                 t => self.step_threads(t, ahead, fuse),
             };
@@ -501,10 +501,8 @@ impl ShearSim {
     /// the state handed between integrator and kernel packed grain by grain
     /// (`shear_integrate_avx2`). f_0 is in `pred.f0x/f0y/t0`.
     #[cfg(target_arch = "x86_64")]
-    fn step_packed(&mut self, ahead: Option<Ahead>, fuse: bool) -> Option<Ahead> {
-        use crate::dem::backend::shear_integrate_avx2::{
-            Now, Packed0, correct_packed, predict_packed, unpack_and_predict,
-        };
+    fn step_packed(&mut self, ahead: Option<Ahead>) -> Option<Ahead> {
+        use crate::dem::backend::shear_integrate_avx2::{Now, correct_packed, predict_packed};
         let (dt, rotate, n) = (self.p.dt, self.rotate, self.g.len());
         // The clock first: the near list's stray test, made as the predictor writes
         // the positions, is for the boundary at t + Δt.
@@ -525,7 +523,6 @@ impl ShearSim {
                 self.slots.stray_test(self.list.builds, n, b),
             ),
         };
-        let b_next = self.next_boundary();
         if !self.slots.current(&self.list, n, b, strayed) {
             // The predicted positions, as arrays, only for a re-selection.
             let pr = &mut self.pred;
@@ -581,36 +578,14 @@ impl ShearSim {
         let strayed = tested.then_some(far);
         slots.sync_tested(list, &g.radius, (&g.x, &g.y), b, strayed);
         // Forces at t + Δt (f_0 of the next step), spread into the arrays range by
-        // range as they are complete, and with `fuse` the next step's Eqs. 21–22 from
-        // them.
+        // range as they are complete. (The next step's prediction is not made here
+        // ahead, as the threads make it: on one thread that was no faster at
+        // N = 16,384 and 6 % slower at 65,536, where writing the predicted records
+        // during the kernel costs the kernel its cache; docs/performance.md.)
         let hist = &mut list.shear[..];
-        if !fuse {
-            let forces = (&mut fx[..], &mut fy[..], &mut tq[..]);
-            evaluate_packed_into::<true>(packed_now, slots, hist, &pp, coll, forces);
-            return None;
-        }
-        let builds = list.builds;
-        let (pos, vel) = packed.reserve(n);
-        let (mut tested, mut far) = (true, false);
-        let mut predict = |r: std::ops::Range<usize>, f: &mut [Quad], s: &Slots| {
-            let test = s.stray_test(builds, n, b_next).map(|t| t.range(r.clone()));
-            tested &= test.is_some();
-            let now = Packed0 {
-                pos: &packed_now.pos[r.clone()],
-                vel: &packed_now.vel[r.clone()],
-                inv_m: &pr.inv_m[r.clone()],
-                inv_i: &pr.inv_i[r.clone()],
-            };
-            let forces = (&mut fx[r.clone()], &mut fy[r.clone()], &mut tq[r.clone()]);
-            let out = (&mut pos[r.clone()], &mut vel[r]);
-            far |= unpack_and_predict(dt, rotate, f, forces, now, out, test) == Some(true);
-        };
-        evaluate_packed::<true>(packed_now, slots, hist, &pp, coll, &mut predict);
-        slots.acc_zeroed = true;
-        Some(Ahead {
-            n,
-            strayed: tested.then_some(far),
-        })
+        let forces = (&mut fx[..], &mut fy[..], &mut tq[..]);
+        evaluate_packed_into::<true>(packed_now, slots, hist, &pp, coll, forces);
+        None
     }
 
     /// Pressure tensor parts (Eqs. 12–15) at the current state: (el, dis, kin), each
