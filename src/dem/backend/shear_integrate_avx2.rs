@@ -35,6 +35,25 @@ unsafe fn st(s: &mut [f64], i: usize, v: __m256d) {
     unsafe { _mm256_storeu_pd(s.as_mut_ptr().add(i), v) }
 }
 
+/// The force sums (f_x, f_y, T) of grains i..i+4 from the kernel's packed records,
+/// as lanes, the records left zeroed for the next evaluation.
+///
+/// # Safety
+/// `i + 4 <= f.len()`; AVX present.
+#[inline(always)]
+unsafe fn take4(f: &mut [Quad], i: usize) -> (__m256d, __m256d, __m256d) {
+    debug_assert!(i + 4 <= f.len());
+    unsafe {
+        let p = f.as_mut_ptr().add(i).cast::<f64>();
+        let q = |k: usize| _mm256_load_pd(p.add(4 * k));
+        let (a, b, c, _) = transpose(q(0), q(1), q(2), q(3));
+        for k in 0..4 {
+            _mm256_store_pd(p.add(4 * k), _mm256_setzero_pd());
+        }
+        (a, b, c)
+    }
+}
+
 /// Grains i..i+4 packed: positions (x, y) and records (v_x, v_y, ω, R).
 ///
 /// # Safety
@@ -241,12 +260,7 @@ unsafe fn correct_x4(
         let add = _mm256_add_pd;
         let mul = _mm256_mul_pd;
         for i in (0..body).step_by(4) {
-            let q = f1.as_mut_ptr().add(i).cast::<f64>();
-            let f = |k: usize| _mm256_load_pd(q.add(4 * k));
-            let (f1x, f1y, t1, _) = transpose(f(0), f(1), f(2), f(3));
-            for k in 0..4 {
-                _mm256_store_pd(q.add(4 * k), _mm256_setzero_pd());
-            }
+            let (f1x, f1y, t1) = take4(f1, i);
             let (vx0, vy0) = (ld(vx, i), ld(vy, i));
             let hm = mul(half, ld(inv_m, i));
             let vx1 = add(vx0, mul(mul(add(ld(f0x, i), f1x), dt4), hm));
@@ -390,12 +404,7 @@ unsafe fn unpack_x4(f: &mut [Quad], fx: &mut [f64], fy: &mut [f64], tq: &mut [f6
     // SAFETY: i + 4 <= n for every i below, and every slice has length n.
     unsafe {
         for i in (0..body).step_by(4) {
-            let p = f.as_mut_ptr().add(i).cast::<f64>();
-            let q = |k: usize| _mm256_load_pd(p.add(4 * k));
-            let (a, b, c, _) = transpose(q(0), q(1), q(2), q(3));
-            for k in 0..4 {
-                _mm256_store_pd(p.add(4 * k), _mm256_setzero_pd());
-            }
+            let (a, b, c) = take4(f, i);
             st(fx, i, a);
             st(fy, i, b);
             st(tq, i, c);
@@ -459,12 +468,7 @@ unsafe fn unpack_predict_x4(
     unsafe {
         let dt4 = _mm256_set1_pd(dt);
         for i in (0..body).step_by(4) {
-            let p = f.as_mut_ptr().add(i).cast::<f64>();
-            let q = |k: usize| _mm256_load_pd(p.add(4 * k));
-            let (f0x, f0y, t0, _) = transpose(q(0), q(1), q(2), q(3));
-            for k in 0..4 {
-                _mm256_store_pd(p.add(4 * k), _mm256_setzero_pd());
-            }
+            let (f0x, f0y, t0) = take4(f, i);
             st(fx, i, f0x);
             st(fy, i, f0y);
             st(tq, i, t0);

@@ -400,8 +400,7 @@ impl ShearSim {
 
     /// One step, from the prediction `ahead` made by the step before when given;
     /// with `fuse`, returns this step's prediction of the next one where it made one.
-    fn step_ahead(&mut self, ahead: Option<Ahead>, fuse: bool) -> Option<Ahead> {
-        let mut ahead = ahead;
+    fn step_ahead(&mut self, mut ahead: Option<Ahead>, fuse: bool) -> Option<Ahead> {
         if self.resort_every > 0 && self.step > 0 && self.step.is_multiple_of(self.resort_every) {
             self.resort();
             // (Never the case: the step before would not have predicted ahead.)
