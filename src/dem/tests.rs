@@ -441,6 +441,49 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
     assert_eq!(one.record, mixed.record);
 }
 
+/// Shares of `LARGE_SHARE` grains or more on several threads are rebalanced every 32
+/// steps, one thread and smaller shares every 128: a pillar of 9000 grains, loaded
+/// fast enough for list rebuilds, gives the one-thread run's bits on two and three
+/// threads, whose slow steps (rebalances) then come at other steps than one thread's.
+#[test]
+fn large_shares_rebalanced_often_give_the_one_thread_run() {
+    use crate::dem::backend::pillar_threads::rebalance_every;
+    let mut p = PillarParams::fast();
+    p.bar_speed *= 20.0;
+    let (x, y, species) = crate::bench::dem::tiled_packing(3, 2, p.d_large).expect("packed");
+    let ids: Vec<i64> = (0..x.len() as i64).collect();
+    let start = PillarSim::new(p, &x, &y, &species, &ids);
+    let n = x.len();
+    assert_eq!(
+        [1, 2, 3].map(|t| rebalance_every(n, t)),
+        [128, 32, 32],
+        "the cadences this test compares"
+    );
+    let steps = 600;
+    let mut one = start.clone();
+    one.advance_with(steps, 1);
+    assert!(
+        one.list.builds > start.list.builds + 1,
+        "the list was rebuilt on the way"
+    );
+    for threads in [2, 3] {
+        let mut other = start.clone();
+        other.scratch.no_fallback = true;
+        other.advance_with(steps, threads);
+        assert_eq!(other.scratch.fallbacks, 0, "ran split on {threads} threads");
+        assert!(
+            one.grains == other.grains,
+            "{threads} threads: other numbers"
+        );
+        assert_eq!(one.list, other.list);
+        assert_eq!(one.interval, other.interval);
+        assert_eq!(
+            (one.top_force, one.bottom_force, one.bar_shear_force),
+            (other.top_force, other.bottom_force, other.bar_shear_force)
+        );
+    }
+}
+
 /// The force snapshot's per-grain top-bar force (the contact pressure of
 /// li-granular-pillars Fig. 10c) adds up to the step's bar force, is non-zero exactly
 /// for the grains that overlap the bar, and is the same split over any thread count.

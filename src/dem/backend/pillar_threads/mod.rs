@@ -40,14 +40,29 @@ const FALLBACK_LONG_WAITS: usize = 16;
 /// chunk is 6-10 % of a thread's work) the rounding to whole chunks decides instead:
 /// a boundary moves only when the move is half a chunk or more.
 const BALANCE_BAND: f64 = 0.02;
-/// Steps between rebalances of the threads' shares.
-const REBALANCE_EVERY: u64 = 128;
-/// Steps between timings of the phases for the rebalance (a clock read costs tens of
-/// nanoseconds, and a step of 1000 grains on two threads a few microseconds).
-const TIME_EVERY: u64 = 16;
 /// Timed steps between two rebalances: each thread's work in each is kept (one slot
 /// per timed step of the window), so that the rebalance can take medians.
-const SAMPLES: usize = (REBALANCE_EVERY / TIME_EVERY) as usize;
+const SAMPLES: usize = 8;
+/// Grains a thread from which the shares are rebalanced often (`rebalance_every`).
+const LARGE_SHARE: usize = 2048;
+
+/// Steps between rebalances of the threads' shares, for `n` grains on `threads`;
+/// a timed step (for the rebalance) every `SAMPLES`-th of that. A share of
+/// `LARGE_SHARE` grains or more: every 32 steps. At N = 16,000 on two threads the
+/// work moves between the shares by tens of microseconds a step within a few hundred
+/// steps (the pillar flows, grains freeze; measured per step of a `bench dem` run,
+/// 2026-11-29), which a rebalance every 128 steps followed late: the threads' waits at
+/// the kick barrier were 15–19 µs a step, 11–16 µs every 32. Smaller pillars keep
+/// 128: a step of 1000 grains on two threads is a few microseconds, and each rebalance
+/// is a step with a serial part and each timing a few clock reads. One thread keeps
+/// 128 too (its shares never move; the slow steps only keep the steps' cadence).
+pub(crate) fn rebalance_every(n: usize, threads: usize) -> u64 {
+    if threads > 1 && n / threads >= LARGE_SHARE {
+        32
+    } else {
+        128
+    }
+}
 /// Fewer timed steps than this in which both neighbours were timed: no move.
 const MIN_SAMPLES: usize = 3;
 /// The fraction of the measured imbalance a rebalance removes.
@@ -86,6 +101,8 @@ impl PillarSim {
         let freeze = self.frozen_skip_allowed();
         let record = self.record.is_some();
         let no_fallback = threads == 1 || self.scratch.no_fallback;
+        let every = rebalance_every(self.grains.len(), threads);
+        let time_every = every / SAMPLES as u64;
         #[cfg(test)]
         let pause_us = self.scratch.pause_after_barrier_us;
         let sim: *mut PillarSim = self;
@@ -150,8 +167,8 @@ impl PillarSim {
                 let step = first + k + 1;
                 let parity = (step % 2) as usize;
                 // Timed steps fill the window's slots (see `SAMPLES`) in step order.
-                let timed = step.is_multiple_of(TIME_EVERY);
-                let slot = t * SAMPLES + (step / TIME_EVERY) as usize % SAMPLES;
+                let timed = step.is_multiple_of(time_every);
+                let slot = t * SAMPLES + (step / time_every) as usize % SAMPLES;
                 // SAFETY: see the module notes; serial parts run on thread 0 while the
                 // others wait at a barrier holding no references; a fast step's
                 // bookkeeping on thread 0 touches no array the phases use.
@@ -172,7 +189,7 @@ impl PillarSim {
                     }
                     let slow = k == 0
                         || record
-                        || step.is_multiple_of(REBALANCE_EVERY)
+                        || step.is_multiple_of(every)
                         || strayed(a.moved2.view(moves), a.skin)
                         || step >= a.near_bar_until;
                     if slow {
@@ -490,7 +507,11 @@ impl PillarSim {
     /// shares rebalanced when it is time.
     fn end_step(&mut self) {
         self.step += 1;
-        if self.step.is_multiple_of(REBALANCE_EVERY) {
+        let threads = self.scratch.buffers.bounds.len().saturating_sub(1);
+        if self
+            .step
+            .is_multiple_of(rebalance_every(self.grains.len(), threads))
+        {
             self.rebalance();
         }
     }
