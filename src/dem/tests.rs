@@ -441,13 +441,14 @@ fn any_thread_count_gives_the_same_run_bit_for_bit() {
     assert_eq!(one.record, mixed.record);
 }
 
-/// Shares of `LARGE_SHARE` grains or more on several threads are rebalanced every 32
+/// Shares of `LARGE_SHARE` grains or more on several threads are rebalanced every 8
 /// steps, one thread and smaller shares every 128: a pillar of 9000 grains, loaded
 /// fast enough for list rebuilds, gives the one-thread run's bits on two and three
 /// threads, whose slow steps (rebalances) then come at other steps than one thread's.
 #[test]
 fn large_shares_rebalanced_often_give_the_one_thread_run() {
     use crate::dem::backend::pillar_threads::rebalance_every;
+    use crate::dem::pillar::phases::CHUNK;
     let mut p = PillarParams::fast();
     p.bar_speed *= 20.0;
     let (x, y, species) = crate::bench::dem::tiled_packing(3, 2, p.d_large).expect("packed");
@@ -456,7 +457,7 @@ fn large_shares_rebalanced_often_give_the_one_thread_run() {
     let n = x.len();
     assert_eq!(
         [1, 2, 3].map(|t| rebalance_every(n, t)),
-        [128, 32, 32],
+        [128, 8, 8],
         "the cadences this test compares"
     );
     let steps = 600;
@@ -469,13 +470,24 @@ fn large_shares_rebalanced_often_give_the_one_thread_run() {
     for threads in [2, 3] {
         let mut other = start.clone();
         other.scratch.no_fallback = true;
-        other.advance_with(steps, threads);
+        // A lopsided split (32 chunks for each but the last thread), which `prepare`
+        // keeps and the rebalances must move: boundaries that move for certain.
+        let skewed: Vec<usize> = (0..threads).map(|t| t * 32 * CHUNK).chain([n]).collect();
+        other.scratch.buffers.bounds = skewed.clone();
+        // Calls of uneven length: a call's first step is slow too, off the 8-step grid.
+        other.advance_with(5, threads);
+        other.advance_with(steps - 5, threads);
         assert_eq!(other.scratch.fallbacks, 0, "ran split on {threads} threads");
+        assert_ne!(other.scratch.buffers.bounds, skewed, "the shares moved");
         assert!(
             one.grains == other.grains,
             "{threads} threads: other numbers"
         );
         assert_eq!(one.list, other.list);
+        assert_eq!(
+            (&one.fx, &one.fy, &one.tq),
+            (&other.fx, &other.fy, &other.tq)
+        );
         assert_eq!(one.interval, other.interval);
         assert_eq!(
             (one.top_force, one.bottom_force, one.bar_shear_force),

@@ -48,19 +48,21 @@ const LARGE_SHARE: usize = 2048;
 
 /// Steps between rebalances of the threads' shares, for `n` grains on `threads`;
 /// a timed step (for the rebalance) every `SAMPLES`-th of that. A share of
-/// `LARGE_SHARE` grains or more: every 32 steps. At N = 16,000 on two threads the
-/// work moves between the shares by tens of microseconds a step within a few hundred
-/// steps (the pillar flows, grains freeze; measured per step of a `bench dem` run,
-/// 2026-11-29), which a rebalance every 128 steps followed late: the threads' waits at
-/// the kick barrier were 15–19 µs a step, 11–16 µs every 32. Smaller pillars keep
-/// 128: a step of 1000 grains on two threads is a few microseconds, and each rebalance
-/// is a step with a serial part and each timing a few clock reads. One thread keeps
-/// 128 too (its shares never move; the slow steps only keep the steps' cadence).
+/// `LARGE_SHARE` grains or more: every 8 steps, each one timed. At N = 16,000 on two
+/// threads the work moves between the shares by tens of microseconds a step within a
+/// few tens of steps (a region of the pillar wakes up and settles again; measured step
+/// by step in a `bench dem` run, 2026-11-29), which a rebalance every 128 steps
+/// followed late: the threads waited 15–18 µs a step at the kick barrier, 9–13 µs
+/// rebalancing every 8 (a rebalance is a step with a short serial part, about nothing
+/// at this size since `export_points` starts at the chunks' reach). Smaller pillars
+/// keep 128: a step of 1000 grains on two threads is a few microseconds, and each
+/// timing a few clock reads. One thread keeps 128 too (its share never moves).
 pub(crate) fn rebalance_every(n: usize, threads: usize) -> u64 {
+    // Multiples of `SAMPLES`, so that a timed step comes every 1 or 16 steps.
     if threads > 1 && n / threads >= LARGE_SHARE {
-        32
+        SAMPLES as u64
     } else {
-        128
+        16 * SAMPLES as u64
     }
 }
 /// Fewer timed steps than this in which both neighbours were timed: no move.
