@@ -22,15 +22,21 @@ pub struct PillarBench {
     /// Same run: one pass over the pair list computing distances only, per particle.
     pub floor_ns_per_particle: f64,
     pub list_builds: u64,
-    /// Whether the timed run finished on one thread because its waits kept being long
+    /// Whether a timed run finished on one thread because its waits kept being long
     /// (a machine busy with other work): its figure is then not the threads'.
     pub fell_back: bool,
     /// Same steps, same state, with the frozen-grain skip off (same run; the timed run has it on).
     pub ns_per_particle_step_no_skip: f64,
     /// Fraction of grain-steps frozen (skipped).
     pub reused_fraction: f64,
-    /// Threads of the timed run, and the same steps on one thread (same run, skip on).
+    /// Threads of the timed run, and the same steps on one thread (same run, skip on):
+    /// medians of `rounds` rounds, one thread and the threads alternating.
     pub threads: usize,
+    pub rounds: usize,
+    /// Each round's figures (ns per particle-step), one thread and the threads, in
+    /// the order they ran.
+    pub one_thread_rounds: Vec<f64>,
+    pub threads_rounds: Vec<f64>,
     pub ns_per_particle_step_one_thread: f64,
     /// Several threads: the cache lines that cross between cores every step at the
     /// run's split, what one exchange of that many lines (written on one core, read on
@@ -113,9 +119,11 @@ pub fn bench_checkpoint(path: &Path, steps: u64) -> Result<PillarBench> {
     time_pillar(sim, steps, z)
 }
 
-/// Time `steps` steps from `sim`: without the frozen-grain skip on one thread, with
-/// it on one thread, and with it on `threads_for_run()` threads (the headline number);
-/// check all three give the same grains; time the pair-list distance pass.
+/// Time `steps` steps from `sim`: without the frozen-grain skip on one thread, then
+/// with it on one thread and on `threads_for_run()` threads (the headline number),
+/// alternating for `THREAD_ROUNDS` rounds (medians: the machine may be shared, and a
+/// ratio of two timings taken minutes apart followed the host's moods more than the
+/// code); check every run gives the same grains; time the pair-list distance pass.
 fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
     sim.scratch.skip_frozen = true;
     sim.scratch.frozen_grain_steps = 0;
@@ -124,21 +132,43 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
     let t = Instant::now();
     plain.advance_with(steps, 1);
     let seconds_plain = t.elapsed().as_secs_f64();
-    let mut single = sim.clone();
-    let t = Instant::now();
-    single.advance_with(steps, 1);
-    let seconds_single = t.elapsed().as_secs_f64();
     let threads = sim.threads_for_run();
     let builds0 = sim.list.builds;
-    let fallbacks0 = sim.scratch.fallbacks;
-    let t = Instant::now();
-    sim.advance_with(steps, threads);
-    let seconds = t.elapsed().as_secs_f64();
-    if plain.grains != sim.grains || single.grains != sim.grains {
-        return Err(Error::Other(
-            "the frozen-grain skip or the thread count changed the results".into(),
-        ));
+    let (mut one, mut many) = (Vec::new(), Vec::new());
+    let mut fell_back = false;
+    let mut last = None;
+    for _ in 0..THREAD_ROUNDS {
+        let mut single = sim.clone();
+        let t = Instant::now();
+        single.advance_with(steps, 1);
+        one.push(t.elapsed().as_secs_f64());
+        let mut split = sim.clone();
+        let fallbacks0 = split.scratch.fallbacks;
+        let t = Instant::now();
+        split.advance_with(steps, threads);
+        many.push(t.elapsed().as_secs_f64());
+        fell_back |= split.scratch.fallbacks > fallbacks0;
+        if plain.grains != single.grains || single.grains != split.grains {
+            return Err(Error::Other(
+                "the frozen-grain skip or the thread count changed the results".into(),
+            ));
+        }
+        last = Some(split);
     }
+    let sim = last.ok_or_else(|| Error::Other("no timed round".into()))?;
+    let n = sim.grains.len();
+    let per = |v: &[f64]| -> Vec<f64> {
+        v.iter()
+            .map(|s| s / (n as f64 * steps as f64) * 1e9)
+            .collect()
+    };
+    let (one_thread_rounds, threads_rounds) = (per(&one), per(&many));
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // Each count's own median (the one-thread run goes first in every round).
+    let (seconds, seconds_single) = (median(&mut many), median(&mut one));
     let reused_fraction =
         sim.scratch.frozen_grain_steps as f64 / (steps as f64 * sim.grains.len() as f64);
     let cross_lines = sim.cross_core_lines();
@@ -152,7 +182,6 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
     };
     let overhead_ns_per_step =
         (seconds - seconds_single / threads as f64) / steps.max(1) as f64 * 1e9;
-    let n = sim.grains.len();
     let floor = {
         let g = &sim.grains;
         let reps = 200;
@@ -179,7 +208,10 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
         ns_per_particle_step: seconds / (n as f64 * steps as f64) * 1e9,
         floor_ns_per_particle: floor,
         list_builds: sim.list.builds - builds0,
-        fell_back: sim.scratch.fallbacks > fallbacks0,
+        fell_back,
+        rounds: THREAD_ROUNDS,
+        one_thread_rounds,
+        threads_rounds,
         ns_per_particle_step_no_skip: seconds_plain / (n as f64 * steps as f64) * 1e9,
         reused_fraction,
         threads,

@@ -362,7 +362,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                     println!("{}", serde_json::to_string(&b)?);
                 } else {
                     println!(
-                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step on {} thread(s); one thread {:.1}; one thread without the frozen-grain skip {:.1} ({:.0}% of grain-steps frozen); pair-list distance pass {:.1} ns/particle; {} list builds",
+                        "pillar n={:>6} Z={:.2} {:>6} steps {:>7.2} s  {:>6.1} ns/particle-step on {} thread(s); one thread {:.1} (both medians of {} alternating rounds); one thread without the frozen-grain skip {:.1} ({:.0}% of grain-steps frozen); pair-list distance pass {:.1} ns/particle; {} list builds",
                         b.n,
                         b.z,
                         b.steps,
@@ -370,6 +370,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                         b.ns_per_particle_step,
                         b.threads,
                         b.ns_per_particle_step_one_thread,
+                        b.rounds,
                         b.ns_per_particle_step_no_skip,
                         100.0 * b.reused_fraction,
                         b.floor_ns_per_particle,
@@ -377,7 +378,7 @@ pub fn bench(what: BenchCmd) -> Result<()> {
                     );
                     if b.fell_back {
                         println!(
-                            "  the timed run finished on one thread (its waits kept being long: a busy machine); its figure is not the threads'"
+                            "  a timed run on threads finished on one thread (its waits kept being long: a busy machine); the threads' figure is partly a one-thread one"
                         );
                     }
                     if b.threads > 1 {
