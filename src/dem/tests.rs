@@ -479,20 +479,7 @@ fn large_shares_rebalanced_often_give_the_one_thread_run() {
         other.advance_with(steps - 5, threads);
         assert_eq!(other.scratch.fallbacks, 0, "ran split on {threads} threads");
         assert_ne!(other.scratch.buffers.bounds, skewed, "the shares moved");
-        assert!(
-            one.grains == other.grains,
-            "{threads} threads: other numbers"
-        );
-        assert_eq!(one.list, other.list);
-        assert_eq!(
-            (&one.fx, &one.fy, &one.tq),
-            (&other.fx, &other.fy, &other.tq)
-        );
-        assert_eq!(one.interval, other.interval);
-        assert_eq!(
-            (one.top_force, one.bottom_force, one.bar_shear_force),
-            (other.top_force, other.bottom_force, other.bar_shear_force)
-        );
+        same_run_bits(&one, &other);
     }
 }
 
