@@ -163,12 +163,9 @@ fn time_pillar(mut sim: PillarSim, steps: u64, z: f64) -> Result<PillarBench> {
             .collect()
     };
     let (one_thread_rounds, threads_rounds) = (per(&one), per(&many));
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
     // Each count's own median (the one-thread run goes first in every round).
-    let (seconds, seconds_single) = (median(&mut many), median(&mut one));
+    let median = crate::bench::whole::median;
+    let (seconds, seconds_single) = (median(&many), median(&one));
     let reused_fraction =
         sim.scratch.frozen_grain_steps as f64 / (steps as f64 * sim.grains.len() as f64);
     let cross_lines = sim.cross_core_lines();
@@ -476,10 +473,7 @@ fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, 
             ends.push(s);
         }
     }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
+    let median = crate::bench::whole::median;
     let bits = |s: &crate::dem::shear::ShearSim| {
         let g = &s.g;
         [
@@ -493,7 +487,7 @@ fn time_shear_threads(start: &crate::dem::shear::ShearSim, steps: u64) -> (f64, 
     let same = ends
         .iter()
         .all(|e| bits(e) == first && e.coll == ends[0].coll && e.list.shear == ends[0].list.shear);
-    (median(&mut times[0]), median(&mut times[1]), same, solo)
+    (median(&times[0]), median(&times[1]), same, solo)
 }
 
 #[cfg(test)]

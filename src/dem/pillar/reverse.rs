@@ -337,7 +337,7 @@ impl ReverseView {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// start, term_own, term_partner, width, chunk_base, neighbour, reach.
@@ -404,8 +404,9 @@ mod tests {
     }
 
     /// A half list of `n` grains: each grain's partners, ascending, among the next
-    /// 80 (some far, as across a thread boundary), from a fixed-seed generator.
-    fn list(n: usize, seed: u64) -> (Vec<u32>, Vec<u32>) {
+    /// 80 (some far, as across a thread boundary), from a fixed-seed generator; with
+    /// `far_one_in` > 0, one partner in that many anywhere ahead instead.
+    pub(crate) fn half_list(n: usize, seed: u64, far_one_in: usize) -> (Vec<u32>, Vec<u32>) {
         let mut s = seed
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
@@ -418,7 +419,14 @@ mod tests {
         let (mut start, mut js) = (vec![0u32], vec![]);
         for i in 0..n {
             let mut p: Vec<u32> = (0..next() % 7)
-                .map(|_| (i + 1 + next() % 80).min(n.max(1) - 1) as u32)
+                .map(|_| {
+                    let ahead = if far_one_in > 0 && next() % far_one_in == 0 {
+                        n.max(1)
+                    } else {
+                        80
+                    };
+                    (i + 1 + next() % ahead).min(n.max(1) - 1) as u32
+                })
                 .filter(|&j| j as usize > i)
                 .collect();
             p.sort_unstable();
@@ -448,7 +456,7 @@ mod tests {
     #[test]
     fn every_split_gives_the_layout_built_grain_after_grain() {
         for (n, seed) in [(0, 1), (1, 2), (31, 3), (70, 4), (1000, 5), (4133, 6)] {
-            let (start, js) = list(n, seed);
+            let (start, js) = half_list(n, seed, 0);
             assert!(n < 1000 || js.len() > 2 * n, "a list worth the name");
             let want = reference(n, &start, &js);
             // One set of buffers for every split, so stale entries would show.

@@ -724,6 +724,7 @@ pub(crate) unsafe fn phase_grains(a: &Arrays, t: usize, laws: &StepLaws, step: u
 mod tests {
     use super::export_points;
     use crate::dem::pillar::phases::Reverse;
+    use crate::dem::pillar::reverse::tests::half_list;
 
     #[test]
     fn export_points_find_the_first_grain_reaching_a_later_range() {
@@ -747,21 +748,8 @@ mod tests {
     #[test]
     fn export_points_from_the_chunks_reach_are_the_full_scan_s() {
         let mut rng = crate::rng::Rng::new(7);
-        for (n, far) in [(300, 0.0), (1000, 0.002), (1000, 0.05), (97, 0.3)] {
-            let (mut start, mut js) = (vec![0u32], vec![]);
-            for i in 0..n {
-                let mut p: Vec<u32> = (0..rng.below(5))
-                    .map(|_| {
-                        let ahead = if rng.uniform() < far { n } else { 80 };
-                        (i + 1 + rng.below(ahead)).min(n - 1) as u32
-                    })
-                    .filter(|&j| j as usize > i)
-                    .collect();
-                p.sort_unstable();
-                p.dedup();
-                js.extend(p);
-                start.push(js.len() as u32);
-            }
+        for (n, far_one_in) in [(300, 0), (1000, 500), (1000, 20), (97, 3)] {
+            let (start, js) = half_list(n, n as u64 + far_one_in as u64, far_one_in);
             let reach = Reverse::build(n, &start, &js).reach;
             assert_eq!(
                 reach.len(),

@@ -210,7 +210,7 @@ impl PillarSim {
                             }
                             *rebuild.get() = s.begin_rebuild(parity, threads);
                             if (*rebuild.get()).is_none() {
-                                s.end_step();
+                                s.end_step(every);
                                 *shared.get() = s.arrays(true);
                             }
                         }
@@ -256,7 +256,7 @@ impl PillarSim {
                             if t == 0 {
                                 let s = &mut *sim.get();
                                 s.after_layout();
-                                s.end_step();
+                                s.end_step(every);
                                 *shared.get() = s.arrays(true);
                             }
                             barrier.wait(t, &mut spin);
@@ -506,14 +506,11 @@ impl PillarSim {
     }
 
     /// The end of a slow step's serial part on thread 0: the step counted, and the
-    /// shares rebalanced when it is time.
-    fn end_step(&mut self) {
+    /// shares rebalanced when it is time (every `every` steps: the call's
+    /// `rebalance_every`, the cadence of its slow steps).
+    fn end_step(&mut self, every: u64) {
         self.step += 1;
-        let threads = self.scratch.buffers.bounds.len().saturating_sub(1);
-        if self
-            .step
-            .is_multiple_of(rebalance_every(self.grains.len(), threads))
-        {
+        if self.step.is_multiple_of(every) {
             self.rebalance();
         }
     }
